@@ -1,0 +1,26 @@
+# Two commands on a fresh machine (see README):
+#   make example   set up .venv and validate the shipped SimpleBot example
+#   make test      set up .venv and run every check: ruff, mypy, pytest
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+
+$(BIN)/motivml: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/pip install --quiet --upgrade pip
+	$(BIN)/pip install --quiet -e '.[dev]'
+	touch $@
+
+.PHONY: setup example test bench
+setup: $(BIN)/motivml
+
+example: setup
+	$(BIN)/motivml validate feature_models/simplebot --variant lab
+
+test: setup
+	$(BIN)/ruff check motivml tests bench
+	$(BIN)/mypy
+	$(BIN)/pytest -q
+
+bench: setup
+	$(BIN)/python bench/validate_bench.py

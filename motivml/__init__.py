@@ -1,0 +1,3 @@
+"""motivml: variability models for robot software, checked with SAT and bound into variants."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,473 @@
+"""Located JSON loading.
+
+The standard `json` module forgets where values came from, accepts duplicate keys, NaN and
+Infinity, and recurses in C (a model nested ~2,000 features deep is ~4,000 JSON levels, past
+Python's default recursion limit). This loader is a small iterative parser over a regular
+expression tokenizer that
+
+* keeps the offset of every key and value, so any JSON path can be turned into
+  `file:line:col` (lines and columns are computed only when a message needs them);
+* rejects duplicate keys, NaN/Infinity (and numbers that overflow to them), invalid UTF-8,
+  control characters in strings, and trailing data;
+* refuses files larger than `MAX_BYTES` and nesting deeper than `MAX_DEPTH` with a clear
+  message instead of exhausting memory or the stack.
+
+Limits (documented in guidelines/validating.md): 64 MiB per document and 10,000 levels of
+JSON nesting (a feature is two levels: its object and its `sub` array, so ~5,000 feature
+levels).
+"""
+
+from __future__ import annotations
+
+import bisect
+import contextlib
+import gc
+import json
+import os
+import re
+import sys
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import DocumentError, EnvironmentProblem, Location, error
+
+MAX_BYTES = 64 * 1024 * 1024
+MAX_DEPTH = 10_000
+
+PathItem = str | int
+JSONPath = tuple[PathItem, ...]
+
+_TOKEN = re.compile(
+    r"""[ \t\n\r]*(?:
+      ("(?:[^"\\\x00-\x1f]|\\.)*")      # 1 string (escapes decoded by json.scanstring)
+    | ([{}\[\],:])                        # 2 punctuation
+    | (-?(?:0|[1-9][0-9]*)(?:\.[0-9]+)?(?:[eE][-+]?[0-9]+)?)(?![0-9A-Za-z_.+-])  # 3 number
+    | (true|false|null)(?![0-9A-Za-z_])   # 4 literal
+    | (-?(?:NaN|Infinity))                # 5 not JSON
+    | (\Z)                                # 6 end of text
+    )""",
+    re.VERBOSE | re.DOTALL,
+)
+_LITERALS: dict[str, Any] = {"true": True, "false": False, "null": None}
+
+
+def format_path(path: JSONPath) -> str:
+    """`$.sub[0].constraints` style path, as users see it in messages."""
+    parts = ["$"]
+    for item in path:
+        if isinstance(item, int):
+            parts.append(f"[{item}]")
+        elif re.fullmatch(r"[A-Za-z_$][A-Za-z0-9_$-]*", item):
+            parts.append(f".{item}")
+        else:
+            parts.append(f"[{json.dumps(item)}]")
+    return "".join(parts)
+
+
+class Document:
+    """A parsed JSON document that can say where each value and key stands.
+
+    The values come from the C decoder of the `json` module (fast; run on a thread with a
+    large stack so deep documents parse). Positions are needed only when a message is
+    written, so the located parser of this module indexes the text the first time a
+    location is asked for.
+    """
+
+    def __init__(self, file: str, root: Any, text: str, index: _Index | None = None) -> None:
+        self.file = file
+        self.root = root
+        self.text = text
+        self._index = index
+        self._line_starts: list[int] | None = None
+
+    def _indexed(self) -> _Index:
+        if self._index is None:
+            self._index = _index(self.text, self.file, MAX_DEPTH + 1)
+        return self._index
+
+    def position(self, offset: int) -> tuple[int, int]:
+        """1-based (line, column) of a character offset."""
+        if self._line_starts is None:
+            self._line_starts = [0] + [m.end() for m in re.finditer("\n", self.text)]
+        line = bisect.bisect_right(self._line_starts, offset)
+        return line, offset - self._line_starts[line - 1] + 1
+
+    def _offset(self, path: JSONPath, key: bool) -> int:
+        index = self._indexed()
+        node, offset = index.root, index.root_offset
+        for i, item in enumerate(path):
+            table = index.offsets.get(id(node))
+            if table is None:
+                break
+            try:
+                if isinstance(node, dict):
+                    key_offset, offset = table[item]
+                    if key and i == len(path) - 1:
+                        return int(key_offset)
+                else:
+                    offset = table[item]
+                node = node[item]
+            except (KeyError, IndexError, TypeError):
+                break
+        return int(offset)
+
+    def locate(self, path: JSONPath, key: bool = False) -> Location:
+        """Location of the value at `path` (or of its key, with `key=True`).
+
+        A path that runs past the document stops at the deepest node that exists, so a
+        message about a missing key points at the object that lacks it.
+        """
+        line, column = self.position(self._offset(path, key))
+        return Location(self.file, line, column, format_path(path))
+
+
+@dataclass
+class _Index:
+    root: Any
+    root_offset: int
+    # id(container) -> {key: (key_offset, value_offset)} for objects, [value_offset] for arrays
+    offsets: dict[int, Any]
+
+
+def _fail(text: str, file: str, offset: int, message: str, rule: str = "json") -> DocumentError:
+    line, column = Document(file, None, text).position(offset)
+    return DocumentError(error(Location(file, line, column, "$"), message, rule))
+
+
+def _index(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH) -> _Index:
+    """The located parser: values plus the offset of every key and value.
+
+    Iterative, so nesting costs heap, not stack. About 4x slower than the C decoder, so it
+    runs only to explain bad input or to locate a message.
+    """
+    offsets: dict[int, Any] = {}
+    # Each frame: [container, pending key, pending key offset]
+    stack: list[list[Any]] = []
+    root: Any = None
+    root_offset = 0
+    done = False
+    expect_value = True  # next token must start a value
+    after_open = False  # just saw '{' or '[' (a closing bracket is allowed)
+    expect_colon = False
+    match = _TOKEN.match
+    scanstring = json.decoder.scanstring  # type: ignore[attr-defined]
+    pos = 0
+    n = len(text)
+
+    while True:
+        m = match(text, pos)
+        if m is None:
+            start = pos
+            while start < n and text[start] in " \t\n\r":
+                start += 1
+            if start < n and text[start] == '"':
+                try:
+                    scanstring(text, start + 1, True)
+                except json.JSONDecodeError as exc:
+                    raise _string_error(text, file, exc) from None
+            snippet = text[start : start + 12].split("\n")[0]
+            raise _fail(text, file, start, f"unexpected text {snippet!r}")
+        pos = m.end()
+        kind = m.lastindex
+        start = m.start(kind) if kind else pos
+
+        if done:
+            if kind == 6:
+                break
+            raise _fail(text, file, start, "extra data after the end of the document")
+        if kind == 6:
+            raise _fail(text, file, start, "unexpected end of document")
+        if kind == 5:
+            raise _fail(text, file, start, f"{m.group(5)} is not valid JSON (use a number or null)")
+
+        if expect_colon:
+            if kind == 2 and m.group(2) == ":":
+                expect_colon = False
+                expect_value = True
+                continue
+            raise _fail(text, file, start, "expected ':' after an object key")
+
+        frame = stack[-1] if stack else None
+        token = m.group(2) if kind == 2 else None
+
+        # An object waiting for a key (after '{' or ',').
+        if frame is not None and isinstance(frame[0], dict) and frame[1] is None and expect_value:
+            if token == "}" and after_open:
+                value = stack.pop()[0]
+                after_open = False
+                expect_value = False
+                done = not stack
+                if done:
+                    root = value
+                continue
+            if kind != 1:
+                raise _fail(text, file, start, "expected a string key in double quotes")
+            raw = m.group(1)
+            key = raw[1:-1] if "\\" not in raw else _decode(text, file, start)
+            container = frame[0]
+            if key in container:
+                first = offsets[id(container)][key][0]
+                line, col = Document(file, None, text).position(first)
+                raise _fail(text, file, start, f"duplicate key {key!r} (first at line {line}, column {col})")
+            frame[1] = key
+            frame[2] = start
+            after_open = False
+            expect_colon = True
+            continue
+
+        if expect_value:
+            if token == "]" and after_open:
+                value = stack.pop()[0]
+                after_open = False
+                expect_value = False
+                done = not stack
+                if done:
+                    root = value
+                continue
+            after_open = False
+            if kind == 1:
+                raw = m.group(1)
+                value = raw[1:-1] if "\\" not in raw else _decode(text, file, start)
+            elif kind == 3:
+                literal = m.group(3)
+                if "." in literal or "e" in literal or "E" in literal:
+                    value = float(literal)
+                    if value in (float("inf"), float("-inf")):
+                        raise _fail(text, file, start, f"number {literal} is out of range")
+                else:
+                    value = int(literal)
+            elif kind == 4:
+                value = _LITERALS[m.group(4)]
+            elif token in ("{", "["):
+                if len(stack) >= max_depth:
+                    raise _fail(
+                        text,
+                        file,
+                        start,
+                        f"nesting deeper than {max_depth} levels (the limit for a document)",
+                        "limits",
+                    )
+                value = {} if token == "{" else []
+                offsets[id(value)] = {} if token == "{" else []
+                _attach(stack, offsets, value, start)
+                if not stack:
+                    root_offset = start
+                stack.append([value, None, 0])
+                after_open = True
+                continue
+            else:
+                raise _fail(text, file, start, f"expected a value, found {token!r}")
+            _attach(stack, offsets, value, start)
+            expect_value = False
+            if not stack:
+                root, root_offset, done = value, start, True
+            continue
+
+        # After a value inside a container: ',' or the closing bracket.
+        assert frame is not None
+        closing = "}" if isinstance(frame[0], dict) else "]"
+        if token == ",":
+            expect_value = True
+            continue
+        if token == closing:
+            value = stack.pop()[0]
+            done = not stack
+            if done:
+                root = value
+            continue
+        raise _fail(text, file, start, f"expected ',' or '{closing}'")
+
+    return _Index(root, root_offset, offsets)
+
+
+class _Rejected(Exception):
+    """The fast decoder met something we refuse; the located parser says what and where."""
+
+
+def _pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    result = dict(pairs)
+    if len(result) != len(pairs):
+        raise _Rejected
+    return result
+
+
+def _constant(name: str) -> Any:
+    raise _Rejected
+
+
+def _float(literal: str) -> float:
+    value = float(literal)
+    if value in (float("inf"), float("-inf")):
+        raise _Rejected
+    return value
+
+
+_STACK_BYTES = 512 * 1024 * 1024
+_parse_lock = threading.Lock()
+
+
+def _fast(text: str, max_depth: int) -> tuple[bool, Any]:
+    """Decode with the C `json` decoder on a thread with a large stack.
+
+    Returns (ok, value). Anything unusual (a refusal, a syntax error, nesting beyond the
+    recursion allowance) returns ok=False and the located parser takes over.
+    """
+    result: list[Any] = [False, None]
+
+    def run() -> None:
+        try:
+            result[1] = json.loads(
+                text, object_pairs_hook=_pairs, parse_constant=_constant, parse_float=_float
+            )
+            result[0] = True
+        except (_Rejected, ValueError, RecursionError, MemoryError):
+            pass
+
+    with _parse_lock:  # the recursion limit and thread stack size are process-wide
+        old_limit, old_stack = sys.getrecursionlimit(), threading.stack_size()
+        try:
+            sys.setrecursionlimit(max(old_limit, max_depth + 200))
+            threading.stack_size(_STACK_BYTES)
+            worker = threading.Thread(target=run, name="motivml-json")
+            worker.start()
+        finally:
+            threading.stack_size(old_stack)
+        worker.join()
+        sys.setrecursionlimit(old_limit)
+    return result[0], result[1]
+
+
+@contextlib.contextmanager
+def no_gc() -> Iterator[None]:
+    """Pause the cyclic garbage collector while building many objects.
+
+    JSON values hold no reference cycles, and each full collection walks every object
+    alive: with a 100,000-feature model in memory that made parsing several times slower.
+    """
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _depth(value: Any) -> int:
+    best, stack = 0, [(value, 1)]
+    while stack:
+        node, d = stack.pop()
+        if isinstance(node, dict):
+            node = list(node.values())
+        if isinstance(node, list):
+            best = max(best, d)
+            stack.extend((child, d + 1) for child in node if isinstance(child, (dict, list)))
+    return best
+
+
+def parse(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH) -> Document:
+    """Parse JSON text into a `Document`; raise `DocumentError` with a location on bad input."""
+    with no_gc():
+        ok, root = _fast(text, max_depth)
+        if ok and _depth(root) <= max_depth:
+            return Document(file, root, text)
+    index = _index(text, file, max_depth)
+    return Document(file, index.root, text, index)
+
+
+def _string_error(text: str, file: str, exc: json.JSONDecodeError) -> DocumentError:
+    reason = exc.msg.removesuffix(" starting at").removesuffix(" at").lower()
+    return _fail(text, file, exc.pos, f"invalid string: {reason}")
+
+
+def _decode(text: str, file: str, start: int) -> str:
+    """Decode a string token with escapes (the C scanner of the json module)."""
+    try:
+        return str(json.decoder.scanstring(text, start + 1, True)[0])  # type: ignore[attr-defined]
+    except json.JSONDecodeError as exc:
+        raise _string_error(text, file, exc) from None
+
+
+def _attach(stack: list[list[Any]], offsets: dict[int, Any], value: Any, start: int) -> None:
+    """Store a new value in the container on top of the stack, with its offsets."""
+    if not stack:
+        return
+    frame = stack[-1]
+    container = frame[0]
+    table = offsets[id(container)]
+    if isinstance(container, dict):
+        key = frame[1]
+        container[key] = value
+        table[key] = (frame[2], start)
+        frame[1] = None
+    else:
+        container.append(value)
+        table.append(start)
+
+
+def load_bytes(data: bytes, file: str, max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH) -> Document:
+    """Decode UTF-8 (an optional BOM is skipped) and parse, within the size limit."""
+    if len(data) > max_bytes:
+        raise DocumentError(
+            error(
+                Location(file),
+                f"file is {len(data):,} bytes, over the limit of {max_bytes:,} bytes",
+                "limits",
+            )
+        )
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        prefix = data[: exc.start].decode("utf-8", errors="replace")
+        line = prefix.count("\n") + 1
+        column = len(prefix) - (prefix.rfind("\n") + 1) + 1
+        raise DocumentError(
+            error(
+                Location(file, line, column),
+                f"not valid UTF-8 (byte 0x{data[exc.start]:02x} at offset {exc.start})",
+                "json",
+            )
+        ) from None
+    return parse(text, file, max_depth)
+
+
+def load_file(
+    path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH
+) -> Document:
+    """Read and parse a JSON file; a missing or unreadable file is an environment problem."""
+    name = os.fspath(path)
+    try:
+        size = os.path.getsize(name)
+        if size > max_bytes:
+            raise DocumentError(
+                error(
+                    Location(name),
+                    f"file is {size:,} bytes, over the limit of {max_bytes:,} bytes",
+                    "limits",
+                )
+            )
+        with open(name, "rb") as handle:
+            data = handle.read(max_bytes + 1)
+    except IsADirectoryError:
+        raise EnvironmentProblem(error(Location(name), "is a folder, not a JSON file", "io")) from None
+    except FileNotFoundError:
+        raise EnvironmentProblem(error(Location(name), "no such file", "io")) from None
+    except OSError as exc:
+        raise EnvironmentProblem(error(Location(name), f"cannot read: {exc.strerror}", "io")) from None
+    return load_bytes(data, name, max_bytes, max_depth)
+
+
+def walk(root: Any) -> Iterator[tuple[JSONPath, Any]]:
+    """Every (path, value) of a JSON value, pre-order, without recursion."""
+    stack: list[tuple[JSONPath, Any]] = [((), root)]
+    while stack:
+        path, value = stack.pop()
+        yield path, value
+        if isinstance(value, dict):
+            stack.extend((path + (k,), v) for k, v in reversed(list(value.items())))
+        elif isinstance(value, list):
+            stack.extend((path + (i,), v) for i, v in reversed(list(enumerate(value))))

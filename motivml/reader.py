@@ -1,0 +1,228 @@
+"""From schema-valid documents to model objects, with the checks a schema cannot make.
+
+Errors: duplicate feature ids, includes/excludes of unknown ids or of the feature itself,
+configuration entries for unknown features or given twice, and (unless partial
+configurations are accepted) features without an entry. Warnings: one-member groups,
+`isMandatory: true` on a group member, `isSelected` away from the root, props of a
+deselected feature. Everything else about meaning is the SAT encoding's job.
+"""
+
+from __future__ import annotations
+
+import difflib
+from typing import Any
+
+from .errors import Diagnostic, error, warning
+from .loader import Document
+from .model import Configuration, Entry, Feature, FeatureModel, Group
+
+
+def _did_you_mean(word: str, known: dict[str, int] | list[str]) -> str:
+    candidates = list(known)
+    if len(candidates) > 5000:  # difflib is quadratic-ish; a prefix filter keeps it quick
+        candidates = [c for c in candidates if c[:2].lower() == word[:2].lower()]
+    close = difflib.get_close_matches(word, candidates, n=1, cutoff=0.75)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
+    """Build the feature model of a schema-valid document (iterative pre-order walk)."""
+    diagnostics: list[Diagnostic] = []
+    features: list[Feature] = []
+    index: dict[str, int] = {}
+    nodes: list[dict[str, Any]] = []
+    stack: list[tuple[dict[str, Any], int | None, int]] = [(doc.root, None, 0)]
+    model = FeatureModel(features, index, [], str(doc.root.get("name", "")), doc)
+
+    while stack:
+        node, parent, position = stack.pop()
+        i = len(features)
+        constraints = node.get("constraints", {})
+        feature = Feature(
+            index=i,
+            id=node["id"],
+            name=node["name"],
+            parent=parent,
+            position=position,
+            declared_group=node.get("group", "") if parent is not None else "",
+            group="",
+            mandatory=False,
+            declared_mandatory=node.get("isMandatory"),
+            time_allowed=constraints.get("bindingTimeAllowed", "Early"),
+            mode_allowed=constraints.get("bindingModeAllowed", "Static"),
+            includes=tuple(dict.fromkeys(constraints.get("featuresIncluded", ()))),
+            excludes=tuple(dict.fromkeys(constraints.get("featuresExcluded", ()))),
+        )
+        features.append(feature)
+        nodes.append(node)
+        if parent is not None:
+            features[parent].children.append(i)
+        if feature.id in index:
+            first = model.path(index[feature.id], "id")
+            where = doc.locate(first)
+            diagnostics.append(
+                error(
+                    doc.locate(model.path(i, "id")),
+                    f"duplicate feature id {feature.id!r} (first defined at line {where.line}, column {where.column})",
+                    "model.duplicate-id",
+                    feature.id,
+                )
+            )
+        else:
+            index[feature.id] = i
+        for position_ in range(len(node.get("sub", ())) - 1, -1, -1):
+            stack.append((node["sub"][position_], i, position_))
+
+    root, root_node = features[0], nodes[0]
+    if root_node.get("isSelected") is False:
+        diagnostics.append(
+            error(
+                doc.locate(("isSelected",)),
+                "the root cannot be deselected: it is the program itself (rule 2.1)",
+                "2.1",
+                root.id,
+            )
+        )
+    if root_node.get("group"):
+        diagnostics.append(
+            warning(
+                doc.locate(("group",)),
+                "the root has no siblings: its group is ignored",
+                "model.root-group",
+                root.id,
+            )
+        )
+
+    for feature, node in zip(features, nodes, strict=True):
+        if feature.parent is not None and "isSelected" in node:
+            diagnostics.append(
+                warning(
+                    doc.locate(model.path(feature.index, "isSelected")),
+                    "isSelected is only meaningful on the root; ignored here",
+                    "model.is-selected",
+                    feature.id,
+                )
+            )
+        for key, targets in (("featuresIncluded", feature.includes), ("featuresExcluded", feature.excludes)):
+            listed = node.get("constraints", {}).get(key, [])
+            verb = "includes" if key == "featuresIncluded" else "excludes"
+            for target in targets:
+                if target in index and target != feature.id:
+                    continue
+                path = model.path(feature.index, "constraints", key, listed.index(target))
+                if target == feature.id:
+                    diagnostics.append(
+                        error(
+                            doc.locate(path),
+                            f"{feature.id} {verb} itself",
+                            "model.self-reference",
+                            feature.id,
+                        )
+                    )
+                elif target not in index:
+                    diagnostics.append(
+                        error(
+                            doc.locate(path),
+                            f"{feature.id} {verb} unknown feature {target!r}{_did_you_mean(target, index)}",
+                            "model.unknown-id",
+                            feature.id,
+                        )
+                    )
+
+    # Groups (rule 2.2): the label sits on the child; a group needs two members.
+    for owner in features:
+        for kind in ("OR", "XOR"):
+            members = [c for c in owner.children if features[c].declared_group == kind]
+            if len(members) == 1:
+                only = features[members[0]]
+                diagnostics.append(
+                    warning(
+                        doc.locate(model.path(only.index, "group")),
+                        f"{only.id} is the only member of {owner.id}'s {kind} group; "
+                        f"it is treated as an ungrouped child (a group needs at least two members)",
+                        "model.one-member-group",
+                        only.id,
+                    )
+                )
+            elif len(members) >= 2:
+                model.groups.append(Group(owner.index, kind, tuple(members)))
+                for member in members:
+                    features[member].group = kind
+                    if features[member].declared_mandatory is True:
+                        diagnostics.append(
+                            warning(
+                                doc.locate(model.path(member, "isMandatory")),
+                                f"isMandatory of {features[member].id} is ignored: "
+                                f"it is a member of {owner.id}'s {kind} group, and the group decides",
+                                "model.grouped-mandatory",
+                                features[member].id,
+                            )
+                        )
+    for feature in features[1:]:
+        if not feature.group:
+            feature.mandatory = feature.declared_mandatory is not False
+    return model, diagnostics
+
+
+def read_configuration(
+    doc: Document, model: FeatureModel, partial: bool = False
+) -> tuple[Configuration, list[Diagnostic]]:
+    """Build a configuration of `model`; report unknown, duplicate and missing entries."""
+    diagnostics: list[Diagnostic] = []
+    entries: dict[str, Entry] = {}
+    config = Configuration(entries, source=doc)
+    for position, raw in enumerate(doc.root.get("properties", [])):
+        feature_id = raw["id"]
+        props = raw.get("props", {})
+        entry = Entry(
+            id=feature_id,
+            selected=raw.get("selected", True),
+            time=props.get("time", "Any"),
+            mode=props.get("mode", "Any"),
+            position=position,
+            has_props="props" in raw,
+        )
+        if feature_id not in model.index:
+            diagnostics.append(
+                error(
+                    doc.locate(("properties", position, "id")),
+                    f"unknown feature {feature_id!r}{_did_you_mean(feature_id, model.index)}",
+                    "config.unknown-id",
+                    feature_id,
+                )
+            )
+            continue
+        if feature_id in entries:
+            first = doc.locate(("properties", entries[feature_id].position))
+            diagnostics.append(
+                error(
+                    doc.locate(("properties", position, "id")),
+                    f"second entry for {feature_id!r} (the first is at line {first.line}, column {first.column})",
+                    "config.duplicate-id",
+                    feature_id,
+                )
+            )
+            continue
+        if not entry.selected and (entry.time != "Any" or entry.mode != "Any"):
+            diagnostics.append(
+                warning(
+                    doc.locate(("properties", position, "props")),
+                    f"{feature_id} is not selected: its props are ignored",
+                    "config.props-ignored",
+                    feature_id,
+                )
+            )
+        entries[feature_id] = entry
+    if not partial:
+        for feature in model.features[1:]:
+            if feature.id not in entries:
+                diagnostics.append(
+                    error(
+                        doc.locate(("properties",)),
+                        f"no entry for {feature.id}: the configuration is incomplete "
+                        f"(add the entry, or use --partial to leave it to the configurator)",
+                        "config.incomplete",
+                        feature.id,
+                    )
+                )
+    return config, diagnostics

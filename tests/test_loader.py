@@ -1,0 +1,142 @@
+"""The located JSON loader: positions, refusals, limits, deep documents."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from motivml.errors import DocumentError, EnvironmentProblem, MotivmlError
+from motivml.loader import MAX_DEPTH, format_path, load_bytes, load_file, parse
+
+
+def message(text: str) -> str:
+    with pytest.raises(DocumentError) as info:
+        parse(text, "f.json")
+    (diagnostic,) = info.value.diagnostics
+    return f"{diagnostic.location}: {diagnostic.message}"
+
+
+def test_values_and_positions() -> None:
+    doc = parse('{\n  "a": [1, 2.5, {"b": null}],\n  "c": "x\\u00e9"\n}', "f.json")
+    assert doc.root == {"a": [1, 2.5, {"b": None}], "c": "xé"}
+    assert str(doc.locate(("a",))) == "f.json:2:8"
+    assert str(doc.locate(("a",), key=True)) == "f.json:2:3"
+    assert str(doc.locate(("a", 2, "b"))) == "f.json:2:23"
+    assert doc.locate(("a", 2, "b")).path == "$.a[2].b"
+    assert str(doc.locate(("c",))) == "f.json:3:8"
+
+
+def test_missing_path_points_at_deepest_existing_node() -> None:
+    doc = parse('{"a": {"b": 1}}', "f.json")
+    assert str(doc.locate(("a", "zz"))) == "f.json:1:7"
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ('{"a": 1, "a": 2}', "f.json:1:10: duplicate key 'a' (first at line 1, column 2)"),
+        ("[NaN]", "f.json:1:2: NaN is not valid JSON (use a number or null)"),
+        ("[-Infinity]", "f.json:1:2: -Infinity is not valid JSON (use a number or null)"),
+        ("[1e999]", "f.json:1:2: number 1e999 is out of range"),
+        ("[1,]", "f.json:1:4: expected a value, found ']'"),
+        ('{"a" 1}', "f.json:1:6: expected ':' after an object key"),
+        ("[1] 2", "f.json:1:5: extra data after the end of the document"),
+        ('{"a": "\x01"}', "f.json:1:8: invalid string: invalid control character"),
+        ('{"a": "abc', "f.json:1:7: invalid string: unterminated string"),
+        ('["\\x"]', "f.json:1:3: invalid string: invalid \\escape"),
+        ("", "f.json:1:1: unexpected end of document"),
+        ("[tru]", "f.json:1:2: unexpected text 'tru]'"),
+        ("[01]", "f.json:1:2: unexpected text '01]'"),
+        ("{,}", "f.json:1:2: expected a string key in double quotes"),
+        ("[1 2]", "f.json:1:4: expected ',' or ']'"),
+        ("\n\n  {]", "f.json:3:4: expected a string key in double quotes"),
+    ],
+)
+def test_refusals_are_located(text: str, expected: str) -> None:
+    assert message(text) == expected
+
+
+def test_invalid_utf8_is_located() -> None:
+    with pytest.raises(DocumentError) as info:
+        load_bytes(b'{"a":\n "\xff"}', "f.json")
+    assert str(info.value) == "f.json:2:3: not valid UTF-8 (byte 0xff at offset 8)"
+
+
+def test_bom_is_skipped() -> None:
+    assert load_bytes(b'\xef\xbb\xbf{"a": 1}', "f.json").root == {"a": 1}
+
+
+def test_size_limit() -> None:
+    with pytest.raises(DocumentError) as info:
+        load_bytes(b"[" + b" " * 100 + b"]", "f.json", max_bytes=50)
+    assert str(info.value) == "f.json: file is 102 bytes, over the limit of 50 bytes"
+
+
+def test_size_limit_of_a_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    path = tmp_path / "big.json"
+    path.write_text("[" + " " * 100 + "]")
+    with pytest.raises(DocumentError) as info:
+        load_file(path, max_bytes=50)
+    assert info.value.diagnostics[0].message == "file is 102 bytes, over the limit of 50 bytes"
+
+
+def test_missing_file_is_an_environment_problem(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(EnvironmentProblem) as info:
+        load_file(tmp_path / "nope.json")
+    assert info.value.diagnostics[0].message == "no such file"
+    assert info.value.exit_code == 3
+
+
+def deep(levels: int) -> str:
+    return '{"sub": [' * levels + "1" + "]}" * levels
+
+
+def test_deep_document_parses_and_locates() -> None:
+    doc = parse(deep(2500), "f.json")  # 5,000 JSON levels: a 2,500-feature-deep model
+    node = doc.root
+    path: list[str | int] = []
+    for _ in range(2500):
+        node = node["sub"][0]
+        path += ["sub", 0]
+    assert node == 1
+    assert doc.locate(tuple(path)).column == 2500 * 9 + 1
+
+
+def test_too_deep_document_is_refused_cleanly() -> None:
+    with pytest.raises(DocumentError) as info:
+        parse("[" * 100_000 + "]" * 100_000, "f.json")
+    assert str(info.value) == (
+        f"f.json:1:{MAX_DEPTH + 1}: nesting deeper than {MAX_DEPTH} levels (the limit for a document)"
+    )
+
+
+def test_format_path() -> None:
+    assert format_path(("sub", 0, "constraints", "x y")) == '$.sub[0].constraints["x y"]'
+
+
+json_values = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False, allow_infinity=False) | st.text(),
+    lambda children: st.lists(children) | st.dictionaries(st.text(), children),
+    max_leaves=30,
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(json_values)
+def test_agrees_with_stdlib_json(value: object) -> None:
+    text = json.dumps(value)
+    assert parse(text).root == json.loads(text)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(alphabet='{}[],:"\\ 0123456789.eE+-truefalsnNaIiy\n\x01', max_size=40))
+def test_arbitrary_text_never_crashes(text: str) -> None:
+    try:
+        doc = parse(text, "f.json")
+    except MotivmlError as exc:
+        assert exc.diagnostics[0].location.line is not None
+    else:
+        assert doc.root == json.loads(text)

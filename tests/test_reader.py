@@ -1,0 +1,98 @@
+"""Model and configuration reading: the checks a schema cannot make, word for word."""
+
+from __future__ import annotations
+
+import json
+
+from helpers import config, dumps, feature
+
+from motivml.loader import parse
+from motivml.reader import read_configuration, read_model
+
+
+def read(model: dict[str, object]):  # type: ignore[no-untyped-def]
+    return read_model(parse(dumps(model), "m.json"))
+
+
+def lines(diagnostics) -> list[str]:  # type: ignore[no-untyped-def]
+    return [f"{d.severity.value}: {d.location}: {d.location.path}: {d.message}" for d in diagnostics]
+
+
+def test_features_in_preorder_with_defaults() -> None:
+    model, diagnostics = read(feature("r", [feature("a", [feature("b")]), feature("c", isMandatory=False)]))
+    assert diagnostics == []
+    assert [f.id for f in model.features] == ["r", "a", "b", "c"]
+    a, c = model["a"], model["c"]
+    assert (a.mandatory, a.time_allowed, a.mode_allowed, a.group) == (True, "Early", "Static", "")
+    assert c.mandatory is False
+    assert model.path(model.index["b"], "id") == ("sub", 0, "sub", 0, "id")
+    assert model.subtree(1) == [1, 2]
+
+
+def test_duplicate_id() -> None:
+    _, diagnostics = read(feature("r", [feature("a"), feature("a")]))
+    assert lines(diagnostics) == [
+        "error: m.json:10:13: $.sub[1].id: duplicate feature id 'a' (first defined at line 6, column 13)"
+    ]
+
+
+def test_unknown_and_self_references() -> None:
+    _, diagnostics = read(feature("r", [feature("gridmap"), feature("slam", inc=["gridmpa"], exc=["slam"])]))
+    assert lines(diagnostics) == [
+        "error: m.json:14:11: $.sub[1].constraints.featuresIncluded[0]: "
+        "slam includes unknown feature 'gridmpa' (did you mean 'gridmap'?)",
+        "error: m.json:17:11: $.sub[1].constraints.featuresExcluded[0]: slam excludes itself",
+    ]
+
+
+def test_one_member_group_is_an_ungrouped_child() -> None:
+    model, diagnostics = read(feature("r", [feature("a", group="XOR"), feature("b")]))
+    assert lines(diagnostics) == [
+        "warning: m.json:8:16: $.sub[0].group: a is the only member of r's XOR group; it is treated as an "
+        "ungrouped child (a group needs at least two members)"
+    ]
+    assert model["a"].group == "" and model["a"].mandatory is True and model.groups == []
+
+
+def test_grouped_is_mandatory_true_is_ignored_with_a_warning() -> None:
+    model, diagnostics = read(
+        feature(
+            "r", [feature("a", group="OR", isMandatory=True), feature("b", group="OR", isMandatory=False)]
+        )
+    )
+    assert lines(diagnostics) == [
+        "warning: m.json:9:22: $.sub[0].isMandatory: isMandatory of a is ignored: it is a member of r's OR "
+        "group, and the group decides"
+    ]
+    assert [(g.kind, g.members) for g in model.groups] == [("OR", (1, 2))]
+    assert model["a"].mandatory is False
+
+
+def test_root_cannot_be_deselected_and_is_selected_elsewhere_is_ignored() -> None:
+    _, diagnostics = read(feature("r", [feature("a", isSelected=False)], isSelected=False))
+    assert lines(diagnostics) == [
+        "error: m.json:4:17: $.isSelected: the root cannot be deselected: it is the program itself (rule 2.1)",
+        "warning: m.json:9:21: $.sub[0].isSelected: isSelected is only meaningful on the root; ignored here",
+    ]
+
+
+def read_config(entries: dict[str, object], partial: bool = False) -> list[str]:
+    model, _ = read(feature("r", [feature("slam"), feature("amcl")]))
+    _, diagnostics = read_configuration(parse(json.dumps(entries, indent=1), "c.json"), model, partial)
+    return lines(diagnostics)
+
+
+def test_configuration_unknown_duplicate_and_missing() -> None:
+    assert read_config(config(("slma",), ("slam",), ("slam", False))) == [
+        "error: c.json:4:10: $.properties[0].id: unknown feature 'slma' (did you mean 'slam'?)",
+        "error: c.json:10:10: $.properties[2].id: second entry for 'slam' (the first is at line 6, column 3)",
+        "error: c.json:2:16: $.properties: no entry for amcl: the configuration is incomplete (add the entry, "
+        "or use --partial to leave it to the configurator)",
+    ]
+
+
+def test_partial_configuration_and_ignored_props() -> None:
+    entries = {"properties": [{"id": "slam", "selected": False, "props": {"time": "Late"}}]}
+    assert read_config(entries, partial=True) == [
+        "warning: c.json:6:13: $.properties[0].props: slam is not selected: its props are ignored"
+    ]
