@@ -39,9 +39,21 @@ def generate(n: int, seed: int = 0, window: int = 100) -> tuple[dict[str, Any], 
             if not group[c]:
                 mandatory[c] = rng.random() < 0.3
 
-    selected = [False] * n
+    # Bindings top-down for every feature (so allowed bindings of unselected features are
+    # consistent too), then the selection.
     early = [True] * n
     static = [True] * n
+    for c in range(1, n):
+        p = parent[c]
+        if not static[p]:
+            static[c] = False
+            early[c] = early[p] if mandatory[c] else (early[p] and rng.random() < 0.8)
+        elif mandatory[c]:
+            static[c], early[c] = True, early[p]
+        else:
+            static[c] = rng.random() >= 0.15
+            early[c] = early[p] and rng.random() >= 0.2
+    selected = [False] * n
     selected[0] = True
     for p in range(n):  # parents come before children: indices are a topological order
         kids = children[p]
@@ -57,31 +69,18 @@ def generate(n: int, seed: int = 0, window: int = 100) -> tuple[dict[str, Any], 
         if orr:
             for c in rng.sample(orr, rng.randint(1, len(orr))):
                 selected[c] = True
-        for c in kids:
-            if not selected[c]:
-                continue
-            if not static[p]:
-                static[c] = False
-                early[c] = early[p] if (mandatory[c] and not group[c]) else (early[p] and rng.random() < 0.8)
-            elif mandatory[c] and not group[c]:
-                static[c], early[c] = True, early[p]
-            else:
-                static[c] = rng.random() >= 0.15
-                early[c] = early[p] and rng.random() >= 0.2
 
     includes: list[list[int]] = [[] for _ in range(n)]
     excludes: list[list[int]] = [[] for _ in range(n)]
     chosen = [i for i in range(1, n)]
     rng.shuffle(chosen)
-    targets_static = [i for i in range(1, n) if selected[i] and static[i]]
+    # Includes target selected Static Early features, so every feature stays selectable
+    # (real models have few dead features); excludes pair a feature with an unselected one.
+    targets = [i for i in range(1, n) if selected[i] and static[i] and early[i]]
     unselected = [i for i in range(1, n) if not selected[i]]
     for x in chosen[: n // 20]:
-        if selected[x] and targets_static:
-            y = rng.choice(targets_static)
-            if y != x and (early[y] or not early[x]):
-                includes[x].append(y)
-        elif not selected[x]:
-            y = rng.randrange(1, n)
+        if targets:
+            y = rng.choice(targets)
             if y != x:
                 includes[x].append(y)
     for x in chosen[n // 20 : n // 10]:

@@ -1,0 +1,249 @@
+"""Checking models and configurations: the pipeline behind `motivml validate` and `show`.
+
+document -> schema -> model objects -> SAT. Each stage reports every problem it finds; a
+stage runs only when the one before left something sound to work on. Semantics are
+decided by the encoding alone (no second, hand-written rule checker): a configuration is
+valid iff the solver finds a variant under its facts; when it does not, the minimal
+conflicts are explained.
+
+Analyses of a model alone (dead features, bindings a feature allows but can never take)
+need many solves, so they run when a model is validated without a configuration; a
+variant check reports only what concerns the variant (and a void model).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import encoding as enc
+from .errors import Diagnostic, Location, MotivmlError, Severity, warning
+from .explain import Explainer
+from .loader import load_file, no_gc
+from .model import Configuration, FeatureModel
+from .reader import read_configuration, read_model
+from .schema import check_configuration, check_feature_model
+
+EXPLAINED_WARNINGS = 50  # dead features and bindings explained one by one, at most
+
+
+@dataclass
+class Report:
+    """What a check found, errors first (each group best first)."""
+
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+    model: FeatureModel | None = None
+    config: Configuration | None = None
+    open_bindings: int = 0  # selected features whose binding the configuration leaves open
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.ERROR]
+
+    @property
+    def warnings(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.WARNING]
+
+    @property
+    def valid(self) -> bool:
+        return not self.errors
+
+
+def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]:
+    """Read a feature model file; None when it cannot be used (the diagnostics say why)."""
+    try:
+        doc = load_file(path)
+    except MotivmlError as exc:
+        if exc.exit_code != 1:
+            raise
+        return None, exc.diagnostics
+    with no_gc():
+        problems = check_feature_model(doc)
+        if problems:
+            return None, problems
+        model, diagnostics = read_model(doc)
+    if any(d.severity is Severity.ERROR for d in diagnostics):
+        return None, diagnostics
+    return model, diagnostics
+
+
+def load_configuration(
+    path: str | Path, model: FeatureModel, partial: bool = False
+) -> tuple[Configuration | None, list[Diagnostic]]:
+    try:
+        doc = load_file(path)
+    except MotivmlError as exc:
+        if exc.exit_code != 1:
+            raise
+        return None, exc.diagnostics
+    with no_gc():
+        problems = check_configuration(doc)
+        if problems:
+            return None, problems
+        config, diagnostics = read_configuration(doc, model, partial)
+    config.name = Path(path).stem
+    if any(d.severity is Severity.ERROR for d in diagnostics):
+        return None, diagnostics
+    return config, diagnostics
+
+
+def validate(model_path: str | Path, config_path: str | Path | None = None, partial: bool = False) -> Report:
+    """The whole check of a model, or of a configuration of it."""
+    report = Report()
+    model, diagnostics = load_model(model_path)
+    report.diagnostics += diagnostics
+    report.model = model
+    if model is None:
+        return _sorted(report)
+    if config_path is None:
+        report.diagnostics += analyse_model(model)
+        return _sorted(report)
+    config, diagnostics = load_configuration(config_path, model, partial)
+    report.diagnostics += diagnostics
+    report.config = config
+    if config is None:
+        return _sorted(report)
+    report.diagnostics += check_variant(model, config)
+    report.open_bindings = sum(
+        1 for e in config.entries.values() if e.selected and (e.time == "Any" or e.mode == "Any")
+    )
+    return _sorted(report)
+
+
+def _sorted(report: Report) -> Report:
+    """Errors before warnings; within each, the order of discovery (best first)."""
+    report.diagnostics.sort(key=lambda d: d.severity is not Severity.ERROR)
+    return report
+
+
+def check_variant(model: FeatureModel, config: Configuration) -> list[Diagnostic]:
+    """Errors of a configuration: every independent minimal conflict, explained."""
+    with no_gc():
+        with enc.Encoding(model) as hard:
+            hard.set_configuration(config)
+            if hard.solve():
+                return []
+        with enc.Encoding(model, explain=True) as encoding:
+            encoding.set_configuration(config)
+            explainer = Explainer(encoding, model, config)
+            if not encoding.solve(with_config=False):
+                return _void(encoding, explainer)
+            return [explainer.diagnostic(mus) for mus in encoding.conflicts()]
+
+
+def _void(encoding: enc.Encoding, explainer: Explainer) -> list[Diagnostic]:
+    return [
+        explainer.diagnostic(mus, prefix="the model has no valid variant: ")
+        for mus in encoding.conflicts(with_config=False)
+    ]
+
+
+def analyse_model(model: FeatureModel) -> list[Diagnostic]:
+    """A void model (error); dead features and never-possible bindings (warnings)."""
+    with no_gc(), enc.Encoding(model) as hard:
+        if not hard.solve(with_config=False):
+            with enc.Encoding(model, explain=True) as encoding:
+                return _void(encoding, Explainer(encoding, model, None))
+        features = model.features
+        n = len(features)
+        alive = hard.cover(
+            [[hard.s(i)] for i in range(n)], with_config=False, hints=[[hard.s(i) for i in range(n)]]
+        )
+        targets: list[list[int]] = []
+        owners: list[tuple[int, str, str]] = []  # (feature, aspect, value)
+        for f in features:
+            if not alive[f.index]:
+                continue
+            i = f.index
+            if f.time_allowed == "Any":
+                targets += [[hard.s(i), hard.E(i)], [hard.s(i), -hard.E(i)]]
+                owners += [(i, "time", "Early"), (i, "time", "Late")]
+            if f.mode_allowed == "Any":
+                targets += [[hard.s(i), hard.S(i)], [hard.s(i), -hard.S(i)]]
+                owners += [(i, "mode", "Static"), (i, "mode", "Dynamic")]
+        hints = [
+            [lit for i in range(n) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
+            for e in (1, -1)
+            for m in (1, -1)
+        ]
+        possible = hard.cover(targets, with_config=False, hints=hints)
+
+    dead = [f for f in features if not alive[f.index] and (f.parent is None or alive[f.parent])]
+    impossible = [owners[k] for k in range(len(targets)) if not possible[k]]
+    if not dead and not impossible:
+        return []
+    found: list[Diagnostic] = []
+    with no_gc(), enc.Encoding(model, explain=True) as encoding:
+        explainer = Explainer(encoding, model, None)
+        for count, f in enumerate(dead):
+            below = len(model.subtree(f.index)) - 1
+            extra = f" (and so are its {below} sub-features)" if below else ""
+            head = f"{f.id} is dead: no valid variant selects it{extra}"
+            if count >= EXPLAINED_WARNINGS:
+                found.append(
+                    warning(explainer.model_location(f.index, "id"), head, "model.dead-feature", f.id)
+                )
+                continue
+            q = encoding.query("query-selected", f.index, encoding.s(f.index))
+            explainer.query_words[q] = f"{f.id} would be selected"
+            (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q])
+            where = explainer.model_location(f.index, "id")
+            found.append(_as_warning(explainer.diagnostic(mus), where, head, "model.dead-feature", f.id))
+        for count, (i, aspect, value) in enumerate(impossible):
+            f = features[i]
+            other = {"Early": "Late", "Late": "Early", "Static": "Dynamic", "Dynamic": "Static"}[value]
+            head = f"{f.id} allows Any binding {aspect} but can never be {value}, only {other}"
+            key = "bindingTimeAllowed" if aspect == "time" else "bindingModeAllowed"
+            where = explainer.model_location(i, "constraints", key)
+            if count >= EXPLAINED_WARNINGS:
+                found.append(warning(where, head, "model.impossible-binding", f.id))
+                continue
+            literal = {
+                "Early": encoding.E(i),
+                "Late": -encoding.E(i),
+                "Static": encoding.S(i),
+                "Dynamic": -encoding.S(i),
+            }
+            q1 = encoding.query("query-selected", i, encoding.s(i))
+            q2 = encoding.query("query-binding", i, literal[value])
+            explainer.query_words[q1] = f"{f.id} would be selected"
+            explainer.query_words[q2] = f"{f.id} would be {value}"
+            (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q1, q2])
+            found.append(
+                _as_warning(explainer.diagnostic(mus), where, head, "model.impossible-binding", f.id)
+            )
+    return found
+
+
+def _as_warning(explained: Diagnostic, where: Location, head: str, rule: str, feature: str) -> Diagnostic:
+    return Diagnostic(
+        Severity.WARNING,
+        where,
+        f"{head}, because {explained.message}",
+        rule,
+        feature,
+        explained.facts,
+    )
+
+
+STATES = ("SE", "SL", "DE", "DL")
+
+
+def binding_states(model: FeatureModel, config: Configuration | None) -> list[set[str]]:
+    """Per feature, what valid variants (of the configuration) can make of it.
+
+    Each set holds "off" (not selected) and/or the bindings SE, SL, DE, DL it can take; a
+    one-element set is what the solver forces. This is the paper's "binding semantics
+    interpreter", answered by `Encoding.cover`.
+    """
+    with no_gc(), enc.Encoding(model) as hard:
+        if config is not None:
+            hard.set_configuration(config)
+        targets: list[list[int]] = []
+        for f in model.features:
+            i = f.index
+            s, e, st = hard.s(i), hard.E(i), hard.S(i)
+            targets += [[-s], [s, e, st], [s, -e, st], [s, e, -st], [s, -e, -st]]
+        possible = hard.cover(targets, with_config=config is not None)
+    names = ("off", "SE", "SL", "DE", "DL")
+    return [{names[j] for j in range(5) if possible[5 * f.index + j]} for f in model.features]

@@ -1,0 +1,387 @@
+"""The one SAT encoding of MoTiVML (semantics.md sections 2, 3 and the start state of 4).
+
+Variables, per feature f (index i in definition order): s(f) selected, E(f) Early,
+S(f) Static, a(f) active at start. Every model statement the rules apply to is a *fact*
+with its own selector variable, and each of its clauses carries the selector negated, so
+a fact is in force exactly when its selector is assumed. A configuration adds facts that
+are plain literals (s(f), E(f), S(f) or their negations).
+
+The same clauses come in two builds of one encoding:
+
+* `Encoding(model)`: model facts are hard clauses and configuration facts are
+  assumptions. Validity is one solve; `cover()` finds which conjunctions of literals some
+  valid variant satisfies (dead features, possible and forced bindings) with one solve per
+  batch of new witnesses, incrementally on the same solver.
+* `Encoding(model, explain=True)`: every model fact gets a selector variable that its
+  clauses carry negated, so a fact is in force only while its selector is assumed. The
+  solver's core is then a set of facts, shrunk to a minimal one by deletion; the search
+  goes on with each found core's facts set aside, so every independent conflict is found.
+  Assuming half a million selectors costs ~0.15 s per solve at 100,000 features, which is
+  why the questions that need many solves use the hard build, and this one is made only
+  when there is something to explain.
+
+This is the only module that imports pysat. Solvers are opened with `with Encoding(...)`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from types import TracebackType
+
+from pysat.solvers import Solver
+
+from .model import Configuration, FeatureModel
+
+SOLVER = "cadical195"
+
+# Fact kinds: the statement and the rule it is used under (see explain.py for the words).
+ROOT = "root"  # 2.1: the root is selected, Static and Early
+PARENT = "parent"  # 2.1: s(c) -> s(p)
+MANDATORY = "mandatory"  # 2.2: s(p) -> s(c) for an ungrouped mandatory child
+GROUP_OR = "or-group"  # 2.2: s(p) -> some member
+GROUP_XOR = "xor-group"  # 2.2: s(p) -> some member (at most one: XOR_PAIR)
+XOR_PAIR = "xor-pair"  # 2.2 + 3.3: two members selected together only as Dynamic alternatives
+INCLUDE = "include"  # 2.3: s(x) -> s(y)
+EXCLUDE = "exclude"  # 2.3 + 3.3: like XOR_PAIR
+INCLUDE_STATIC = "include-static"  # 3.1: an included feature is Static
+INCLUDE_TIME = "include-time"  # 3.1: ... and bound no later than its includer
+MANDATORY_STATIC = "mandatory-static"  # 3.1: a Static parent requires its mandatory child Static
+MANDATORY_TIME = "mandatory-time"  # 3.1: ... bound no later
+SUB_MODE = "sub-mode"  # 3.2: a Dynamic parent has no Static child
+SUB_TIME = "sub-time"  # 3.2: a child is not bound before its parent
+UNIT_TIME = "unit-time"  # 3.2: a Dynamic parent's mandatory child has its time
+ALLOWED_TIME = "allowed-time"  # 3: bindingTimeAllowed
+ALLOWED_MODE = "allowed-mode"  # 3: bindingModeAllowed
+START = "start"  # 4: the start state exists
+# Configuration facts (literals, no selector)
+CONFIG_SELECTED = "config-selected"
+CONFIG_DESELECTED = "config-deselected"
+CONFIG_TIME = "config-time"
+CONFIG_MODE = "config-mode"
+
+CONFIG_KINDS = frozenset({CONFIG_SELECTED, CONFIG_DESELECTED, CONFIG_TIME, CONFIG_MODE})
+
+
+@dataclass(frozen=True, slots=True)
+class Fact:
+    """A model or configuration statement: `kind` over features `a` and `b` (-1: none).
+
+    For group facts `a` is the group's index in `FeatureModel.groups`.
+    """
+
+    kind: str
+    a: int
+    b: int = -1
+
+
+class Encoding:
+    """A feature model (and optionally a configuration) in one incremental SAT solver."""
+
+    def __init__(self, model: FeatureModel, explain: bool = False, solver: str = SOLVER) -> None:
+        self.model = model
+        self.explain = explain
+        n = len(model.features)
+        self.n = n
+        self.facts: list[Fact] = []  # explain build: every fact; hard build: config facts
+        self.literals: list[int] = []  # the assumption literal of each fact
+        self._top = 4 * n
+        self.solver = Solver(name=solver)
+        self._clauses: list[list[int]] = []
+        self._encode_model()
+        self.model_facts = len(self.facts)
+        self._config_fact_range = (len(self.facts), len(self.facts))
+        self._flush()
+
+    # ----------------------------------------------------------------- variables
+    @staticmethod
+    def s(i: int) -> int:
+        return 4 * i + 1
+
+    @staticmethod
+    def E(i: int) -> int:  # noqa: N802 - the spec's name
+        return 4 * i + 2
+
+    @staticmethod
+    def S(i: int) -> int:  # noqa: N802 - the spec's name
+        return 4 * i + 3
+
+    @staticmethod
+    def a(i: int) -> int:
+        return 4 * i + 4
+
+    def _new_var(self) -> int:
+        self._top += 1
+        return self._top
+
+    def _fact(self, kind: str, a: int, b: int = -1) -> int:
+        """A model fact: its selector in the explain build, 0 (always in force) otherwise."""
+        if not self.explain:
+            return 0
+        selector = self._new_var()
+        self.facts.append(Fact(kind, a, b))
+        self.literals.append(selector)
+        return selector
+
+    def _add(self, selector: int, *clauses: list[int]) -> None:
+        if selector:
+            for clause in clauses:
+                self._clauses.append([-selector, *clause])
+        else:  # hard build: drop the (absent) selectors, including START's inside clauses
+            for clause in clauses:
+                self._clauses.append([lit for lit in clause if lit] if 0 in clause else clause)
+
+    def _flush(self) -> None:
+        self.solver.append_formula(self._clauses)
+        self._clauses = []
+
+    # ------------------------------------------------------------------ encoding
+    def _encode_model(self) -> None:
+        s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
+        features = self.model.features
+        start = self._fact(START, 0)
+        # Section 4: A is a subset of the selection, holds every selected Early feature,
+        # and satisfies section 2 in full (the a-level clauses below, each under START too).
+        for i in range(self.n):
+            self._add(start, [-a(i), s(i)], [-s(i), -E(i), a(i)])
+        root = self._fact(ROOT, 0)
+        self._add(root, [s(0)], [E(0)], [S(0)])
+        self._add(start, [a(0)])
+
+        for f in features:
+            i = f.index
+            if f.time_allowed != "Any":
+                sel = self._fact(ALLOWED_TIME, i)
+                self._add(sel, [-s(i), E(i) if f.time_allowed == "Early" else -E(i)])
+            if f.mode_allowed != "Any":
+                sel = self._fact(ALLOWED_MODE, i)
+                self._add(sel, [-s(i), S(i) if f.mode_allowed == "Static" else -S(i)])
+            p = f.parent
+            if p is None:
+                continue
+            sel = self._fact(PARENT, i)
+            self._add(sel, [-s(i), s(p)], [-start, -a(i), a(p)])
+            sel = self._fact(SUB_MODE, i)
+            self._add(sel, [-s(i), S(p), -S(i)])
+            sel = self._fact(SUB_TIME, i)
+            self._add(sel, [-s(i), -E(i), E(p)])
+            if f.mandatory:
+                sel = self._fact(MANDATORY, i)
+                self._add(sel, [-s(p), s(i)], [-start, -a(p), a(i)])
+                sel = self._fact(MANDATORY_STATIC, i)
+                self._add(sel, [-s(p), -s(i), -S(p), S(i)])
+                sel = self._fact(MANDATORY_TIME, i)
+                self._add(sel, [-s(p), -s(i), -S(p), -E(p), E(i)])
+                sel = self._fact(UNIT_TIME, i)
+                self._add(sel, [-s(p), -s(i), S(p), -E(p), E(i)])
+
+        for g, group in enumerate(self.model.groups):
+            p, members = group.parent, group.members
+            kind = GROUP_OR if group.kind == "OR" else GROUP_XOR
+            sel = self._fact(kind, g)
+            self._add(sel, [-s(p), *(s(m) for m in members)], [-start, -a(p), *(a(m) for m in members)])
+            if group.kind == "XOR":
+                for x, m1 in enumerate(members):
+                    for m2 in members[x + 1 :]:
+                        sel = self._fact(XOR_PAIR, m1, m2)
+                        self._alternatives(sel, start, m1, m2)
+
+        index = self.model.index
+        for f in features:
+            for target in f.includes:
+                y = index.get(target)
+                if y is None or y == f.index:
+                    continue
+                x = f.index
+                sel = self._fact(INCLUDE, x, y)
+                self._add(sel, [-s(x), s(y)], [-start, -a(x), a(y)])
+                sel = self._fact(INCLUDE_STATIC, x, y)
+                self._add(sel, [-s(x), -s(y), S(y)])
+                sel = self._fact(INCLUDE_TIME, x, y)
+                self._add(sel, [-s(x), -s(y), -E(x), E(y)])
+            for target in f.excludes:
+                y = index.get(target)
+                if y is None or y == f.index:
+                    continue
+                sel = self._fact(EXCLUDE, f.index, y)
+                self._alternatives(sel, start, f.index, y)
+
+    def _alternatives(self, sel: int, start: int, x: int, y: int) -> None:
+        """Rule 3.3: not (s(x) and s(y) and (S(x) or S(y) or (E(x) and E(y)))); never both active."""
+        s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
+        self._add(
+            sel,
+            [-s(x), -s(y), -S(x)],
+            [-s(x), -s(y), -S(y)],
+            [-s(x), -s(y), -E(x), -E(y)],
+            [-start, -a(x), -a(y)],
+        )
+
+    # ------------------------------------------------------------ configuration
+    def set_configuration(self, config: Configuration) -> None:
+        """Add a configuration's facts (once per encoding): literals to assume."""
+        first = len(self.facts)
+        index = self.model.index
+        for entry in config.entries.values():
+            i = index.get(entry.id)
+            if i is None:
+                continue
+            if not entry.selected:
+                self._config_fact(CONFIG_DESELECTED, i, -self.s(i))
+                continue
+            self._config_fact(CONFIG_SELECTED, i, self.s(i))
+            if entry.time != "Any":
+                self._config_fact(CONFIG_TIME, i, self.E(i) if entry.time == "Early" else -self.E(i))
+            if entry.mode != "Any":
+                self._config_fact(CONFIG_MODE, i, self.S(i) if entry.mode == "Static" else -self.S(i))
+        self._config_fact_range = (first, len(self.facts))
+
+    def _config_fact(self, kind: str, i: int, literal: int) -> None:
+        self.facts.append(Fact(kind, i))
+        self.literals.append(literal)
+
+    # ----------------------------------------------------------------- queries
+    def assumptions(self, with_config: bool = True) -> list[int]:
+        """The literals that put every model fact (explain build) and the configuration in force."""
+        last = self._config_fact_range[1] if with_config else self.model_facts
+        return self.literals[:last]
+
+    def solve(self, with_config: bool = True, extra: Sequence[int] = ()) -> bool:
+        return bool(self.solver.solve(assumptions=[*self.assumptions(with_config), *extra]))
+
+    def assignment(self) -> list[int]:
+        model = self.solver.get_model()
+        return list(model) if model is not None else []
+
+    def query(self, kind: str, i: int, literal: int) -> int:
+        """A hypothetical fact ("f is selected") to explain why it cannot hold; its index."""
+        self.facts.append(Fact(kind, i))
+        self.literals.append(literal)
+        return len(self.facts) - 1
+
+    def conflicts(
+        self, with_config: bool = True, limit: int = 20, queries: Sequence[int] = ()
+    ) -> list[list[int]]:
+        """Minimal sets of conflicting facts (indices into `facts`), disjoint, best first.
+
+        Each is a minimal unsatisfiable subset of the facts: drop any one and the rest has a
+        valid variant. After one is found its facts are set aside and the search goes on,
+        so independent problems are all reported (up to `limit`). `queries` (from
+        `query()`) are assumed too, so a dead feature's reason can be asked for.
+        """
+        if not self.explain:
+            raise ValueError("conflicts() needs Encoding(model, explain=True)")
+        last = self._config_fact_range[1] if with_config else self.model_facts
+        # Queries and configuration facts first: the solver's core tends to use the earliest.
+        order = [*queries, *range(self.model_facts, last), *range(self.model_facts)]
+        remaining = dict.fromkeys(order)  # ordered set
+        found: list[list[int]] = []
+        by_literal: dict[int, int] = {}
+        for k in order:
+            by_literal.setdefault(self.literals[k], k)
+        while len(found) < limit:
+            assumptions = [self.literals[k] for k in remaining]
+            if self.solver.solve(assumptions=assumptions):
+                break
+            core = self._core(by_literal, remaining)
+            core = self._minimise(core)
+            found.append(sorted(core))
+            for k in core:
+                remaining.pop(k, None)
+        found.sort(key=lambda mus: (len(mus), min(self._first_feature(k) for k in mus)))
+        return found
+
+    def _core(self, by_literal: dict[int, int], allowed: Iterable[int]) -> list[int]:
+        allowed_set = set(allowed)
+        core = self.solver.get_core() or []
+        return [by_literal[lit] for lit in core if by_literal.get(lit) in allowed_set]
+
+    def _minimise(self, core: list[int]) -> list[int]:
+        """Deletion-based shrinking of an unsatisfiable set of facts to a minimal one."""
+        by_literal = {self.literals[k]: k for k in core}
+        current = list(core)
+        i = 0
+        while i < len(current):
+            trial = current[:i] + current[i + 1 :]
+            if self.solver.solve(assumptions=[self.literals[k] for k in trial]):
+                i += 1  # needed
+            else:
+                smaller = set(self._core(by_literal, trial))
+                current = [k for k in trial if k in smaller]
+        return current
+
+    def _first_feature(self, k: int) -> int:
+        fact = self.facts[k]
+        if fact.kind in (GROUP_OR, GROUP_XOR):
+            return self.model.groups[fact.a].parent
+        return fact.a
+
+    def cover(
+        self,
+        targets: Sequence[Sequence[int]],
+        with_config: bool = True,
+        hints: Sequence[Sequence[int]] = (),
+    ) -> list[bool]:
+        """Which conjunctions of literals hold in some valid variant.
+
+        1. A few solves under polarity hints (each of `hints`, then towards every target)
+           find witnesses that cover most targets at once.
+        2. Unit propagation refutes most impossible targets without a search.
+        3. Each target still open is solved for under its literals as assumptions, with the
+           hints renewed towards every open target, so its witness settles others too.
+        """
+        possible = [False] * len(targets)
+        base = self.assumptions(with_config)
+        pending: list[int] = list(range(len(targets)))
+        self.cover_solves = 0
+        for hint in [*hints, None]:
+            if hint is None:
+                self._prefer(targets, pending)
+            else:
+                self.solver.set_phases(list(hint))
+            self.cover_solves += 1
+            if not self.solver.solve(assumptions=base):
+                return possible
+            pending = self._mark(targets, possible, pending)
+        pending = [k for k in pending if self.solver.propagate(assumptions=[*base, *targets[k]])[0]]
+        while pending:
+            k = pending[0]
+            self._prefer(targets, pending)
+            self.cover_solves += 1
+            if self.solver.solve(assumptions=[*base, *targets[k]]):
+                pending = self._mark(targets, possible, pending)
+            else:
+                pending = pending[1:]
+        return possible
+
+    def _prefer(self, targets: Sequence[Sequence[int]], todo: Iterable[int]) -> None:
+        """Polarity hints: decide the open targets' literals their way first."""
+        preferred: dict[int, int] = {}
+        for k in todo:
+            for lit in targets[k]:
+                preferred[abs(lit)] = lit
+        self.solver.set_phases(list(preferred.values()))
+
+    def _mark(
+        self, targets: Sequence[Sequence[int]], possible: list[bool], candidates: Iterable[int]
+    ) -> list[int]:
+        values = self.assignment()
+        left = []
+        for k in candidates:
+            if all(values[abs(lit) - 1] == lit for lit in targets[k]):
+                possible[k] = True
+            else:
+                left.append(k)
+        return left
+
+    # --------------------------------------------------------------- lifecycle
+    def close(self) -> None:
+        self.solver.delete()
+
+    def __enter__(self) -> Encoding:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()

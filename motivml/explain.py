@@ -1,0 +1,291 @@
+"""Sentences for minimal conflicts: from sets of SAT facts to located diagnostics.
+
+A conflict found by the encoding is a minimal set of facts: some *statements* of the model
+(a sub-feature, an include, an XOR group...) under the rule that uses them, and some
+*values* (what the configuration says, what a feature allows, the root). The sentence
+reads "<statements>, but <values>: <why> (rule N)", e.g.
+
+    slam requires gridmap, but gridmap is configured Dynamic: a required feature must be
+    Static (binding rule 3.1)
+
+and every fact is attached with its own location, so `--format json` and the text output
+can show where each one is written.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from . import encoding as enc
+from .errors import Diagnostic, Fact, Location, Severity
+from .model import Configuration, FeatureModel
+
+# kind -> (rule, why); the first matching kind in PRIORITY gives the sentence its "why".
+WHY: dict[str, tuple[str, str]] = {
+    enc.START: (
+        "section 4",
+        "no start state exists: at start every selected Early feature is active, and the active "
+        "set needs every active parent's mandatory sub-features, one active member of each of its "
+        "groups (exactly one for XOR) and no two active features that exclude each other (section 4)",
+    ),
+    enc.INCLUDE_STATIC: ("3.1", "a required feature must be Static (binding rule 3.1)"),
+    enc.MANDATORY_STATIC: ("3.1", "a required feature must be Static (binding rule 3.1)"),
+    enc.INCLUDE_TIME: (
+        "3.1",
+        "a required feature must be bound no later than the feature that requires it (binding rule 3.1)",
+    ),
+    enc.MANDATORY_TIME: (
+        "3.1",
+        "a required feature must be bound no later than the feature that requires it (binding rule 3.1)",
+    ),
+    enc.SUB_MODE: ("3.2", "a Dynamic parent cannot have a Static sub-feature (binding rule 3.2)"),
+    enc.SUB_TIME: ("3.2", "a sub-feature cannot be bound before its parent (binding rule 3.2)"),
+    enc.UNIT_TIME: (
+        "3.2",
+        "a mandatory sub-feature of a Dynamic parent is bound with it, at the same time (binding rule 3.2)",
+    ),
+    enc.XOR_PAIR: (
+        "3.3",
+        "two members of an XOR group can both be selected only as Dynamic alternatives, at most one "
+        "of them Early (rules 2.2 and 3.3)",
+    ),
+    enc.EXCLUDE: (
+        "3.3",
+        "features that exclude each other can both be selected only as Dynamic alternatives, at most "
+        "one of them Early (rules 2.3 and 3.3)",
+    ),
+    enc.GROUP_XOR: ("2.2", "an XOR group needs a selected member when its parent is selected (rule 2.2)"),
+    enc.GROUP_OR: ("2.2", "an OR group needs a selected member when its parent is selected (rule 2.2)"),
+    enc.MANDATORY: ("2.2", "a mandatory sub-feature is selected whenever its parent is (rule 2.2)"),
+    enc.INCLUDE: (
+        "2.3",
+        "an included feature is selected whenever the feature that includes it is (rule 2.3)",
+    ),
+    enc.PARENT: ("2.1", "a selected feature needs its parent selected (rule 2.1)"),
+    enc.ROOT: ("2.1", "the root is always selected, Static and Early (rule 2.1)"),
+    enc.ALLOWED_TIME: ("3", "a feature is bound only as its constraints allow (section 3)"),
+    enc.ALLOWED_MODE: ("3", "a feature is bound only as its constraints allow (section 3)"),
+}
+PRIORITY = list(WHY)
+_INCLUDES = frozenset({enc.INCLUDE, enc.INCLUDE_STATIC, enc.INCLUDE_TIME})
+# Facts about one model relation, said once (by the first of the family in PRIORITY).
+_FAMILY = {
+    **dict.fromkeys(_INCLUDES, "include"),
+    **dict.fromkeys((enc.MANDATORY, enc.MANDATORY_STATIC, enc.MANDATORY_TIME, enc.UNIT_TIME), "mandatory"),
+    **dict.fromkeys((enc.PARENT, enc.SUB_MODE, enc.SUB_TIME), "parent"),
+}
+VALUE_KINDS = frozenset(
+    {enc.ROOT, enc.ALLOWED_TIME, enc.ALLOWED_MODE, *enc.CONFIG_KINDS, "query-selected", "query-binding"}
+)
+
+
+class Explainer:
+    """Turns facts of one encoding into words and locations."""
+
+    def __init__(self, encoding: enc.Encoding, model: FeatureModel, config: Configuration | None) -> None:
+        self.encoding = encoding
+        self.model = model
+        self.config = config
+        self.query_words: dict[int, str] = {}
+
+    def _id(self, i: int) -> str:
+        return self.model.features[i].id
+
+    def model_location(self, i: int, *keys: str | int) -> Location:
+        doc = self.model.source
+        path = self.model.path(i, *keys)
+        if doc is None:
+            return Location(self.model.name or "model")
+        location: Location = doc.locate(path, key=False)
+        return location
+
+    def _config_loc(self, i: int, *keys: str) -> Location:
+        assert self.config is not None
+        doc = self.config.source
+        location: Location = doc.locate(self.config.path(self._id(i), *keys))
+        return location
+
+    def statement(self, k: int) -> Fact:
+        """One fact in words, with its rule and location."""
+        fact = self.encoding.facts[k]
+        kind, a, b = fact.kind, fact.a, fact.b
+        model = self.model
+        rule = WHY.get(kind, ("", ""))[0]
+        if kind in (enc.GROUP_OR, enc.GROUP_XOR):
+            group = model.groups[a]
+            members = ", ".join(self._id(m) for m in group.members)
+            return Fact(
+                f"{self._id(group.parent)} has the {group.kind} group {members}",
+                self.model_location(group.members[0], "group"),
+                rule,
+            )
+        if kind == enc.ROOT:
+            return Fact(f"{self._id(0)} is the root", self.model_location(0, "id"), rule)
+        if kind == enc.START:
+            return Fact("the robot must be able to start", self.model_location(0), rule)
+        if kind in (enc.PARENT, enc.SUB_MODE, enc.SUB_TIME):
+            parent = model.features[a].parent
+            assert parent is not None
+            return Fact(
+                f"{self._id(a)} is a sub-feature of {self._id(parent)}", self.model_location(a, "id"), rule
+            )
+        if kind in (enc.MANDATORY, enc.UNIT_TIME):
+            parent = model.features[a].parent
+            assert parent is not None
+            where = "isMandatory" if model.features[a].declared_mandatory is not None else "id"
+            return Fact(
+                f"{self._id(a)} is a mandatory sub-feature of {self._id(parent)}",
+                self.model_location(a, where),
+                rule,
+            )
+        if kind in (enc.MANDATORY_STATIC, enc.MANDATORY_TIME):
+            parent = model.features[a].parent
+            assert parent is not None
+            where = "isMandatory" if model.features[a].declared_mandatory is not None else "id"
+            return Fact(
+                f"{self._id(parent)} requires its mandatory sub-feature {self._id(a)}",
+                self.model_location(a, where),
+                rule,
+            )
+        if kind == enc.XOR_PAIR:
+            parent = model.features[a].parent
+            assert parent is not None
+            return Fact(
+                f"{self._id(a)} and {self._id(b)} are alternatives in {self._id(parent)}'s XOR group",
+                self.model_location(b, "group"),
+                rule,
+            )
+        if kind in (enc.INCLUDE, enc.INCLUDE_STATIC, enc.INCLUDE_TIME):
+            target = self._id(b)
+            position = list(model.features[a].includes).index(target)
+            verb = "includes" if kind == enc.INCLUDE else "requires"
+            return Fact(
+                f"{self._id(a)} {verb} {target}",
+                self.model_location(a, "constraints", "featuresIncluded", position),
+                rule,
+            )
+        if kind == enc.EXCLUDE:
+            target = self._id(b)
+            position = list(model.features[a].excludes).index(target)
+            return Fact(
+                f"{self._id(a)} excludes {target}",
+                self.model_location(a, "constraints", "featuresExcluded", position),
+                rule,
+            )
+        if kind == enc.ALLOWED_TIME:
+            feature = model.features[a]
+            return Fact(
+                f"{feature.id} allows only {feature.time_allowed} binding",
+                self.model_location(a, "constraints", "bindingTimeAllowed"),
+                "3",
+            )
+        if kind == enc.ALLOWED_MODE:
+            feature = model.features[a]
+            return Fact(
+                f"{feature.id} allows only {feature.mode_allowed} binding",
+                self.model_location(a, "constraints", "bindingModeAllowed"),
+                "3",
+            )
+        if kind in enc.CONFIG_KINDS:
+            literal = self.encoding.literals[k]
+            if kind == enc.CONFIG_SELECTED:
+                return Fact(f"{self._id(a)} is selected", self._config_loc(a), "config")
+            if kind == enc.CONFIG_DESELECTED:
+                return Fact(f"{self._id(a)} is not selected", self._config_loc(a, "selected"), "config")
+            if kind == enc.CONFIG_TIME:
+                value = "Early" if literal > 0 else "Late"
+                return Fact(
+                    f"{self._id(a)} is configured {value}", self._config_loc(a, "props", "time"), "config"
+                )
+            value = "Static" if literal > 0 else "Dynamic"
+            return Fact(
+                f"{self._id(a)} is configured {value}", self._config_loc(a, "props", "mode"), "config"
+            )
+        # queries ("what if f were selected / bound so")
+        return Fact(
+            self.query_words.get(k, f"{self._id(a)} is assumed"), self.model_location(a, "id"), "query"
+        )
+
+    def mentions(self, k: int) -> tuple[int, ...]:
+        """Features a fact's sentence names, the one a change most likely concerns first."""
+        fact = self.encoding.facts[k]
+        if fact.kind in (enc.GROUP_OR, enc.GROUP_XOR):
+            group = self.model.groups[fact.a]
+            return (*group.members, group.parent)
+        if fact.kind in _INCLUDES:
+            return (fact.b, fact.a)
+        if fact.kind in (enc.EXCLUDE, enc.XOR_PAIR):
+            return (fact.a, fact.b)
+        parent = self.model.features[fact.a].parent
+        return (fact.a,) if parent is None else (fact.a, parent)
+
+    def sentence(self, mus: Sequence[int]) -> tuple[str, str, Fact, tuple[Fact, ...]]:
+        """(message, rule, primary fact, all facts) for one minimal conflict."""
+        facts = self.encoding.facts
+        kinds = {facts[k].kind for k in mus}
+        main = next((kind for kind in PRIORITY if kind in kinds), None)
+        rule, why = WHY[main] if main is not None else ("", "these facts contradict each other")
+        main_k = next((k for k in mus if facts[k].kind == main), mus[0])
+        focus = self.mentions(main_k)[0] if main not in VALUE_KINDS else facts[main_k].a
+
+        # One statement per model relation: "slam requires gridmap" says "includes" too.
+        statements: dict[tuple[str, int, int], int] = {}
+        for k in sorted(
+            (k for k in mus if facts[k].kind not in VALUE_KINDS and facts[k].kind != enc.START),
+            key=lambda k: PRIORITY.index(facts[k].kind),
+        ):
+            key = (_FAMILY.get(facts[k].kind, facts[k].kind), facts[k].a, facts[k].b)
+            statements.setdefault(key, k)
+        order = list(mus)
+        shown_statements = sorted(statements.values(), key=order.index)
+        named = {i for k in shown_statements for i in self.mentions(k)}
+        configured = {facts[k].a for k in mus if facts[k].kind in (enc.CONFIG_TIME, enc.CONFIG_MODE)}
+        values = [k for k in mus if facts[k].kind in VALUE_KINDS]
+        # "x is selected" adds nothing beside "x requires y" or "x is configured Late".
+        shown = [
+            k
+            for k in values
+            if not (
+                facts[k].kind == enc.CONFIG_SELECTED and (facts[k].a in named or facts[k].a in configured)
+            )
+        ] or values
+        shown.sort(key=lambda k: facts[k].a != focus)
+
+        words = {k: self.statement(k) for k in mus}
+        head = "; ".join(dict.fromkeys(words[k].text for k in shown_statements))
+        tail = _join([words[k].text for k in shown])
+        message = f"{head}, but {tail}: {why}" if head and tail else f"{head or tail}: {why}"
+        # The place to change first: the focus feature's configured binding, then any
+        # binding, then a (de)selection, then the model.
+        rank = {enc.CONFIG_TIME: 0, enc.CONFIG_MODE: 0, enc.CONFIG_DESELECTED: 1, enc.CONFIG_SELECTED: 2}
+        config_facts = sorted(
+            (k for k in mus if facts[k].kind in rank),
+            key=lambda k: (facts[k].a != focus, rank[facts[k].kind]),
+        )
+        primary_k = next(iter(config_facts or shown_statements or values))
+        ordered = tuple(dict.fromkeys(words[k] for k in [*shown_statements, *values]))
+        if enc.START in kinds:
+            ordered += (words[next(k for k in mus if facts[k].kind == enc.START)],)
+        return message, rule, words[primary_k], ordered
+
+    def diagnostic(
+        self, mus: Sequence[int], severity: Severity = Severity.ERROR, prefix: str = ""
+    ) -> Diagnostic:
+        message, rule, primary, facts = self.sentence(mus)
+        feature = self._feature_of(mus, primary)
+        return Diagnostic(severity, primary.location, prefix + message, rule, feature, facts)
+
+    def _feature_of(self, mus: Sequence[int], primary: Fact) -> str | None:
+        for k in mus:
+            if self.statement(k) == primary:
+                fact = self.encoding.facts[k]
+                if fact.kind in (enc.GROUP_OR, enc.GROUP_XOR):
+                    return self._id(self.model.groups[fact.a].parent)
+                return self._id(fact.a)
+        return None
+
+
+def _join(parts: list[str]) -> str:
+    if len(parts) <= 1:
+        return "".join(parts)
+    return ", ".join(parts[:-1]) + " and " + parts[-1]
