@@ -255,12 +255,12 @@ class Explainer:
         head = "; ".join(dict.fromkeys(words[k].text for k in shown_statements))
         tail = _join([words[k].text for k in shown])
         message = f"{head}, but {tail}: {why}" if head and tail else f"{head or tail}: {why}"
-        # The place to change first: the focus feature's configured binding, then any
-        # binding, then a (de)selection, then the model.
+        # The place to change first: a configured binding (the focus feature's first), then
+        # a (de)selection, then the model.
         rank = {enc.CONFIG_TIME: 0, enc.CONFIG_MODE: 0, enc.CONFIG_DESELECTED: 1, enc.CONFIG_SELECTED: 2}
         config_facts = sorted(
             (k for k in mus if facts[k].kind in rank),
-            key=lambda k: (facts[k].a != focus, rank[facts[k].kind]),
+            key=lambda k: (rank[facts[k].kind], facts[k].a != focus),
         )
         primary_k = next(iter(config_facts or shown_statements or values))
         ordered = tuple(dict.fromkeys(words[k] for k in [*shown_statements, *values]))

@@ -113,7 +113,7 @@ CASES = {
         feature("r", [opt("slam", [opt("hector")])]),
         config(("slam", False), ("hector",)),
         [
-            "[2.1] hector: hector is a sub-feature of slam, but slam is not selected: a selected feature needs "
+            "[2.1] slam: hector is a sub-feature of slam, but slam is not selected: a selected feature needs "
             "its parent selected (rule 2.1)"
         ],
     ),

@@ -1,0 +1,150 @@
+"""The command line through click's CliRunner: exit codes, text and JSON output."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from motivml.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+SIMPLEBOT = ROOT / "feature_models" / "simplebot"
+
+
+def run(*args: str) -> tuple[int, str]:
+    result = CliRunner().invoke(main, list(args))
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
+    return result.exit_code, result.output
+
+
+def test_valid_variant_exit_0() -> None:
+    code, output = run("validate", str(SIMPLEBOT), "--variant", "lab")
+    assert code == 0
+    assert output.strip().endswith("lab.json, 0 errors, 0 warnings")
+    assert output.startswith("valid: ")
+
+
+def test_invalid_variant_exit_1_with_located_message() -> None:
+    code, output = run("validate", str(SIMPLEBOT), "--variant", "broken_gridmap_dynamic")
+    assert code == 1
+    first = output.splitlines()[0]
+    assert first.endswith(
+        "broken_gridmap_dynamic.json:57:17: $.properties[7].props.mode: error: slam requires grid_map, but "
+        "grid_map is configured Dynamic: a required feature must be Static (binding rule 3.1)"
+    )
+    assert output.splitlines()[-1].startswith("invalid: ")
+
+
+def test_model_file_with_config_and_json_format() -> None:
+    code, output = run(
+        "validate",
+        str(SIMPLEBOT / "model.json"),
+        "--config",
+        str(SIMPLEBOT / "variants" / "broken_gridmap_dynamic.json"),
+        "--format",
+        "json",
+    )
+    assert code == 1
+    data = json.loads(output)
+    assert data["valid"] is False and data["warnings"] == []
+    (error,) = data["errors"]
+    assert {k: error[k] for k in ("line", "column", "path", "feature", "rule")} == {
+        "line": 57,
+        "column": 17,
+        "path": "$.properties[7].props.mode",
+        "feature": "grid_map",
+        "rule": "3.1",
+    }
+    assert error["file"].endswith("broken_gridmap_dynamic.json")
+    assert error["message"].startswith("slam requires grid_map, but grid_map is configured Dynamic")
+    assert [f["text"] for f in error["facts"]][0] == "slam requires grid_map"
+
+
+def test_robot_folder_checks_model_and_every_variant() -> None:
+    code, output = run("validate", str(SIMPLEBOT))
+    verdicts = [line for line in output.splitlines() if line.startswith(("valid: ", "invalid: "))]
+    assert code == 1
+    assert len(verdicts) == 5 and verdicts[0].startswith("valid: ") and "(19 features)" in verdicts[0]
+
+
+def test_current_folder_is_the_default(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(SIMPLEBOT)
+    code, output = run("validate", "--variant", "field")
+    assert code == 0 and "variants/field.json" in output
+
+
+def test_partial_configuration(tmp_path: Path) -> None:
+    config = tmp_path / "partial.json"
+    config.write_text('{"properties": [{"id": "slam", "props": {"time": "Early"}}]}')
+    code, output = run("validate", str(SIMPLEBOT / "model.json"), "--config", str(config))
+    assert code == 1 and "the configuration is incomplete" in output
+    code, output = run("validate", str(SIMPLEBOT / "model.json"), "--config", str(config), "--partial")
+    assert code == 0, output
+    assert "bindings left to the configurator" in output
+
+
+def test_unknown_variant_is_a_usage_error() -> None:
+    code, output = run("validate", str(SIMPLEBOT), "--variant", "nope")
+    assert code == 2
+    assert (
+        "no variant 'nope'" in output and "variants: broken_gridmap_dynamic, field, lab, warehouse" in output
+    )
+
+
+def test_variant_with_a_model_file_is_a_usage_error() -> None:
+    code, output = run("validate", str(SIMPLEBOT / "model.json"), "--variant", "lab")
+    assert code == 2 and "--variant needs a robot folder" in output
+
+
+def test_bad_option_is_a_usage_error() -> None:
+    code, _ = run("validate", "--format", "xml")
+    assert code == 2
+
+
+def test_missing_file_is_an_environment_problem(tmp_path: Path) -> None:
+    code, output = run("validate", str(tmp_path / "none.json"))
+    assert code == 3 and "no such file" in output
+
+
+def test_folder_without_model_is_an_environment_problem(tmp_path: Path) -> None:
+    code, output = run("validate", str(tmp_path))
+    assert code == 3 and "no model.json here" in output
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (
+            '{"id": "r", "name": "R", "id": "s"}',
+            "m.json:1:26: $: error: duplicate key 'id' (first at line 1, column 2)",
+        ),
+        ("{\xff}", "m.json:1:2: $: error: not valid UTF-8"),
+        (
+            '{"id": "r", "name": "R", "sub": [{"id": "a", "name": "A", "group": "xor"}]}',
+            "m.json:1:68: $.sub[0].group",
+        ),
+    ],
+)
+def test_bad_model_files_exit_1_located(tmp_path: Path, text: str, expected: str) -> None:
+    path = tmp_path / "m.json"
+    path.write_bytes(text.encode("utf-8", "surrogateescape") if "\xff" not in text else b"{\xff}")
+    code, output = run("validate", str(path))
+    assert code == 1
+    assert output.splitlines()[0].split("/")[-1].startswith(expected)
+
+
+def test_show_prints_the_tree_with_forced_bindings() -> None:
+    code, output = run("show", str(SIMPLEBOT), "--variant", "lab")
+    assert code == 0
+    lines = output.splitlines()
+    assert lines[0].startswith("root_feature (SimpleBot)  allowed SE  solver SE")
+    assert any("[XOR] hectorslam" in line for line in lines)
+    assert lines[-1].startswith("marks: ")
+
+
+def test_show_invalid_variant_exit_1() -> None:
+    code, output = run("show", str(SIMPLEBOT), "--variant", "broken_gridmap_dynamic")
+    assert code == 1 and "binding rule 3.1" in output

@@ -1,0 +1,59 @@
+"""The shipped robots end to end: models valid, variants as intended, messages word for word."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from motivml.check import validate
+from motivml.robot import RobotFolder
+
+ROOT = Path(__file__).resolve().parent.parent / "feature_models"
+ROBOTS = sorted(p.name for p in ROOT.iterdir() if (p / "model.json").is_file())
+
+EXPECTED_ERRORS = {
+    ("simplebot", "broken_gridmap_dynamic"): [
+        "57:17: $.properties[7].props.mode: slam requires grid_map, but grid_map is configured Dynamic: a required "
+        "feature must be Static (binding rule 3.1)"
+    ],
+    ("uv_disinfection", "broken_joystick_beside_static_lamp"): [
+        "145:17: $.properties[18].props.mode: joystick_teleop excludes irradiation, but irradiation is configured "
+        "Static: features that exclude each other can both be selected only as Dynamic alternatives, at most one of "
+        "them Early (rules 2.3 and 3.3)"
+    ],
+    ("tiago_service", "broken_privacy_mode_at_start"): [
+        "140:17: $.properties[21].props.time: speech_recognition has the XOR group vosk_asr, google_cloud_asr; "
+        "privacy_mode excludes google_cloud_asr, but speech_recognition is configured Early, vosk_asr is not "
+        "selected and privacy_mode is configured Early: no start state exists: at start every selected Early "
+        "feature is active, and the active set needs every active parent's mandatory sub-features, one active "
+        "member of each of its groups (exactly one for XOR) and no two active features that exclude each other "
+        "(section 4)"
+    ],
+}
+
+
+def test_three_robots_ship() -> None:
+    assert ROBOTS == ["simplebot", "tiago_service", "uv_disinfection"]
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_model_is_valid(robot: str) -> None:
+    report = validate(ROOT / robot / "model.json")
+    assert report.errors == []
+
+
+@pytest.mark.parametrize("robot", ROBOTS)
+def test_variants(robot: str) -> None:
+    folder = RobotFolder.open(ROOT / robot)
+    names = folder.variant_names()
+    valid = [n for n in names if not n.startswith("broken")]
+    invalid = [n for n in names if n.startswith("broken")]
+    assert len(valid) >= 2 and len(invalid) == 1
+    for name in valid:
+        report = validate(folder.model_path, folder.variant_path(name))
+        assert report.diagnostics == [], (name, [d.message for d in report.diagnostics])
+    (name,) = invalid
+    report = validate(folder.model_path, folder.variant_path(name))
+    got = [f"{d.location.line}:{d.location.column}: {d.location.path}: {d.message}" for d in report.errors]
+    assert got == EXPECTED_ERRORS[(robot, name)]
