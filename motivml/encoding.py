@@ -33,7 +33,7 @@ from pysat.solvers import Solver
 
 from .model import Configuration, FeatureModel
 
-SOLVER = "cadical195"
+SOLVER = "glucose4"  # forgiving API, assumptions and cores; CaDiCaL aborts the process on misuse
 
 # Fact kinds: the statement and the rule it is used under (see explain.py for the words).
 ROOT = "root"  # 2.1: the root is selected, Static and Early
@@ -78,9 +78,12 @@ class Fact:
 class Encoding:
     """A feature model (and optionally a configuration) in one incremental SAT solver."""
 
-    def __init__(self, model: FeatureModel, explain: bool = False, solver: str = SOLVER) -> None:
+    def __init__(
+        self, model: FeatureModel, explain: bool = False, solver: str = SOLVER, record: bool = False
+    ) -> None:
         self.model = model
         self.explain = explain
+        self.recorded: list[list[int]] | None = [] if record else None  # for bench/ (DIMACS)
         n = len(model.features)
         self.n = n
         self.facts: list[Fact] = []  # explain build: every fact; hard build: config facts
@@ -132,6 +135,8 @@ class Encoding:
                 self._clauses.append([lit for lit in clause if lit] if 0 in clause else clause)
 
     def _flush(self) -> None:
+        if self.recorded is not None:
+            self.recorded.extend(self._clauses)
         self.solver.append_formula(self._clauses)
         self._clauses = []
 

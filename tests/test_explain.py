@@ -53,9 +53,9 @@ CASES = {
         feature("r", [opt("nav", [feature("planner", time="Any", mode="Any")])]),
         config(("nav", "Early", "Static"), ("planner", "Late", "Static")),
         [
-            "[3.1] planner: nav requires its mandatory sub-feature planner, but planner is configured Late and "
-            "nav is configured Early: a required feature must be bound no later than the feature that requires "
-            "it (binding rule 3.1)"
+            "[3.1] planner: nav requires its mandatory sub-feature planner, but planner is configured Late, nav is "
+            "configured Early and nav is configured Static: a required feature must be bound no later than the "
+            "feature that requires it (binding rule 3.1)"
         ],
     ),
     "mandatory child deselected": (
@@ -150,9 +150,8 @@ CASES = {
         ),
         config(("asr",), ("cloud", "Late", "Dynamic"), ("local", False), ("privacy", "Early", "Dynamic")),
         [
-            "[section 4] privacy: asr is a mandatory sub-feature of r; asr has the XOR group cloud, local; "
-            "privacy excludes cloud, but local is not selected and privacy is configured Early: no start state "
-            "exists: "
+            "[section 4] privacy: asr has the XOR group cloud, local; privacy excludes cloud, but asr allows only "
+            "Early binding, local is not selected and privacy is configured Early: no start state exists: "
             "at start every selected Early feature is active, and the active set needs every active parent's "
             "mandatory sub-features, one active member of each of its groups (exactly one for XOR) and no two "
             "active features that exclude each other (section 4)"
@@ -181,6 +180,7 @@ def test_each_conflict_is_located_and_lists_its_facts() -> None:
     assert [(f.location.file, f.location.path, f.text) for f in error.facts] == [
         ("model.json", "$.sub[0].constraints.featuresIncluded[0]", "slam requires gridmap"),
         ("variant.json", "$.properties[0]", "slam is selected"),
+        ("variant.json", "$.properties[1]", "gridmap is selected"),
         ("variant.json", "$.properties[1].props.mode", "gridmap is configured Dynamic"),
     ]
 

@@ -1,0 +1,117 @@
+"""Benchmark: end-to-end `motivml validate` on generated models, against a bare-SAT floor.
+
+For n = 1,000, 10,000 and 100,000 features (generate.py: deep trees, ~10% of features in
+cross-tree constraints, mixed bindings) with a valid full configuration it prints
+
+* the wall time and peak memory of `motivml validate MODEL --config CONFIG` in a fresh
+  process (what a user waits for);
+* where the time goes, in-process: load+schema+read of model and configuration, encoding,
+  solve;
+* the floor: the same CNF as a DIMACS file, read by pysat and solved under the same
+  assumptions in a fresh process (what any SAT-based checker must pay at least).
+
+    python bench/validate_bench.py [--sizes 1000 10000 100000]
+
+Targets (issue 2): 10,000 features under 1 s and 100,000 under 10 s, end to end.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from generate import write  # noqa: E402
+
+FLOOR = """
+import sys, time
+t0 = time.perf_counter()
+from pysat.formula import CNF
+from pysat.solvers import Solver
+cnf = CNF(from_file=sys.argv[1])
+assumptions = [int(x) for x in open(sys.argv[2]).read().split()]
+with Solver(name=sys.argv[3], bootstrap_with=cnf.clauses) as solver:
+    assert solver.solve(assumptions=assumptions)
+print(time.perf_counter() - t0)
+"""
+
+
+def run_measured(args: list[str]) -> tuple[float, int, str]:
+    """Wall seconds, peak RSS in MiB and stdout of a child process."""
+    start = time.perf_counter()
+    child = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert child.stdout is not None
+    output = child.stdout.read()
+    _, status, usage = os.wait4(child.pid, 0)
+    wall = time.perf_counter() - start
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise SystemExit(f"{' '.join(args)} failed:\n{output}")
+    return wall, usage.ru_maxrss // 1024, output
+
+
+def stages(model_path: str, config_path: str, cnf_path: str, assumptions_path: str) -> dict[str, float]:
+    from motivml import encoding as enc
+    from motivml.check import load_configuration, load_model
+
+    times: dict[str, float] = {}
+    t = time.perf_counter()
+    model, _ = load_model(model_path)
+    times["model: load, schema, read"] = time.perf_counter() - t
+    assert model is not None
+    t = time.perf_counter()
+    config, _ = load_configuration(config_path, model)
+    times["configuration: load, schema, read"] = time.perf_counter() - t
+    assert config is not None
+    t = time.perf_counter()
+    with enc.Encoding(model, record=True) as encoding:
+        encoding.set_configuration(config)
+        times["encode"] = time.perf_counter() - t
+        t = time.perf_counter()
+        assert encoding.solve()
+        times["solve"] = time.perf_counter() - t
+        assert encoding.recorded is not None
+        top = max(abs(lit) for clause in encoding.recorded for lit in clause)
+        with open(cnf_path, "w") as handle:
+            handle.write(f"p cnf {top} {len(encoding.recorded)}\n")
+            handle.writelines(" ".join(map(str, clause)) + " 0\n" for clause in encoding.recorded)
+        with open(assumptions_path, "w") as handle:
+            handle.write(" ".join(map(str, encoding.assumptions())))
+    return times
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000])
+    parser.add_argument("--seed", type=int, default=1)
+    args = parser.parse_args()
+    from motivml.encoding import SOLVER
+
+    motivml = str(Path(sys.executable).with_name("motivml"))
+    print(f"solver {SOLVER}; python {sys.version.split()[0]}; {os.cpu_count()} cores")
+    print(
+        f"{'features':>9} {'MB':>6} {'validate s':>10} {'peak MiB':>9} {'floor s':>8} {'ratio':>6}  stages (s)"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in args.sizes:
+            folder = os.path.join(tmp, f"m{n}")
+            model_path, config_path = write(n, args.seed, folder)
+            size = os.path.getsize(model_path) / 1e6
+            wall, peak, output = run_measured([motivml, "validate", model_path, "--config", config_path])
+            assert output.startswith("valid: "), output
+            cnf_path, assumptions_path = os.path.join(folder, "f.cnf"), os.path.join(folder, "a.txt")
+            parts = stages(model_path, config_path, cnf_path, assumptions_path)
+            floor_wall, _, _ = run_measured([sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER])
+            detail = ", ".join(f"{k} {v:.2f}" for k, v in parts.items())
+            print(
+                f"{n:>9,} {size:>6.1f} {wall:>10.2f} {peak:>9} {floor_wall:>8.2f} {wall / floor_wall:>6.1f}  {detail}",
+                flush=True,
+            )
+
+
+if __name__ == "__main__":
+    main()
