@@ -102,3 +102,28 @@ def test_dead_features_equal_brute_force(model: dict[str, Any]) -> None:
         if feature_model[f].parent is None or feature_model.features[feature_model[f].parent].id not in dead
     }
     assert reported == topmost
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_reported_conflicts_are_disjoint_minimal_unsatisfiable_sets(data: st.DataObject) -> None:
+    from motivml.encoding import Encoding
+    from motivml.reader import read_configuration
+
+    model = data.draw(models())
+    config = data.draw(configurations(model))
+    feature_model, _ = read_model(parse(json.dumps(model), "model.json"))
+    configuration, _ = read_configuration(parse(json.dumps(config), "c.json"), feature_model, partial=True)
+    with Encoding(feature_model, explain=True) as encoding:
+        encoding.set_configuration(configuration)
+        conflicts = encoding.conflicts()
+        assert (conflicts == []) == ref.is_valid(model, config)
+        seen: set[int] = set()
+        for mus in conflicts:
+            literals = [encoding.literals[k] for k in mus]
+            assert not encoding.solver.solve(assumptions=literals)
+            for drop in range(len(literals)):
+                assert encoding.solver.solve(assumptions=literals[:drop] + literals[drop + 1 :])
+            assert not seen & set(mus)
+            seen |= set(mus)
+        assert [len(m) for m in conflicts] == sorted(len(m) for m in conflicts)

@@ -18,7 +18,7 @@ from motivml.schema import CONFIGURATION, load_schema
 
 ROOT = Path(__file__).resolve().parent.parent
 SIMPLEBOT = ROOT / "feature_models" / "simplebot"
-LOCATED = re.compile(r"^\S+\.json:\d+:\d+: \$\S*: (error|warning): ", re.M)
+LOCATED = re.compile(r"^\S+\.json:\d+:\d+: \$.*: (error|warning): ", re.M)
 
 json_values = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text(max_size=8),
