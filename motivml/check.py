@@ -13,6 +13,7 @@ variant check reports only what concerns the variant (and a void model).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -29,11 +30,14 @@ EXPLAINED_WARNINGS = 50  # dead features and bindings explained one by one, at m
 
 @dataclass
 class Report:
-    """What a check found, errors first (each group best first)."""
+    """What a check found in one document, errors first (each group best first)."""
 
+    file: str
+    kind: str  # "model" or "configuration"
     diagnostics: list[Diagnostic] = field(default_factory=list)
     model: FeatureModel | None = None
     config: Configuration | None = None
+    analysed: bool = False  # model analyses (dead features, bindings) ran
     open_bindings: int = 0  # selected features whose binding the configuration leaves open
 
     @property
@@ -87,27 +91,47 @@ def load_configuration(
     return config, diagnostics
 
 
-def validate(model_path: str | Path, config_path: str | Path | None = None, partial: bool = False) -> Report:
-    """The whole check of a model, or of a configuration of it."""
-    report = Report()
+def validate_model(model_path: str | Path, analyse: bool = True) -> Report:
+    """Check a model file: syntax, consistency, and (with `analyse`) its variants' space."""
+    report = Report(str(model_path), "model")
     model, diagnostics = load_model(model_path)
     report.diagnostics += diagnostics
     report.model = model
-    if model is None:
-        return _sorted(report)
-    if config_path is None:
+    if model is not None and analyse:
         report.diagnostics += analyse_model(model)
-        return _sorted(report)
+        report.analysed = True
+    return _sorted(report)
+
+
+def validate_configuration(model: FeatureModel, config_path: str | Path, partial: bool = False) -> Report:
+    """Check a configuration file against a (sound) model."""
+    report = Report(str(config_path), "configuration", model=model)
     config, diagnostics = load_configuration(config_path, model, partial)
     report.diagnostics += diagnostics
     report.config = config
-    if config is None:
-        return _sorted(report)
-    report.diagnostics += check_variant(model, config)
-    report.open_bindings = sum(
-        1 for e in config.entries.values() if e.selected and (e.time == "Any" or e.mode == "Any")
-    )
+    if config is not None:
+        report.diagnostics += check_variant(model, config)
+        report.open_bindings = sum(
+            1 for e in config.entries.values() if e.selected and (e.time == "Any" or e.mode == "Any")
+        )
     return _sorted(report)
+
+
+def validate(
+    model_path: str | Path,
+    config_paths: Sequence[str | Path] = (),
+    partial: bool = False,
+    analyse: bool = True,
+) -> list[Report]:
+    """The model's report, then one per configuration (the model is read once).
+
+    Configurations are checked only against a sound model; an unsound one reports itself.
+    """
+    model_report = validate_model(model_path, analyse)
+    reports = [model_report]
+    if model_report.model is not None:
+        reports += [validate_configuration(model_report.model, c, partial) for c in config_paths]
+    return reports
 
 
 def _sorted(report: Report) -> Report:

@@ -18,13 +18,13 @@ from rich.markup import escape
 from rich.tree import Tree
 
 from . import __version__
-from .check import Report, binding_states, load_configuration, load_model, validate
+from .check import Report, binding_states, validate
 from .errors import Diagnostic, MotivmlError, Severity
 from .model import Configuration, FeatureModel
 from .robot import RobotFolder
 
-out = Console(highlight=False, soft_wrap=True)
-err = Console(stderr=True, highlight=False, soft_wrap=True)
+out = Console(highlight=False, soft_wrap=True, emoji=False)
+err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
 
 
 def fail(exc: MotivmlError) -> NoReturn:
@@ -54,19 +54,25 @@ def main() -> None:
     """motivml: variability models for robot software (MoTiVML)."""
 
 
-def _targets(target: str, config: str | None, variant: str | None) -> tuple[Path, list[Path | None]]:
-    """The model file and the configurations a `validate`/`show` call is about."""
+def _targets(target: str, config: str | None, variant: str | None) -> tuple[Path, list[Path], bool]:
+    """The model file, the configurations a call is about, and whether to analyse the model.
+
+    The model is analysed (dead features, bindings never possible) when it is checked on
+    its own or with every variant of its folder, not when one variant is asked about.
+    """
+    if config is not None and variant is not None:
+        raise click.UsageError("give --config FILE or --variant NAME, not both")
     path = Path(target)
     if path.is_dir():
         robot = RobotFolder.open(path)
         if config is not None:
-            return robot.model_path, [Path(config)]
+            return robot.model_path, [Path(config)], False
         if variant is not None:
-            return robot.model_path, [robot.variant_path(variant)]
-        return robot.model_path, [None, *(robot.variant_path(n) for n in robot.variant_names())]
+            return robot.model_path, [robot.variant_path(variant)], False
+        return robot.model_path, [robot.variant_path(n) for n in robot.variant_names()], True
     if variant is not None:
         raise click.UsageError("--variant needs a robot folder (model.json, variants/NAME.json), not a file")
-    return path, [Path(config) if config else None]
+    return path, [Path(config)] if config else [], config is None
 
 
 @main.command("validate")
@@ -84,43 +90,69 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     without --variant checks the model and every variant in variants/.
     """
     try:
-        model_path, configs = _targets(target, config, variant)
-        reports = [(c, validate(model_path, c, partial)) for c in configs]
+        model_path, configs, analyse = _targets(target, config, variant)
+        reports = validate(model_path, configs, partial, analyse)
     except MotivmlError as exc:
+        if fmt == "json":
+            _print_json(False, exc.diagnostics, [], [])
+            sys.exit(exc.exit_code)
         fail(exc)
-    valid = all(r.valid for _, r in reports)
+    valid = all(r.valid for r in reports) and len(reports) == 1 + len(configs)
     if fmt == "json":
-        out.print_json(
-            json.dumps(
+        _print_json(
+            valid,
+            [d for r in reports for d in r.errors],
+            [d for r in reports for d in r.warnings],
+            [
                 {
-                    "valid": valid,
-                    "errors": [d.as_dict() for _, r in reports for d in r.errors],
-                    "warnings": [d.as_dict() for _, r in reports for d in r.warnings],
+                    "file": r.file,
+                    "kind": r.kind,
+                    "valid": r.valid,
+                    "errors": len(r.errors),
+                    "warnings": len(r.warnings),
                 }
-            )
+                for r in reports
+            ],
         )
     else:
-        for _, report in reports:
+        for report in reports:
             for d in report.errors + report.warnings:
                 print_diagnostic(d)
-        for c, report in reports:
-            _verdict(model_path, c, report)
+            if report.kind == "configuration" or report.analysed or report.diagnostics:
+                _verdict(report, checked_variants=len(reports) > 1 or not configs)
     sys.exit(0 if valid else 1)
 
 
-def _verdict(model_path: Path, config: Path | None, report: Report) -> None:
-    what = f"{model_path}" if config is None else f"{config}"
-    counts = f"{len(report.errors)} error{'s' * (len(report.errors) != 1)}, {len(report.warnings)} warning{'s' * (len(report.warnings) != 1)}"
+def _print_json(
+    valid: bool, errors: list[Diagnostic], warnings: list[Diagnostic], documents: list[object]
+) -> None:
+    payload = {
+        "valid": valid,
+        "errors": [d.as_dict() for d in errors],
+        "warnings": [d.as_dict() for d in warnings],
+        "documents": documents,
+    }
+    click.echo(json.dumps(payload, indent=2))
+
+
+def _plural(count: int, word: str) -> str:
+    return f"{count} {word}{'s' * (count != 1)}"
+
+
+def _verdict(report: Report, checked_variants: bool) -> None:
+    counts = f"{_plural(len(report.errors), 'error')}, {_plural(len(report.warnings), 'warning')}"
     if report.valid:
         extra = ""
-        if config is None and report.model is not None:
+        if report.kind == "model" and report.model is not None and report.analysed:
             extra = f" ({len(report.model.features)} features)"
         elif report.open_bindings:
-            extra = f" ({report.open_bindings} bindings left to the configurator)"
-        out.print(f"[bold green]valid[/]: {escape(what)}{escape(extra)}, {counts}")
+            extra = f" ({_plural(report.open_bindings, 'binding')} left to the configurator)"
+        out.print(f"[bold green]valid[/]: {escape(report.file)}{escape(extra)}, {counts}")
     else:
-        kind = "model" if config is None else "configuration"
-        out.print(f"[bold red]invalid[/]: {escape(what)}: {counts} in the {kind}")
+        unchecked = (
+            " (its variants were not checked)" if report.kind == "model" and not checked_variants else ""
+        )
+        out.print(f"[bold red]invalid[/]: {escape(report.file)}: {counts} in the {report.kind}{unchecked}")
 
 
 @main.command("show")
@@ -130,27 +162,25 @@ def _verdict(model_path: Path, config: Path | None, report: Report) -> None:
 def show_command(target: str, config: str | None, variant: str | None) -> None:
     """Print the feature tree with groups, allowed, configured and forced bindings."""
     try:
-        model_path, configs = _targets(target, config, variant)
-        chosen = configs[0] if variant or config else None
-        model, diagnostics = load_model(model_path)
-        if model is None:
-            for d in diagnostics:
+        model_path, configs, _ = _targets(target, config, variant)
+        chosen = configs[:1] if variant or config else []
+        reports = validate(model_path, chosen, partial=True, analyse=False)
+        problems = [d for r in reports for d in r.errors]
+        if problems or len(reports) != 1 + len(chosen):
+            for d in problems:
                 print_diagnostic(d)
+            out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
             sys.exit(1)
-        configuration: Configuration | None = None
-        if chosen is not None:
-            report = validate(model_path, chosen, partial=True)
-            if not report.valid:
-                for d in report.errors:
-                    print_diagnostic(d)
-                out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
-                sys.exit(1)
-            configuration, _ = load_configuration(chosen, model, partial=True)
+        model = reports[0].model
+        assert model is not None
+        configuration = reports[-1].config if chosen else None
         states = binding_states(model, configuration)
     except MotivmlError as exc:
         fail(exc)
     # A tree cannot soft-wrap: on a terminal it wraps at its width, into a pipe it stays whole.
-    tree_console = out if out.is_terminal else Console(highlight=False, width=max(out.width, 240))
+    tree_console = (
+        out if out.is_terminal else Console(highlight=False, emoji=False, width=max(out.width, 240))
+    )
     tree_console.print(_tree(model, configuration, states))
     out.print(
         "[dim]marks: ! mandatory, ? optional, [OR]/[XOR] group member; allowed = mode/time a feature allows; "

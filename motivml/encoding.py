@@ -304,7 +304,9 @@ class Encoding:
     def _minimise(self, core: list[int]) -> list[int]:
         """Deletion-based shrinking of an unsatisfiable set of facts to a minimal one."""
         by_literal = {self.literals[k]: k for k in core}
-        current = list(core)
+        # Facts tried for deletion first are the least likely to stay: the start-state
+        # fact goes first, so a conflict that section 2 or 3 explains is not blamed on it.
+        current = sorted(core, key=lambda k: self.facts[k].kind != START)
         i = 0
         while i < len(current):
             trial = current[:i] + current[i + 1 :]

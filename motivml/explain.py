@@ -239,14 +239,17 @@ class Explainer:
         order = list(mus)
         shown_statements = sorted(statements.values(), key=order.index)
         named = {i for k in shown_statements for i in self.mentions(k)}
-        configured = {facts[k].a for k in mus if facts[k].kind in (enc.CONFIG_TIME, enc.CONFIG_MODE)}
+        configured = {
+            facts[k].a for k in mus if facts[k].kind in (enc.CONFIG_TIME, enc.CONFIG_MODE, "query-binding")
+        }
         values = [k for k in mus if facts[k].kind in VALUE_KINDS]
         # "x is selected" adds nothing beside "x requires y" or "x is configured Late".
         shown = [
             k
             for k in values
             if not (
-                facts[k].kind == enc.CONFIG_SELECTED and (facts[k].a in named or facts[k].a in configured)
+                facts[k].kind in (enc.CONFIG_SELECTED, "query-selected")
+                and (facts[k].a in named or facts[k].a in configured)
             )
         ] or values
         shown.sort(key=lambda k: facts[k].a != focus)

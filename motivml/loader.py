@@ -246,7 +246,7 @@ def _index(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH) -> _In
                         text,
                         file,
                         start,
-                        f"nesting deeper than {max_depth} levels (the limit for a document)",
+                        f"nesting deeper than {max_depth:,} levels (the limit for a document)",
                         "limits",
                     )
                 value = {} if token == "{" else []
@@ -455,7 +455,7 @@ def load_file(
     except IsADirectoryError:
         raise EnvironmentProblem(error(Location(name), "is a folder, not a JSON file", "io")) from None
     except FileNotFoundError:
-        raise EnvironmentProblem(error(Location(name), "no such file", "io")) from None
+        raise EnvironmentProblem(error(Location(name), "no such file or folder", "io")) from None
     except OSError as exc:
         raise EnvironmentProblem(error(Location(name), f"cannot read: {exc.strerror}", "io")) from None
     return load_bytes(data, name, max_bytes, max_depth)

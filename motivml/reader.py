@@ -213,16 +213,16 @@ def read_configuration(
                 )
             )
         entries[feature_id] = entry
-    if not partial:
-        for feature in model.features[1:]:
-            if feature.id not in entries:
-                diagnostics.append(
-                    error(
-                        doc.locate(("properties",)),
-                        f"no entry for {feature.id}: the configuration is incomplete "
-                        f"(add the entry, or use --partial to leave it to the configurator)",
-                        "config.incomplete",
-                        feature.id,
-                    )
-                )
+    missing = [f.id for f in model.features[1:] if f.id not in entries]
+    if missing and not partial:
+        shown = ", ".join(missing[:10]) + (f" and {len(missing) - 10} more" if len(missing) > 10 else "")
+        diagnostics.append(
+            error(
+                doc.locate(("properties",)),
+                f"the configuration is incomplete: no entry for {shown} "
+                f"(add the entries, or use --partial to leave them to the configurator)",
+                "config.incomplete",
+                missing[0] if len(missing) == 1 else None,
+            )
+        )
     return config, diagnostics

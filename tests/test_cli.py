@@ -83,7 +83,7 @@ def test_partial_configuration(tmp_path: Path) -> None:
     assert code == 1 and "the configuration is incomplete" in output
     code, output = run("validate", str(SIMPLEBOT / "model.json"), "--config", str(config), "--partial")
     assert code == 0, output
-    assert "bindings left to the configurator" in output
+    assert "(1 binding left to the configurator)" in output
 
 
 def test_unknown_variant_is_a_usage_error() -> None:
@@ -106,7 +106,7 @@ def test_bad_option_is_a_usage_error() -> None:
 
 def test_missing_file_is_an_environment_problem(tmp_path: Path) -> None:
     code, output = run("validate", str(tmp_path / "none.json"))
-    assert code == 3 and "no such file" in output
+    assert code == 3 and "no such file or folder" in output
 
 
 def test_folder_without_model_is_an_environment_problem(tmp_path: Path) -> None:
@@ -148,3 +148,39 @@ def test_show_prints_the_tree_with_forced_bindings() -> None:
 def test_show_invalid_variant_exit_1() -> None:
     code, output = run("show", str(SIMPLEBOT), "--variant", "broken_gridmap_dynamic")
     assert code == 1 and "binding rule 3.1" in output
+
+
+def test_broken_model_in_a_robot_folder_is_reported_once(tmp_path: Path) -> None:
+    (tmp_path / "variants").mkdir()
+    (tmp_path / "model.json").write_text(
+        '{"id": "r", "name": "R", "sub": [{"id": "a", "name": "A", "group": "xor"}]}'
+    )
+    for name in ("a", "b"):
+        (tmp_path / "variants" / f"{name}.json").write_text('{"properties": []}')
+    code, output = run("validate", str(tmp_path))
+    assert code == 1
+    assert output.count("'xor' is not one of") == 1
+    assert output.splitlines()[-1].endswith(
+        "1 error, 0 warnings in the model (its variants were not checked)"
+    )
+
+
+def test_config_and_variant_together_is_a_usage_error() -> None:
+    code, output = run("validate", str(SIMPLEBOT), "--variant", "lab", "--config", "x.json")
+    assert code == 2 and "give --config FILE or --variant NAME, not both" in output
+
+
+def test_json_format_for_environment_problems(tmp_path: Path) -> None:
+    code, output = run("validate", str(tmp_path / "none.json"), "--format", "json")
+    assert code == 3
+    data = json.loads(output)
+    assert data["valid"] is False and data["errors"][0]["message"] == "no such file or folder"
+
+
+def test_locations_are_printed_verbatim(tmp_path: Path) -> None:
+    """rich must not turn ':100:' into an emoji or '[...]' into markup."""
+    path = tmp_path / "m.json"
+    path.write_text("\n" * 99 + '{"id": "r", "name": "R", "[bold]": 1}')
+    code, output = run("validate", str(path))
+    assert code == 1
+    assert "m.json:100:26: $[\"[bold]\"]: error: unknown key '[bold]'" in output

@@ -39,8 +39,8 @@ def test_three_robots_ship() -> None:
 
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_model_is_valid(robot: str) -> None:
-    report = validate(ROOT / robot / "model.json")
-    assert report.errors == []
+    (report,) = validate(ROOT / robot / "model.json")
+    assert report.errors == [] and report.analysed
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
@@ -51,9 +51,9 @@ def test_variants(robot: str) -> None:
     invalid = [n for n in names if n.startswith("broken")]
     assert len(valid) >= 2 and len(invalid) == 1
     for name in valid:
-        report = validate(folder.model_path, folder.variant_path(name))
+        _, report = validate(folder.model_path, [folder.variant_path(name)])
         assert report.diagnostics == [], (name, [d.message for d in report.diagnostics])
     (name,) = invalid
-    report = validate(folder.model_path, folder.variant_path(name))
+    _, report = validate(folder.model_path, [folder.variant_path(name)])
     got = [f"{d.location.line}:{d.location.column}: {d.location.path}: {d.message}" for d in report.errors]
     assert got == EXPECTED_ERRORS[(robot, name)]

@@ -86,7 +86,7 @@ def test_size_limit_of_a_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
 def test_missing_file_is_an_environment_problem(tmp_path) -> None:  # type: ignore[no-untyped-def]
     with pytest.raises(EnvironmentProblem) as info:
         load_file(tmp_path / "nope.json")
-    assert info.value.diagnostics[0].message == "no such file"
+    assert info.value.diagnostics[0].message == "no such file or folder"
     assert info.value.exit_code == 3
 
 
@@ -109,7 +109,7 @@ def test_too_deep_document_is_refused_cleanly() -> None:
     with pytest.raises(DocumentError) as info:
         parse("[" * 100_000 + "]" * 100_000, "f.json")
     assert str(info.value) == (
-        f"f.json:1:{MAX_DEPTH + 1}: nesting deeper than {MAX_DEPTH} levels (the limit for a document)"
+        f"f.json:1:{MAX_DEPTH + 1}: nesting deeper than {MAX_DEPTH:,} levels (the limit for a document)"
     )
 
 

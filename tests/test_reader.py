@@ -86,8 +86,8 @@ def test_configuration_unknown_duplicate_and_missing() -> None:
     assert read_config(config(("slma",), ("slam",), ("slam", False))) == [
         "error: c.json:4:10: $.properties[0].id: unknown feature 'slma' (did you mean 'slam'?)",
         "error: c.json:10:10: $.properties[2].id: second entry for 'slam' (the first is at line 6, column 3)",
-        "error: c.json:2:16: $.properties: no entry for amcl: the configuration is incomplete (add the entry, "
-        "or use --partial to leave it to the configurator)",
+        "error: c.json:2:16: $.properties: the configuration is incomplete: no entry for amcl (add the entries, "
+        "or use --partial to leave them to the configurator)",
     ]
 
 
