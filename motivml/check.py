@@ -112,7 +112,9 @@ def validate_configuration(model: FeatureModel, config_path: str | Path, partial
     if config is not None:
         report.diagnostics += check_variant(model, config)
         report.open_bindings = sum(
-            1 for e in config.entries.values() if e.selected and (e.time == "Any" or e.mode == "Any")
+            1
+            for e in config.entries.values()
+            if e.selected and (e.time == "Any" or e.mode == "Any") and e.id != model.root.id
         )
     return _sorted(report)
 

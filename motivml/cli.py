@@ -18,7 +18,7 @@ from rich.markup import escape
 from rich.tree import Tree
 
 from . import __version__
-from .check import Report, binding_states, validate
+from .check import Report, analyse_model, binding_states, validate
 from .errors import Diagnostic, MotivmlError, Severity
 from .model import Configuration, FeatureModel
 from .robot import RobotFolder
@@ -175,6 +175,11 @@ def show_command(target: str, config: str | None, variant: str | None) -> None:
         assert model is not None
         configuration = reports[-1].config if chosen else None
         states = binding_states(model, configuration)
+        if not states[0]:  # not even the root: the model has no valid variant
+            for d in analyse_model(model):
+                print_diagnostic(d)
+            out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
+            sys.exit(1)
     except MotivmlError as exc:
         fail(exc)
     # A tree cannot soft-wrap: on a terminal it wraps at its width, into a pipe it stays whole.
@@ -213,7 +218,7 @@ def _tree(model: FeatureModel, config: Configuration | None, states: list[set[st
         solver = ",".join(s for s in order if s in possible) or "none"
         colour = "green" if len(possible) == 1 else "cyan"
         label = (
-            f"{mark}[bold]{escape(f.id)}[/] [dim]({escape(f.name)})[/]  {allowed}{configured}  "
+            f"{mark}[bold]{escape(f.id)}[/] [dim]({escape(_printable(f.name))})[/]  {allowed}{configured}  "
             f"solver [{colour}]{solver}[/]"
         )
         if f.parent is None:
@@ -223,6 +228,11 @@ def _tree(model: FeatureModel, config: Configuration | None, states: list[set[st
             nodes[f.index] = nodes[f.parent].add(label)
     assert root_tree is not None
     return root_tree
+
+
+def _printable(text: str) -> str:
+    """A name as it can be shown: control characters (terminal escapes) spelled out."""
+    return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in text)
 
 
 def _short(token: str) -> str:

@@ -89,11 +89,11 @@ class Encoding:
         self.facts: list[Fact] = []  # explain build: every fact; hard build: config facts
         self.literals: list[int] = []  # the assumption literal of each fact
         self._top = 4 * n
-        self.solver = Solver(name=solver)
         self._clauses: list[list[int]] = []
         self._encode_model()
         self.model_facts = len(self.facts)
         self._config_fact_range = (len(self.facts), len(self.facts))
+        self.solver = Solver(name=solver)  # opened last: nothing above can leak it
         self._flush()
 
     # ----------------------------------------------------------------- variables
@@ -151,7 +151,8 @@ class Encoding:
             self._add(start, [-a(i), s(i)], [-s(i), -E(i), a(i)])
         root = self._fact(ROOT, 0)
         self._add(root, [s(0)], [E(0)], [S(0)])
-        self._add(start, [a(0)])
+        # The root is active because it is the root (so START cannot stand in for ROOT).
+        self._add(start, [-root, a(0)])
 
         for f in features:
             i = f.index
@@ -193,7 +194,7 @@ class Encoding:
 
         index = self.model.index
         for f in features:
-            for target in f.includes:
+            for target in dict.fromkeys(f.includes):
                 y = index.get(target)
                 if y is None or y == f.index:
                     continue
@@ -204,7 +205,7 @@ class Encoding:
                 self._add(sel, [-s(x), -s(y), S(y)])
                 sel = self._fact(INCLUDE_TIME, x, y)
                 self._add(sel, [-s(x), -s(y), -E(x), E(y)])
-            for target in f.excludes:
+            for target in dict.fromkeys(f.excludes):
                 y = index.get(target)
                 if y is None or y == f.index:
                     continue

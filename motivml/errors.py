@@ -91,14 +91,6 @@ class DocumentError(MotivmlError):
     """A document cannot be read as JSON within our limits (syntax, encoding, size, depth)."""
 
 
-class SchemaError(MotivmlError):
-    """A document is JSON but does not follow its schema."""
-
-
-class ModelError(MotivmlError):
-    """A document follows its schema but is inconsistent (duplicate or unknown ids, ...)."""
-
-
 class EnvironmentProblem(MotivmlError):
     """Something outside the documents is wrong: a missing file, an unreadable folder."""
 

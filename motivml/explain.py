@@ -238,21 +238,29 @@ class Explainer:
             statements.setdefault(key, k)
         order = list(mus)
         shown_statements = sorted(statements.values(), key=order.index)
-        named = {i for k in shown_statements for i in self.mentions(k)}
         configured = {
             facts[k].a for k in mus if facts[k].kind in (enc.CONFIG_TIME, enc.CONFIG_MODE, "query-binding")
         }
         values = [k for k in mus if facts[k].kind in VALUE_KINDS]
-        # "x is selected" adds nothing beside "x requires y" or "x is configured Late".
+        # "x is selected" adds nothing beside "x is configured Late" (only a selected
+        # feature has a binding); beside "x excludes y" it is the point, so it stays.
         shown = [
             k
             for k in values
-            if not (
-                facts[k].kind in (enc.CONFIG_SELECTED, "query-selected")
-                and (facts[k].a in named or facts[k].a in configured)
-            )
+            if not (facts[k].kind in (enc.CONFIG_SELECTED, "query-selected") and facts[k].a in configured)
         ] or values
-        shown.sort(key=lambda k: facts[k].a != focus)
+        # The focus feature first; for each: what the model says, then what is missing,
+        # what is set, what is there.
+        order_of = {
+            enc.ROOT: 0,
+            enc.ALLOWED_TIME: 0,
+            enc.ALLOWED_MODE: 0,
+            enc.CONFIG_DESELECTED: 1,
+            enc.CONFIG_TIME: 2,
+            enc.CONFIG_MODE: 2,
+            enc.CONFIG_SELECTED: 3,
+        }
+        shown.sort(key=lambda k: (facts[k].a != focus, order_of.get(facts[k].kind, 4)))
 
         words = {k: self.statement(k) for k in mus}
         head = "; ".join(dict.fromkeys(words[k].text for k in shown_statements))

@@ -2,8 +2,10 @@
 
 The standard `json` module forgets where values came from, accepts duplicate keys, NaN and
 Infinity, and recurses in C (a model nested ~2,000 features deep is ~4,000 JSON levels, past
-Python's default recursion limit). This loader is a small iterative parser over a regular
-expression tokenizer that
+Python's default recursion limit). Values come from that C decoder all the same (it is fast),
+run on a thread with a large stack and with hooks that refuse duplicate keys and NaN; when it
+refuses or fails, and whenever a message needs a position, a small iterative parser over a
+regular-expression tokenizer reads the text again. That parser
 
 * keeps the offset of every key and value, so any JSON path can be turned into
   `file:line:col` (lines and columns are computed only when a message needs them);
@@ -25,6 +27,7 @@ import gc
 import json
 import os
 import re
+import stat
 import sys
 import threading
 from collections.abc import Iterator
@@ -51,6 +54,7 @@ _TOKEN = re.compile(
     re.VERBOSE | re.DOTALL,
 )
 _LITERALS: dict[str, Any] = {"true": True, "false": False, "null": None}
+_SURROGATE = re.compile(r"\\u[dD][89a-fA-F]")
 
 
 def format_path(path: JSONPath) -> str:
@@ -236,6 +240,8 @@ def _index(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH) -> _In
                     value = float(literal)
                     if value in (float("inf"), float("-inf")):
                         raise _fail(text, file, start, f"number {literal} is out of range")
+                elif len(literal) > 4000:  # Python refuses to convert longer ones
+                    raise _fail(text, file, start, f"number of {len(literal):,} digits is too long")
                 else:
                     value = int(literal)
             elif kind == 4:
@@ -370,7 +376,8 @@ def _depth(value: Any) -> int:
 def parse(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH) -> Document:
     """Parse JSON text into a `Document`; raise `DocumentError` with a location on bad input."""
     with no_gc():
-        ok, root = _fast(text, max_depth)
+        # A \uD800-\uDFFF escape may be a lone surrogate, which the C decoder lets through.
+        ok, root = (False, None) if _SURROGATE.search(text) else _fast(text, max_depth)
         if ok and _depth(root) <= max_depth:
             return Document(file, root, text)
     index = _index(text, file, max_depth)
@@ -385,9 +392,16 @@ def _string_error(text: str, file: str, exc: json.JSONDecodeError) -> DocumentEr
 def _decode(text: str, file: str, start: int) -> str:
     """Decode a string token with escapes (the C scanner of the json module)."""
     try:
-        return str(json.decoder.scanstring(text, start + 1, True)[0])  # type: ignore[attr-defined]
+        value = str(json.decoder.scanstring(text, start + 1, True)[0])  # type: ignore[attr-defined]
     except json.JSONDecodeError as exc:
         raise _string_error(text, file, exc) from None
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError:
+        raise _fail(
+            text, file, start, "invalid string: a lone surrogate escape (\\ud800-\\udfff) is not text"
+        ) from None
+    return value
 
 
 def _attach(stack: list[list[Any]], offsets: dict[int, Any], value: Any, start: int) -> None:
@@ -441,7 +455,12 @@ def load_file(
     """Read and parse a JSON file; a missing or unreadable file is an environment problem."""
     name = os.fspath(path)
     try:
-        size = os.path.getsize(name)
+        info = os.stat(name)
+        if os.path.isdir(name):
+            raise IsADirectoryError
+        if not stat.S_ISREG(info.st_mode):
+            raise EnvironmentProblem(error(Location(name), "is not a regular file", "io"))
+        size = info.st_size
         if size > max_bytes:
             raise DocumentError(
                 error(
@@ -459,15 +478,3 @@ def load_file(
     except OSError as exc:
         raise EnvironmentProblem(error(Location(name), f"cannot read: {exc.strerror}", "io")) from None
     return load_bytes(data, name, max_bytes, max_depth)
-
-
-def walk(root: Any) -> Iterator[tuple[JSONPath, Any]]:
-    """Every (path, value) of a JSON value, pre-order, without recursion."""
-    stack: list[tuple[JSONPath, Any]] = [((), root)]
-    while stack:
-        path, value = stack.pop()
-        yield path, value
-        if isinstance(value, dict):
-            stack.extend((path + (k,), v) for k, v in reversed(list(value.items())))
-        elif isinstance(value, list):
-            stack.extend((path + (i,), v) for i, v in reversed(list(enumerate(value))))

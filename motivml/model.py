@@ -13,9 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-TIMES = ("Early", "Late", "Any")
-MODES = ("Static", "Dynamic", "Any")
-
 PathItem = str | int
 
 
@@ -32,13 +29,9 @@ class Feature:
     declared_mandatory: bool | None  # as written, None when absent
     time_allowed: str
     mode_allowed: str
-    includes: tuple[str, ...]
+    includes: tuple[str, ...]  # as written (a repeated id is warned about and used once)
     excludes: tuple[str, ...]
     children: list[int] = field(default_factory=list)
-
-    @property
-    def binding_allowed(self) -> str:
-        return f"{self.mode_allowed}/{self.time_allowed}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,7 +86,6 @@ class Entry:
     time: str  # Early | Late | Any (Any: absent or left to the configurator)
     mode: str  # Static | Dynamic | Any
     position: int  # index in `properties`
-    has_props: bool
 
 
 @dataclass

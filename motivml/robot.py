@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -42,12 +43,25 @@ class RobotFolder:
         return self.path / "model.json"
 
     def variant_names(self) -> list[str]:
+        """Names of the regular, non-hidden `variants/*.json` files."""
         folder = self.path / "variants"
-        return sorted(p.stem for p in folder.glob("*.json")) if folder.is_dir() else []
+        if not folder.exists():
+            return []
+        try:
+            entries = list(os.scandir(folder))
+        except OSError as exc:
+            raise EnvironmentProblem(
+                error(Location(str(folder)), f"cannot read: {exc.strerror}", "io")
+            ) from None
+        return sorted(
+            e.name.removesuffix(".json")
+            for e in entries
+            if e.name.endswith(".json") and not e.name.startswith(".") and e.is_file()
+        )
 
     def variant_path(self, name: str) -> Path:
         candidate = self.path / "variants" / f"{name}.json"
-        if "/" in name or "\\" in name or name.startswith(".") or not candidate.is_file():
+        if name not in self.variant_names():
             known = ", ".join(self.variant_names()) or "none"
             raise UnknownVariant(
                 error(

@@ -25,7 +25,7 @@ from typing import Any
 from jsonschema import Draft202012Validator
 from jsonschema.exceptions import ValidationError
 
-from .errors import Diagnostic, EnvironmentProblem, Location, SchemaError, error
+from .errors import Diagnostic, EnvironmentProblem, Location, error
 from .loader import Document, JSONPath
 
 FEATURE_MODEL = "feature-model.schema.json"
@@ -366,8 +366,3 @@ def _errors(
                 feature,
             )
         ]
-
-
-def require_valid(diagnostics: list[Diagnostic]) -> None:
-    if diagnostics:
-        raise SchemaError(diagnostics)

@@ -33,7 +33,7 @@ def test_invalid_variant_exit_1_with_located_message() -> None:
     first = output.splitlines()[0]
     assert first.endswith(
         "broken_gridmap_dynamic.json:57:17: $.properties[7].props.mode: error: slam requires grid_map, but "
-        "grid_map is configured Dynamic: a required feature must be Static (binding rule 3.1)"
+        "grid_map is configured Dynamic and slam is selected: a required feature must be Static (binding rule 3.1)"
     )
     assert output.splitlines()[-1].startswith("invalid: ")
 
@@ -184,3 +184,33 @@ def test_locations_are_printed_verbatim(tmp_path: Path) -> None:
     code, output = run("validate", str(path))
     assert code == 1
     assert "m.json:100:26: $[\"[bold]\"]: error: unknown key '[bold]'" in output
+
+
+def test_hidden_and_non_file_entries_of_variants_are_not_variants(tmp_path: Path) -> None:
+    (tmp_path / "variants" / "dir.json").mkdir(parents=True)
+    (tmp_path / "model.json").write_text('{"id": "r", "name": "R"}')
+    (tmp_path / "variants" / ".hidden.json").write_text("{}")
+    (tmp_path / "variants" / "v.json").write_text('{"properties": []}')
+    (tmp_path / "variants" / "gone.json").symlink_to(tmp_path / "nowhere.json")
+    code, output = run("validate", str(tmp_path))
+    assert code == 0, output
+    assert [line.split("/")[-1] for line in output.splitlines()] == [
+        "model.json (1 features), 0 errors, 0 warnings",
+        "v.json, 0 errors, 0 warnings",
+    ]
+    code, output = run("validate", str(tmp_path), "--variant", "../model")
+    assert code == 2 and "(variants: v)" in output
+
+
+def test_show_a_model_without_variants_exit_1(tmp_path: Path) -> None:
+    path = tmp_path / "m.json"
+    path.write_text('{"id": "r", "name": "R", "constraints": {"bindingTimeAllowed": "Late"}}')
+    code, output = run("show", str(path))
+    assert code == 1 and "the model has no valid variant" in output
+
+
+def test_show_spells_out_control_characters_in_names(tmp_path: Path) -> None:
+    path = tmp_path / "m.json"
+    path.write_text('{"id": "r", "name": "R\\u001b[31m"}')
+    code, output = run("show", str(path))
+    assert code == 0 and "(R\\x1b[31m)" in output

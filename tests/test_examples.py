@@ -14,18 +14,18 @@ ROBOTS = sorted(p.name for p in ROOT.iterdir() if (p / "model.json").is_file())
 
 EXPECTED_ERRORS = {
     ("simplebot", "broken_gridmap_dynamic"): [
-        "57:17: $.properties[7].props.mode: slam requires grid_map, but grid_map is configured Dynamic: a required "
-        "feature must be Static (binding rule 3.1)"
+        "57:17: $.properties[7].props.mode: slam requires grid_map, but grid_map is configured Dynamic and slam is "
+        "selected: a required feature must be Static (binding rule 3.1)"
     ],
     ("uv_disinfection", "broken_joystick_beside_static_lamp"): [
-        "145:17: $.properties[18].props.mode: joystick_teleop excludes irradiation, but irradiation is configured "
-        "Static: features that exclude each other can both be selected only as Dynamic alternatives, at most one of "
+        "145:17: $.properties[18].props.mode: joystick_teleop excludes irradiation, but joystick_teleop is selected "
+        "and irradiation is configured Static: features that exclude each other can both be selected only as Dynamic alternatives, at most one of "
         "them Early (rules 2.3 and 3.3)"
     ],
     ("tiago_service", "broken_privacy_mode_at_start"): [
         "140:17: $.properties[21].props.time: speech_recognition has the XOR group vosk_asr, google_cloud_asr; "
-        "privacy_mode excludes google_cloud_asr, but speech_recognition is configured Early, vosk_asr is not "
-        "selected and privacy_mode is configured Early: no start state exists: at start every selected Early "
+        "privacy_mode excludes google_cloud_asr, but vosk_asr is not selected, speech_recognition is configured "
+        "Early and privacy_mode is configured Early: no start state exists: at start every selected Early "
         "feature is active, and the active set needs every active parent's mandatory sub-features, one active "
         "member of each of its groups (exactly one for XOR) and no two active features that exclude each other "
         "(section 4)"

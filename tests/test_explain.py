@@ -29,8 +29,8 @@ CASES = {
         feature("r", [opt("slam", inc=["gridmap"]), opt("gridmap")]),
         config(("slam", "Early", "Static"), ("gridmap", "Early", "Dynamic")),
         [
-            "[3.1] gridmap: slam requires gridmap, but gridmap is configured Dynamic: a required feature "
-            "must be Static (binding rule 3.1)"
+            "[3.1] gridmap: slam requires gridmap, but gridmap is configured Dynamic and slam is selected: a "
+            "required feature must be Static (binding rule 3.1)"
         ],
     ),
     "include bound later": (
@@ -45,8 +45,8 @@ CASES = {
         feature("r", [opt("slam", inc=["gridmap"]), opt("gridmap")]),
         config(("slam",), ("gridmap", False)),
         [
-            "[2.3] gridmap: slam includes gridmap, but gridmap is not selected: an included feature is "
-            "selected whenever the feature that includes it is (rule 2.3)"
+            "[2.3] gridmap: slam includes gridmap, but gridmap is not selected and slam is selected: an "
+            "included feature is selected whenever the feature that includes it is (rule 2.3)"
         ],
     ),
     "mandatory child of a Static parent bound later": (
@@ -62,8 +62,8 @@ CASES = {
         feature("r", [opt("nav", [feature("planner")])]),
         config(("nav",), ("planner", False)),
         [
-            "[2.2] planner: planner is a mandatory sub-feature of nav, but planner is not selected: a mandatory "
-            "sub-feature is selected whenever its parent is (rule 2.2)"
+            "[2.2] planner: planner is a mandatory sub-feature of nav, but planner is not selected and nav "
+            "is selected: a mandatory sub-feature is selected whenever its parent is (rule 2.2)"
         ],
     ),
     "Static child of a Dynamic parent": (
@@ -96,8 +96,8 @@ CASES = {
         config(("slam",), ("hector", "Early", "Static"), ("karto", "Late", "Dynamic")),
         [
             "[3.3] hector: hector and karto are alternatives in slam's XOR group, but hector is configured "
-            "Static: two members of an XOR group can both be selected only as Dynamic alternatives, at most one "
-            "of them Early (rules 2.2 and 3.3)"
+            "Static and karto is selected: two members of an XOR group can both be selected only as Dynamic "
+            "alternatives, at most one of them Early (rules 2.2 and 3.3)"
         ],
     ),
     "excluded features both Early": (
@@ -113,16 +113,17 @@ CASES = {
         feature("r", [opt("slam", [opt("hector")])]),
         config(("slam", False), ("hector",)),
         [
-            "[2.1] slam: hector is a sub-feature of slam, but slam is not selected: a selected feature needs "
-            "its parent selected (rule 2.1)"
+            "[2.1] slam: hector is a sub-feature of slam, but hector is selected and slam is not selected: a "
+            "selected feature needs its parent selected (rule 2.1)"
         ],
     ),
     "XOR group without a member": (
         feature("r", [opt("slam", [opt("hector", group="XOR"), opt("karto", group="XOR")])]),
         config(("slam",), ("hector", False), ("karto", False)),
         [
-            "[2.2] hector: slam has the XOR group hector, karto, but hector is not selected and karto is not "
-            "selected: an XOR group needs a selected member when its parent is selected (rule 2.2)"
+            "[2.2] hector: slam has the XOR group hector, karto, but hector is not selected, karto is not "
+            "selected and slam is selected: an XOR group needs a selected member when its parent is selected "
+            "(rule 2.2)"
         ],
     ),
     "binding outside what the feature allows": (
@@ -150,11 +151,11 @@ CASES = {
         ),
         config(("asr",), ("cloud", "Late", "Dynamic"), ("local", False), ("privacy", "Early", "Dynamic")),
         [
-            "[section 4] privacy: asr has the XOR group cloud, local; privacy excludes cloud, but asr allows only "
-            "Early binding, local is not selected and privacy is configured Early: no start state exists: "
-            "at start every selected Early feature is active, and the active set needs every active parent's "
-            "mandatory sub-features, one active member of each of its groups (exactly one for XOR) and no two "
-            "active features that exclude each other (section 4)"
+            "[section 4] privacy: asr has the XOR group cloud, local; privacy excludes cloud, but asr allows "
+            "only Early binding, local is not selected, privacy is configured Early and asr is selected: no "
+            "start state exists: at start every selected Early feature is active, and the active set needs "
+            "every active parent's mandatory sub-features, one active member of each of its groups (exactly "
+            "one for XOR) and no two active features that exclude each other (section 4)"
         ],
     ),
 }
@@ -205,10 +206,10 @@ def test_dead_feature() -> None:
         "r", [opt("ghost", [opt("child")], mode="Static", inc=["lamp"], exc=["lamp"]), opt("lamp")]
     )
     assert analysis(model) == [
-        "warning [model.dead-feature] $.sub[0].id: ghost is dead: no valid variant selects it (and so are its 1 "
-        "sub-features), because ghost includes lamp; ghost excludes lamp, but ghost allows only Static binding: "
-        "features that exclude each other can both be selected only as Dynamic alternatives, at most one of them "
-        "Early (rules 2.3 and 3.3)"
+        "warning [model.dead-feature] $.sub[0].id: ghost is dead: no valid variant selects it (and so "
+        "are its 1 sub-features), because ghost includes lamp; ghost excludes lamp, but ghost allows "
+        "only Static binding and ghost would be selected: features that exclude each other can both be "
+        "selected only as Dynamic alternatives, at most one of them Early (rules 2.3 and 3.3)"
     ]
 
 
@@ -218,4 +219,15 @@ def test_binding_never_possible() -> None:
         "warning [model.impossible-binding] $.sub[0].sub[0].constraints.bindingTimeAllowed: kid allows Any "
         "binding time but can never be Early, only Late, because kid is a sub-feature of late, but kid would be "
         "Early and late allows only Late binding: a sub-feature cannot be bound before its parent (binding rule 3.2)"
+    ]
+
+
+def test_conflicts_at_the_root_name_rules_2_not_the_start_state() -> None:
+    model = feature("r", [feature("c")])
+    assert messages(model, config(("c", False))) == [
+        "[2.2] c: c is a mandatory sub-feature of r, but c is not selected and r is the root: a mandatory "
+        "sub-feature is selected whenever its parent is (rule 2.2)"
+    ]
+    assert messages(model, config(("r", False), ("c",))) == [
+        "[2.1] r: r is the root and r is not selected: the root is always selected, Static and Early (rule 2.1)"
     ]

@@ -140,3 +140,25 @@ def test_arbitrary_text_never_crashes(text: str) -> None:
         assert exc.diagnostics[0].location.line is not None
     else:
         assert doc.root == json.loads(text)
+
+
+def test_lone_surrogate_is_refused() -> None:
+    assert (
+        message('{"a": "\\ud800"}')
+        == "f.json:1:7: invalid string: a lone surrogate escape (\\ud800-\\udfff) is not text"
+    )
+    assert parse('{"a": "\\ud83d\\ude00"}').root == {"a": "\U0001f600"}
+
+
+def test_overlong_integer_is_refused() -> None:
+    assert message('{"x": ' + "9" * 5000 + "}") == "f.json:1:7: number of 5,000 digits is too long"
+
+
+def test_a_named_pipe_is_not_read(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import os
+
+    fifo = tmp_path / "f.json"
+    os.mkfifo(fifo)
+    with pytest.raises(EnvironmentProblem) as info:
+        load_file(fifo)
+    assert info.value.diagnostics[0].message == "is not a regular file"

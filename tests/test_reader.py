@@ -96,3 +96,11 @@ def test_partial_configuration_and_ignored_props() -> None:
     assert read_config(entries, partial=True) == [
         "warning: c.json:6:13: $.properties[0].props: slam is not selected: its props are ignored"
     ]
+
+
+def test_repeated_include_is_warned_and_used_once() -> None:
+    model, diagnostics = read(feature("r", [feature("a", inc=["b", "b"]), feature("b")]))
+    assert lines(diagnostics) == [
+        "warning: m.json:11:11: $.sub[0].constraints.featuresIncluded[1]: a includes b twice; the second is ignored"
+    ]
+    assert model["a"].includes == ("b", "b")

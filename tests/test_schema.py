@@ -149,3 +149,9 @@ def test_configuration_allows_schema_and_x_keys() -> None:
         '{"$schema": "s", "x-description": "d", "properties": [{"id": "a", "x-n": 1, "props": {"x-m": 2}}]}'
     )
     assert config_errors(text) == []
+
+
+def test_an_id_ending_in_a_newline_is_not_an_id() -> None:
+    assert model_errors('{"id": "r\\n", "name": "R"}') == [
+        "m.json:1:8: $.id: 'r\\n' is not a valid id: use letters, digits and _, not starting with a digit"
+    ]
