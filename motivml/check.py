@@ -21,11 +21,12 @@ from . import encoding as enc
 from .errors import Diagnostic, Location, MotivmlError, Severity, warning
 from .explain import Explainer
 from .loader import load_file, no_gc
-from .model import Configuration, FeatureModel
+from .model import Configuration, Feature, FeatureModel
 from .reader import read_configuration, read_model
 from .schema import check_configuration, check_feature_model
 
-EXPLAINED_WARNINGS = 50  # dead features and bindings explained one by one, at most
+EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
+LISTED_WARNINGS = 100  # per kind: located one by one; the rest are summed up in one warning
 
 
 @dataclass
@@ -205,6 +206,9 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
             below = len(model.subtree(f.index)) - 1
             extra = f" (and so are its {below} sub-features)" if below else ""
             head = f"{f.id} is dead: no valid variant selects it{extra}"
+            if count >= LISTED_WARNINGS:
+                found.append(_more(dead[count:], model, "model.dead-feature", "dead features"))
+                break
             if count >= EXPLAINED_WARNINGS:
                 found.append(
                     warning(explainer.model_location(f.index, "id"), head, "model.dead-feature", f.id)
@@ -217,6 +221,12 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
             found.append(_as_warning(explainer.diagnostic(mus), where, head, "model.dead-feature", f.id))
         for count, (i, aspect, value) in enumerate(impossible):
             f = features[i]
+            if count >= LISTED_WARNINGS:
+                rest = [features[j] for j, _, _ in impossible[count:]]
+                found.append(
+                    _more(rest, model, "model.impossible-binding", "bindings allowed but never possible")
+                )
+                break
             other = {"Early": "Late", "Late": "Early", "Static": "Dynamic", "Dynamic": "Static"}[value]
             head = f"{f.id} allows Any binding {aspect} but can never be {value}, only {other}"
             key = "bindingTimeAllowed" if aspect == "time" else "bindingModeAllowed"
@@ -239,6 +249,13 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
                 _as_warning(explainer.diagnostic(mus), where, head, "model.impossible-binding", f.id)
             )
     return found
+
+
+def _more(rest: list[Feature], model: FeatureModel, rule: str, what: str) -> Diagnostic:
+    """One warning for what is left after LISTED_WARNINGS of a kind."""
+    names = ", ".join(dict.fromkeys(f.id for f in rest[:10]))
+    location = model.source.locate(model.path(rest[0].index, "id")) if model.source else Location(model.name)
+    return warning(location, f"{len(rest)} more {what}, in {names}{', ...' if len(rest) > 10 else ''}", rule)
 
 
 def _as_warning(explained: Diagnostic, where: Location, head: str, rule: str, feature: str) -> Diagnostic:

@@ -231,3 +231,17 @@ def test_conflicts_at_the_root_name_rules_2_not_the_start_state() -> None:
     assert messages(model, config(("r", False), ("c",))) == [
         "[2.1] r: r is the root and r is not selected: the root is always selected, Static and Early (rule 2.1)"
     ]
+
+
+def test_many_warnings_of_a_kind_are_summed_up() -> None:
+    dead = [opt(f"d{i}", mode="Static", inc=["dyn"]) for i in range(105)]
+    model = feature("r", [opt("dyn", mode="Dynamic"), *dead])
+    warnings = analysis(model)
+    assert len(warnings) == 101
+    assert warnings[-1] == (
+        "warning [model.dead-feature] $.sub[101].id: 5 more dead features, in d100, d101, d102, d103, d104"
+    )
+    assert warnings[0].startswith(
+        "warning [model.dead-feature] $.sub[1].id: d0 is dead: no valid variant selects it, because"
+    )
+    assert "because" not in warnings[50]
