@@ -24,3 +24,4 @@ test: setup
 
 bench: setup
 	$(BIN)/python bench/validate_bench.py
+	$(BIN)/python bench/configure_bench.py

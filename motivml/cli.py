@@ -19,6 +19,8 @@ from rich.tree import Tree
 
 from . import __version__
 from .check import Report, analyse_model, binding_states, validate
+from .codegen import outputs, write_if_changed
+from .configure import PREFERENCES, resolve
 from .errors import Diagnostic, MotivmlError, Severity
 from .model import Configuration, FeatureModel
 from .robot import RobotFolder
@@ -153,6 +155,63 @@ def _verdict(report: Report, checked_variants: bool) -> None:
             " (its variants were not checked)" if report.kind == "model" and not checked_variants else ""
         )
         out.print(f"[bold red]invalid[/]: {escape(report.file)}: {counts} in the {report.kind}{unchecked}")
+
+
+@main.command("configure")
+@click.argument("target", default=".", type=click.Path())
+@click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
+@click.option("-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant>/).")
+@click.option(
+    "--prefer",
+    type=click.Choice(PREFERENCES),
+    multiple=True,
+    help="Decide open bindings Late and/or Dynamic instead of the defaults Early and Static.",
+)
+@click.option("--prefix", default="MOTIVML_", show_default=True, help="Prefix of the C++ macros.")
+def configure_command(
+    target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str
+) -> None:
+    """Resolve a variant and write what binds it: variant.lock.json, features.h, bindings.yaml.
+
+    TARGET is a robot folder (default: the current folder). Files are rewritten only when
+    their content changes; nothing is written when the variant is invalid.
+    """
+    try:
+        robot = RobotFolder.open(target)
+        reports = validate(robot.model_path, [robot.variant_path(variant)], partial=True, analyse=False)
+        problems = [d for r in reports for d in r.errors]
+        if problems or len(reports) != 2:
+            for d in problems:
+                print_diagnostic(d)
+            out.print(f"[bold red]invalid[/]: {escape(reports[-1].file)}: nothing written")
+            sys.exit(1)
+        model, config = reports[1].model, reports[1].config
+        assert model is not None and config is not None
+        resolved = resolve(model, config, prefer)
+        folder = Path(output) if output else Path("build") / robot.name / variant
+        written = write_if_changed(folder, outputs(resolved, prefix))
+    except MotivmlError as exc:
+        fail(exc)
+    chosen = resolved.selected()
+    by_solver = sum(
+        1
+        for d in resolved.decisions
+        if d.selection_by == "solver" or (d.selected and "solver" in (d.time_by, d.mode_by))
+    )
+    counts = ", ".join(
+        f"{sum(1 for d in chosen if d.binding == b)} {name}"
+        for b, name in (
+            ("SE", "Static Early"),
+            ("SL", "Static Late"),
+            ("DE", "Dynamic Early"),
+            ("DL", "Dynamic Late"),
+        )
+    )
+    out.print(
+        f"variant {escape(variant)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
+    )
+    for name, changed in written.items():
+        out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")
 
 
 @main.command("show")

@@ -29,6 +29,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 
+from pysat.examples.rc2 import RC2
+from pysat.formula import WCNF
 from pysat.solvers import Solver
 
 from .model import Configuration, FeatureModel
@@ -381,6 +383,27 @@ class Encoding:
             else:
                 left.append(k)
         return left
+
+    def optimise(self, soft: Sequence[tuple[int, int]], with_config: bool = True) -> list[int] | None:
+        """A valid variant that minimises the weight of the soft literals it leaves false.
+
+        MaxSAT with RC2 over the recorded clauses (build with `record=True`), the
+        configuration as hard units and `soft` as (literal, weight) pairs; None when no
+        variant exists. RC2 runs its own solver; the result is deterministic for the same
+        model, configuration and weights.
+        """
+        if self.recorded is None:
+            raise ValueError("optimise() needs Encoding(model, record=True)")
+        formula = WCNF()
+        for clause in self.recorded:
+            formula.append(clause)
+        for literal in self.assumptions(with_config):
+            formula.append([literal])
+        for literal, weight in soft:
+            formula.append([literal], weight=weight)
+        with RC2(formula, solver="g4") as maxsat:
+            model = maxsat.compute()
+        return list(model) if model is not None else None
 
     # --------------------------------------------------------------- lifecycle
     def close(self) -> None:

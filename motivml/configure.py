@@ -1,0 +1,122 @@
+"""Resolution: from a (possibly partial) configuration to one complete variant.
+
+What the configuration fixes is kept; the solver decides the rest (semantics.md section 4):
+undecided features are left out unless the model needs them, and open bindings take the
+published defaults, Early and Static, unless the user prefers Late or Dynamic. The three
+wishes are optimised together, lexicographically (fewest undecided features selected, then
+the time preference, then the mode preference), with MaxSAT (RC2) over the one encoding.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from dataclasses import dataclass
+
+from . import encoding as enc
+from .check import check_variant
+from .errors import MotivmlError
+from .loader import no_gc
+from .model import Configuration, Feature, FeatureModel
+
+PREFERENCES = ("late", "dynamic")
+
+
+class NoVariant(MotivmlError):
+    """The configuration has no valid completion; the diagnostics explain why."""
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One feature of a resolved variant, and who decided each part of it."""
+
+    feature: Feature
+    selected: bool
+    early: bool  # meaningful when selected
+    static: bool
+    selection_by: str  # "configuration" or "solver"
+    time_by: str
+    mode_by: str
+
+    @property
+    def binding(self) -> str:
+        """SE, SL, DE or DL."""
+        return ("S" if self.static else "D") + ("E" if self.early else "L")
+
+
+@dataclass(frozen=True)
+class Variant:
+    model: FeatureModel
+    name: str
+    decisions: tuple[Decision, ...]  # definition order, root first
+
+    def selected(self) -> list[Decision]:
+        return [d for d in self.decisions if d.selected]
+
+
+def resolve(model: FeatureModel, config: Configuration, prefer: Collection[str] = ()) -> Variant:
+    """The variant the configuration and the preferences ask for; NoVariant if none exists."""
+    unknown = set(prefer) - set(PREFERENCES)
+    if unknown:
+        raise ValueError(f"unknown preference {sorted(unknown)}: choose from {PREFERENCES}")
+    with no_gc(), enc.Encoding(model, record=True) as encoding:
+        encoding.set_configuration(config)
+        if not encoding.solve():
+            raise NoVariant(check_variant(model, config))
+        soft = _preferences(encoding, model, config, set(prefer))
+        values = encoding.optimise(soft)
+    if values is None:  # cannot happen after a successful solve; never write half a variant
+        raise NoVariant(check_variant(model, config))
+    truth = {abs(v): v > 0 for v in values}
+    decisions = []
+    for f in model.features:
+        entry = config.entries.get(f.id)
+        i = f.index
+        decisions.append(
+            Decision(
+                feature=f,
+                selected=truth[encoding.s(i)],
+                early=truth[encoding.E(i)],
+                static=truth[encoding.S(i)],
+                selection_by="model"
+                if f.parent is None
+                else "configuration"
+                if entry is not None
+                else "solver",
+                time_by="configuration"
+                if entry is not None and entry.time != "Any"
+                else _model_or_solver(f, "time"),
+                mode_by="configuration"
+                if entry is not None and entry.mode != "Any"
+                else _model_or_solver(f, "mode"),
+            )
+        )
+    return Variant(model, config.name, tuple(decisions))
+
+
+def _model_or_solver(feature: Feature, aspect: str) -> str:
+    allowed = feature.time_allowed if aspect == "time" else feature.mode_allowed
+    return "model" if allowed != "Any" or feature.parent is None else "solver"
+
+
+def _preferences(
+    encoding: enc.Encoding, model: FeatureModel, config: Configuration, prefer: set[str]
+) -> list[tuple[int, int]]:
+    """Soft literals, weighted so that each wish outweighs all the ones after it."""
+    undecided, times, modes = [], [], []
+    for f in model.features[1:]:
+        entry = config.entries.get(f.id)
+        i = f.index
+        if entry is None:
+            undecided.append(-encoding.s(i))
+        if entry is None or entry.time == "Any":
+            times.append(-encoding.E(i) if "late" in prefer else encoding.E(i))
+        if entry is None or entry.mode == "Any":
+            modes.append(-encoding.S(i) if "dynamic" in prefer else encoding.S(i))
+    mode_weight = 1
+    time_weight = len(modes) + 1
+    selection_weight = time_weight * (len(times) + 1)
+    return (
+        [(lit, selection_weight) for lit in undecided]
+        + [(lit, time_weight) for lit in times]
+        + [(lit, mode_weight) for lit in modes]
+    )
