@@ -17,7 +17,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.tree import Tree
 
-from . import __version__
+from . import __version__, impact
 from .check import Report, analyse_model, binding_states, validate
 from .codegen import outputs, write_if_changed
 from .configure import PREFERENCES, resolve
@@ -212,6 +212,61 @@ def configure_command(
     )
     for name, changed in written.items():
         out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")
+
+
+@main.command("diff")
+@click.argument("target", type=click.Path())
+@click.argument("first")
+@click.argument("second")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+def diff_command(target: str, first: str, second: str, fmt: str) -> None:
+    """What moving from variant FIRST to SECOND of the robot folder TARGET takes.
+
+    Each feature whose selection or binding differs is a rebuild, a restart or a run-time
+    change (semantics.md section 4). Exit 0 when every change can be made at run time.
+    """
+    try:
+        robot = RobotFolder.open(target)
+        paths = [robot.variant_path(first), robot.variant_path(second)]
+        reports = validate(robot.model_path, paths, partial=True, analyse=False)
+        problems = [d for r in reports for d in r.errors]
+        if problems or len(reports) != 3:
+            for d in problems:
+                print_diagnostic(d)
+            out.print("[bold red]invalid[/]: nothing to compare (fix the errors above)")
+            sys.exit(1)
+        model = reports[0].model
+        assert model is not None and reports[1].config is not None and reports[2].config is not None
+        changes = impact.diff(resolve(model, reports[1].config), resolve(model, reports[2].config))
+    except MotivmlError as exc:
+        fail(exc)
+    worst = impact.verdict(changes)
+    if fmt == "json":
+        click.echo(
+            json.dumps(
+                {
+                    "from": first,
+                    "to": second,
+                    "swappable_at_run_time": worst == impact.RUN_TIME,
+                    "needs": worst,
+                    "changes": [vars(c) for c in changes],
+                },
+                indent=2,
+            )
+        )
+    else:
+        for c in changes:
+            colour = {impact.REBUILD: "red", impact.RESTART: "yellow", impact.RUN_TIME: "green"}[c.impact]
+            out.print(
+                f"[{colour}]{c.impact:>8}[/]  {escape(c.feature)}: {c.before} -> {c.after}  [dim]{escape(c.reason)}[/]"
+            )
+        summary = {
+            impact.RUN_TIME: "can be swapped while the robot runs",
+            impact.RESTART: "needs a restart (no rebuild)",
+            impact.REBUILD: "needs a rebuild",
+        }[worst]
+        out.print(f"{escape(first)} -> {escape(second)}: {_plural(len(changes), 'change')}; {summary}")
+    sys.exit(0 if worst == impact.RUN_TIME else 1)
 
 
 @main.command("show")
