@@ -116,11 +116,58 @@ def bindings_yaml(variant: Variant) -> str:
     return "\n".join(lines) + "\n"
 
 
+def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
+    """The static feature loader (the paper's Listing 5, generated): for every feature of
+    the model, its implementation is included and registered only when features.h compiles
+    it in. An implementation is the header <motivml_features/ID.hpp> defining
+    `std::unique_ptr<motivml::StaticFeature> motivml_features::make_ID()`; a compiled-in
+    feature without one (e.g. a ROS node started elsewhere) is listed in
+    `<PREFIX>UNIMPLEMENTED_FEATURES` so that a program can report it."""
+    _check_macro_names(variant)
+    guard = f"{prefix}STATIC_LOADER_HPP"
+    lines = [
+        f"/* {BANNER} */",
+        f"/* model {variant.model.root.id}, variant {variant.name} */",
+        f"#ifndef {guard}",
+        f"#define {guard}",
+        "",
+        '#include "features.h"',
+        "#include <motivml/static_feature.hpp>",
+        "",
+    ]
+    features = [d.feature for d in variant.decisions if d.feature.parent is not None]
+    for f in features:
+        macro = f"{prefix}FEATURE_{f.id.upper()}"
+        header = f"<motivml_features/{f.id}.hpp>"
+        lines += [
+            f"#if defined({macro}) && __has_include({header})",
+            f"#include {header}",
+            f"#define {prefix}HAS_{f.id.upper()} 1",
+            "#endif",
+        ]
+    lines += ["", "namespace motivml {", "", "/* Register every compiled-in feature, in definition order. */"]
+    lines += ["inline void register_static_features(FeatureRegistry& registry) {"]
+    for f in features:
+        lines += [
+            f"#ifdef {prefix}HAS_{f.id.upper()}",
+            f"  registry.add(motivml_features::make_{f.id}());",
+            "#endif",
+        ]
+    lines += ["}", "", "/* Compiled-in features without an implementation header. */"]
+    lines += ["inline const char* const unimplemented_features[] = {"]
+    for f in features:
+        macro = f"{prefix}FEATURE_{f.id.upper()}"
+        lines += [f"#if defined({macro}) && !defined({prefix}HAS_{f.id.upper()})", f'    "{f.id}",', "#endif"]
+    lines += ["    nullptr};", "", "}  // namespace motivml", "", f"#endif /* {guard} */", ""]
+    return "\n".join(lines)
+
+
 def outputs(variant: Variant, prefix: str = "MOTIVML_") -> dict[str, str]:
     return {
         "variant.lock.json": lock_json(variant),
         "features.h": features_header(variant, prefix),
         "bindings.yaml": bindings_yaml(variant),
+        "static_loader.hpp": static_loader(variant, prefix),
     }
 
 

@@ -53,6 +53,7 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     shutil.copytree(ROOT / "feature_models", work / "feature_models")
     shutil.copytree(ROOT / "guidelines", work / "guidelines")
     shutil.copytree(ROOT / "schemas", work / "schemas")
+    shutil.copytree(ROOT / "cpp_static", work / "cpp_static")
     return work
 
 
@@ -73,7 +74,7 @@ def update() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        for name in ("feature_models", "guidelines", "schemas"):
+        for name in ("feature_models", "guidelines", "schemas", "cpp_static"):
             shutil.copytree(ROOT / name, work / name)
         env = dict(
             os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}", COLUMNS="80"

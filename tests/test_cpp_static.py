@@ -1,0 +1,75 @@
+"""The C++ side: two SimpleBot variants built through CMake contain exactly their Static
+Early features (listed by the program and proven by marker strings in the binaries), and
+ctest passes (GoogleTest unit tests and a run of each demo)."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+VARIANTS = ["lab", "field"]
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    missing = [tool for tool in ("cmake", "g++") if shutil.which(tool) is None]
+    if missing:
+        pytest.fail(
+            f"{', '.join(missing)} not installed: .ci/run installs them (apt-get install cmake g++ libgtest-dev)"
+        )
+    folder = tmp_path_factory.mktemp("cpp")
+    motivml = Path(sys.executable).with_name("motivml")
+    generator = ["-G", "Ninja"] if shutil.which("ninja") else []
+    subprocess.run(
+        [
+            "cmake",
+            "-S",
+            str(ROOT / "cpp_static"),
+            "-B",
+            str(folder),
+            *generator,
+            f"-DMOTIVML_EXECUTABLE={motivml}",
+        ],
+        check=True,
+        capture_output=True,
+    )
+    subprocess.run(["cmake", "--build", str(folder), "-j", "2"], check=True, capture_output=True)
+    return folder
+
+
+def static_early(build: Path, variant: str) -> list[str]:
+    text = (build / "motivml" / "simplebot" / variant / "motivml" / "bindings.yaml").read_text()
+    (line,) = [line for line in text.splitlines() if line.strip().startswith("static_early:")]
+    ids = [i.strip() for i in line.split("[", 1)[1].rstrip("]").split(",") if i.strip()]
+    return [i for i in ids if i != "root_feature"]  # the root is the program itself
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_binary_lists_exactly_its_static_features(build: Path, variant: str) -> None:
+    listed = subprocess.run(
+        [str(build / f"simplebot_{variant}"), "--list"], check=True, capture_output=True, text=True
+    )
+    assert listed.stdout.split() == static_early(build, variant)
+
+
+@pytest.mark.parametrize("variant", VARIANTS)
+def test_binary_contains_no_other_feature_code(build: Path, variant: str) -> None:
+    binary = (build / f"simplebot_{variant}").read_bytes()
+    markers = set(re.findall(rb"motivml-feature:([a-z0-9_]+)", binary))
+    assert {m.decode() for m in markers} == set(static_early(build, variant))
+
+
+def test_variants_differ(build: Path) -> None:
+    assert static_early(build, "lab") != static_early(build, "field")
+
+
+def test_ctest_passes(build: Path) -> None:
+    result = subprocess.run(["ctest", "--output-on-failure"], cwd=build, capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "100% tests passed" in result.stdout
