@@ -8,6 +8,7 @@ into exit codes.
 from __future__ import annotations
 
 import json
+import re
 import sys
 from pathlib import Path
 from typing import NoReturn
@@ -176,6 +177,8 @@ def configure_command(
     TARGET is a robot folder (default: the current folder). Files are rewritten only when
     their content changes; nothing is written when the variant is invalid.
     """
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
+        raise click.UsageError(f"--prefix {prefix!r} cannot start a C++ macro name (letters, digits, _)")
     try:
         robot = RobotFolder.open(target)
         reports = validate(robot.model_path, [robot.variant_path(variant)], partial=True, analyse=False)

@@ -144,3 +144,9 @@ def test_ids_differing_only_in_case_are_refused(tmp_path: Path) -> None:
         in output
     )
     assert not (tmp_path / "out").exists()
+
+
+def test_a_prefix_that_cannot_start_a_macro_is_a_usage_error(tmp_path: Path) -> None:
+    code, output = configure(str(SIMPLEBOT), "--variant", "lab", "--prefix", "1X", "-o", str(tmp_path))
+    assert code == 2 and "cannot start a C++ macro name" in output
+    assert not any(tmp_path.iterdir())
