@@ -221,12 +221,19 @@ def configure_command(
 @click.argument("target", type=click.Path())
 @click.argument("first")
 @click.argument("second")
+@click.option(
+    "--prefer",
+    type=click.Choice(PREFERENCES),
+    multiple=True,
+    help="Resolve both variants as configure --prefer does.",
+)
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
-def diff_command(target: str, first: str, second: str, fmt: str) -> None:
+def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], fmt: str) -> None:
     """What moving from variant FIRST to SECOND of the robot folder TARGET takes.
 
-    Each feature whose selection or binding differs is a rebuild, a restart or a run-time
-    change (semantics.md section 4). Exit 0 when every change can be made at run time.
+    Both are resolved as `configure` resolves them (give the same --prefer). Each feature
+    whose selection or binding differs is a rebuild, a restart or a run-time change
+    (semantics.md section 4). Exit 0 when every change can be made at run time.
     """
     try:
         robot = RobotFolder.open(target)
@@ -240,7 +247,9 @@ def diff_command(target: str, first: str, second: str, fmt: str) -> None:
             sys.exit(1)
         model = reports[0].model
         assert model is not None and reports[1].config is not None and reports[2].config is not None
-        changes = impact.diff(resolve(model, reports[1].config), resolve(model, reports[2].config))
+        changes = impact.diff(
+            resolve(model, reports[1].config, prefer), resolve(model, reports[2].config, prefer)
+        )
     except MotivmlError as exc:
         fail(exc)
     worst = impact.verdict(changes)

@@ -8,6 +8,7 @@ generated in memory, so an error leaves every earlier output untouched.
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import tempfile
@@ -46,7 +47,7 @@ def lock_json(variant: Variant) -> str:
     document = {
         "x-generated": BANNER,
         "x-model": variant.model.root.id,
-        "x-variant": variant.name,
+        "x-variant": _printable(variant.name),
         "properties": properties,
     }
     return json.dumps(document, indent=2) + "\n"
@@ -59,7 +60,7 @@ def features_header(variant: Variant, prefix: str = "MOTIVML_") -> str:
     guard = f"{prefix}FEATURES_H"
     lines = [
         f"/* {BANNER} */",
-        f"/* model {variant.model.root.id}, variant {variant.name} */",
+        f"/* model {variant.model.root.id}, variant {_printable(variant.name)} */",
         f"#ifndef {guard}",
         f"#define {guard}",
         "",
@@ -78,6 +79,14 @@ def features_header(variant: Variant, prefix: str = "MOTIVML_") -> str:
     ]
     lines += ["", f"#endif /* {guard} */", ""]
     return "\n".join(lines)
+
+
+def _printable(text: str) -> str:
+    """A file-derived name as it can stand in a comment: no control characters, no `*/`."""
+    safe = text.encode("utf-8", "backslashreplace").decode("utf-8")
+    return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in safe).replace(
+        "*/", "*\\/"
+    )
 
 
 def _check_macro_names(variant: Variant) -> None:
@@ -103,7 +112,10 @@ def _check_macro_names(variant: Variant) -> None:
 
 
 def bindings_yaml(variant: Variant) -> str:
-    """The time-binding lists under `motivml:`, as ROS parameters (ids need no quoting)."""
+    """The time-binding lists under `motivml:`, as ROS parameters.
+
+    Ids are quoted: YAML 1.1 readers (ROS's) would read an id like `on` or `no` as a boolean.
+    """
     lines = [f"# {BANNER}", "motivml:"]
     for key, binding in (
         ("static_early", "SE"),
@@ -112,7 +124,7 @@ def bindings_yaml(variant: Variant) -> str:
         ("dynamic_late", "DL"),
     ):
         ids = [d.feature.id for d in variant.selected() if d.binding == binding]
-        lines.append(f"  {key}: [{', '.join(ids)}]")
+        lines.append(f"  {key}: [{', '.join(json.dumps(i) for i in ids)}]")
     return "\n".join(lines) + "\n"
 
 
@@ -127,7 +139,7 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
     guard = f"{prefix}STATIC_LOADER_HPP"
     lines = [
         f"/* {BANNER} */",
-        f"/* model {variant.model.root.id}, variant {variant.name} */",
+        f"/* model {variant.model.root.id}, variant {_printable(variant.name)} */",
         f"#ifndef {guard}",
         f"#define {guard}",
         "",
@@ -172,27 +184,45 @@ def outputs(variant: Variant, prefix: str = "MOTIVML_") -> dict[str, str]:
 
 
 def write_if_changed(folder: Path, files: dict[str, str]) -> dict[str, bool]:
-    """Write each file whose content differs, atomically; {name: written}."""
+    """Write the files whose content differs; {name: written}.
+
+    Every changed file is first written to a temporary file beside its target, and only
+    when all of them are written are they renamed over the targets, so a failure (a full
+    disk, a folder in the way) leaves the earlier output as it was. New files get the
+    usual permissions (0666 less the umask), not mkstemp's owner-only ones.
+    """
+    umask = os.umask(0)
+    os.umask(umask)
+    staged: list[tuple[str, Path]] = []
+    written: dict[str, bool] = {}
+    current = folder
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        written: dict[str, bool] = {}
         for name, content in files.items():
-            target = folder / name
-            data = content.encode("utf-8")
-            if target.is_file() and target.read_bytes() == data:
+            current = folder / name
+            data = content.encode("utf-8", "backslashreplace")
+            if current.is_file() and current.read_bytes() == data:
                 written[name] = False
                 continue
             handle, temporary = tempfile.mkstemp(dir=folder, prefix=f".{name}.", suffix=".tmp")
-            try:
-                with os.fdopen(handle, "wb") as out:
-                    out.write(data)
-                os.replace(temporary, target)
-            except BaseException:
-                os.unlink(temporary)
-                raise
+            staged.append((temporary, current))
+            with os.fdopen(handle, "wb") as out:
+                out.write(data)
+            os.chmod(temporary, 0o666 & ~umask)
             written[name] = True
+        for _, target in staged:  # what would make a rename fail, before the first rename
+            current = target
+            if target.exists() and not target.is_file():
+                raise IsADirectoryError(errno.EISDIR, "something other than a file is in the way")
+        for temporary, target in staged:
+            current = target
+            os.replace(temporary, target)
         return written
     except OSError as exc:
         raise EnvironmentProblem(
-            error(Location(str(folder)), f"cannot write: {exc.strerror}", "io")
+            error(Location(str(current)), f"cannot write: {exc.strerror}", "io")
         ) from None
+    finally:
+        for temporary, _ in staged:
+            if os.path.exists(temporary):
+                os.unlink(temporary)

@@ -150,3 +150,22 @@ def test_a_prefix_that_cannot_start_a_macro_is_a_usage_error(tmp_path: Path) -> 
     code, output = configure(str(SIMPLEBOT), "--variant", "lab", "--prefix", "1X", "-o", str(tmp_path))
     assert code == 2 and "cannot start a C++ macro name" in output
     assert not any(tmp_path.iterdir())
+
+
+def test_files_get_the_usual_permissions_and_a_failed_write_changes_nothing(tmp_path: Path) -> None:
+    configure(str(SIMPLEBOT), "--variant", "lab", "-o", str(tmp_path))
+    umask = os.umask(0)
+    os.umask(umask)
+    assert {p.stat().st_mode & 0o777 for p in tmp_path.iterdir()} == {0o666 & ~umask}
+    (tmp_path / "static_loader.hpp").unlink()
+    (tmp_path / "static_loader.hpp").mkdir()  # in the way of the last file
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()}
+    code, output = configure(str(SIMPLEBOT), "--variant", "field", "-o", str(tmp_path))
+    assert code == 3 and "static_loader.hpp: cannot write" in output
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()} == before
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_yaml_ids_are_quoted(tmp_path: Path) -> None:
+    configure(str(SIMPLEBOT), "--variant", "lab", "-o", str(tmp_path))
+    assert '  dynamic_late: ["gesture_recognition", "hands"]' in (tmp_path / "bindings.yaml").read_text()

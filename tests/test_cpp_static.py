@@ -44,9 +44,9 @@ def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def static_early(build: Path, variant: str) -> list[str]:
-    text = (build / "motivml" / "simplebot" / variant / "motivml" / "bindings.yaml").read_text()
+    text = (build / "motivml" / f"simplebot_{variant}" / "motivml" / "bindings.yaml").read_text()
     (line,) = [line for line in text.splitlines() if line.strip().startswith("static_early:")]
-    ids = [i.strip() for i in line.split("[", 1)[1].rstrip("]").split(",") if i.strip()]
+    ids = [i.strip().strip('"') for i in line.split("[", 1)[1].rstrip("]").split(",") if i.strip()]
     return [i for i in ids if i != "root_feature"]  # the root is the program itself
 
 

@@ -1,7 +1,7 @@
 # motivml_configure(TARGET <target> ROBOT <robot folder> VARIANT <name> [PREFIX <macro prefix>])
 #
 # Runs `motivml configure` when CMake configures the project, writes the generated files
-# into <binary dir>/motivml/<robot>/<variant>/motivml/ (features.h, static_loader.hpp,
+# into <binary dir>/motivml/<target>/motivml/ (features.h, static_loader.hpp,
 # bindings.yaml, variant.lock.json) and puts the folder above it on the target's include
 # path, so code includes <motivml/static_loader.hpp> or <motivml/features.h> (a bare
 # "features.h" on the include path would shadow glibc's <features.h>). CMake re-runs it
@@ -23,7 +23,8 @@ function(motivml_configure)
   find_program(MOTIVML_EXECUTABLE motivml REQUIRED)
   get_filename_component(robot_dir "${ARG_ROBOT}" ABSOLUTE)
   get_filename_component(robot_name "${robot_dir}" NAME)
-  set(out "${CMAKE_CURRENT_BINARY_DIR}/motivml/${robot_name}/${ARG_VARIANT}")
+  # One folder per target: two targets may bind the same variant with different prefixes.
+  set(out "${CMAKE_CURRENT_BINARY_DIR}/motivml/${ARG_TARGET}")
   execute_process(
     COMMAND "${MOTIVML_EXECUTABLE}" configure "${robot_dir}" --variant "${ARG_VARIANT}"
             -o "${out}/motivml" --prefix "${ARG_PREFIX}"
