@@ -13,14 +13,14 @@ variant check reports only what concerns the variant (and a void model).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import encoding as enc
 from .errors import Diagnostic, Location, MotivmlError, Severity, warning
 from .explain import Explainer
-from .loader import load_file, no_gc
+from .loader import Document, load_file, no_gc
 from .model import Configuration, Feature, FeatureModel
 from .reader import read_configuration, read_model
 from .schema import check_configuration, check_feature_model
@@ -54,8 +54,14 @@ class Report:
         return not self.errors
 
 
-def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]:
-    """Read a feature model file; None when it cannot be used (the diagnostics say why)."""
+def _read(
+    path: str | Path, schema_check: Callable[[Document], list[Diagnostic]]
+) -> tuple[Document | None, list[Diagnostic]]:
+    """Load a document and check it against its schema; None (and why) when unusable.
+
+    Only invalid documents become diagnostics; environment problems (a missing file)
+    propagate to the caller's exit code.
+    """
     try:
         doc = load_file(path)
     except MotivmlError as exc:
@@ -63,33 +69,35 @@ def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]
             raise
         return None, exc.diagnostics
     with no_gc():
-        problems = check_feature_model(doc)
-        if problems:
-            return None, problems
+        problems = schema_check(doc)
+    return (None, problems) if problems else (doc, [])
+
+
+def _usable(diagnostics: list[Diagnostic]) -> bool:
+    return not any(d.severity is Severity.ERROR for d in diagnostics)
+
+
+def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]:
+    """Read a feature model file; None when it cannot be used (the diagnostics say why)."""
+    doc, problems = _read(path, check_feature_model)
+    if doc is None:
+        return None, problems
+    with no_gc():
         model, diagnostics = read_model(doc)
-    if any(d.severity is Severity.ERROR for d in diagnostics):
-        return None, diagnostics
-    return model, diagnostics
+    return (model if _usable(diagnostics) else None), diagnostics
 
 
 def load_configuration(
     path: str | Path, model: FeatureModel, partial: bool = False
 ) -> tuple[Configuration | None, list[Diagnostic]]:
-    try:
-        doc = load_file(path)
-    except MotivmlError as exc:
-        if exc.exit_code != 1:
-            raise
-        return None, exc.diagnostics
+    """Read a configuration of `model`; None when it cannot be used (the diagnostics say why)."""
+    doc, problems = _read(path, check_configuration)
+    if doc is None:
+        return None, problems
     with no_gc():
-        problems = check_configuration(doc)
-        if problems:
-            return None, problems
         config, diagnostics = read_configuration(doc, model, partial)
     config.name = Path(path).stem
-    if any(d.severity is Severity.ERROR for d in diagnostics):
-        return None, diagnostics
-    return config, diagnostics
+    return (config if _usable(diagnostics) else None), diagnostics
 
 
 def validate_model(model_path: str | Path, analyse: bool = True) -> Report:

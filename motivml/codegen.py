@@ -56,14 +56,8 @@ def lock_json(variant: Variant) -> str:
 def features_header(variant: Variant, prefix: str = "MOTIVML_") -> str:
     """`#define <PREFIX>FEATURE_<ID> 1` for each selected Static Early feature (compiled in),
     and `<PREFIX>BINDING_<ID>` naming the binding of every selected feature."""
-    _check_macro_names(variant)
     guard = f"{prefix}FEATURES_H"
-    lines = [
-        f"/* {BANNER} */",
-        f"/* model {variant.model.root.id}, variant {_printable(variant.name)} */",
-        f"#ifndef {guard}",
-        f"#define {guard}",
-        "",
+    lines = _opening(variant, guard) + [
         f"#define {prefix}STATIC_EARLY 1",
         f"#define {prefix}STATIC_LATE 2",
         f"#define {prefix}DYNAMIC_EARLY 3",
@@ -79,6 +73,18 @@ def features_header(variant: Variant, prefix: str = "MOTIVML_") -> str:
     ]
     lines += ["", f"#endif /* {guard} */", ""]
     return "\n".join(lines)
+
+
+def _opening(variant: Variant, guard: str) -> list[str]:
+    """Banner, origin and include guard of a generated header (after checking its names)."""
+    _check_macro_names(variant)
+    return [
+        f"/* {BANNER} */",
+        f"/* model {variant.model.root.id}, variant {_printable(variant.name)} */",
+        f"#ifndef {guard}",
+        f"#define {guard}",
+        "",
+    ]
 
 
 def _printable(text: str) -> str:
@@ -134,15 +140,9 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
     it in. An implementation is the header <motivml_features/ID.hpp> defining
     `std::unique_ptr<motivml::StaticFeature> motivml_features::make_ID()`; a compiled-in
     feature without one (e.g. a ROS node started elsewhere) is listed in
-    `<PREFIX>UNIMPLEMENTED_FEATURES` so that a program can report it."""
-    _check_macro_names(variant)
+    `motivml::unimplemented_features` so that a program can report it."""
     guard = f"{prefix}STATIC_LOADER_HPP"
-    lines = [
-        f"/* {BANNER} */",
-        f"/* model {variant.model.root.id}, variant {_printable(variant.name)} */",
-        f"#ifndef {guard}",
-        f"#define {guard}",
-        "",
+    lines = _opening(variant, guard) + [
         '#include "features.h"',
         "#include <motivml/static_feature.hpp>",
         "",
