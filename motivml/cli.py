@@ -172,7 +172,7 @@ def _verdict(report: Report, checked_variants: bool) -> None:
 def configure_command(
     target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str
 ) -> None:
-    """Resolve a variant and write what binds it: variant.lock.json, features.h, bindings.yaml.
+    """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml.
 
     TARGET is a robot folder (default: the current folder). Files are rewritten only when
     their content changes; nothing is written when the variant is invalid.

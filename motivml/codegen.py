@@ -1,4 +1,4 @@
-"""What binds a variant: the lock file, the C++ header and the time-binding lists.
+"""What binds a variant: the lock file, the C++ header and static loader, the time-binding lists.
 
 Every file is generated in definition order (same input, same bytes) and written the way
 Kconfiglib writes its autoconf header: only when its content changes, so builds do not
