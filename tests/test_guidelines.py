@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-PAGES = sorted((ROOT / "guidelines").glob("*.md"))
+PAGES = [*sorted((ROOT / "guidelines").glob("*.md")), ROOT / "README.md"]
 BLOCK = re.compile(r"```text\n(\$ .*?)```", re.S)
 
 
