@@ -20,10 +20,12 @@ from rich.tree import Tree
 
 from . import __version__, impact
 from .check import Report, analyse_model, binding_states, validate
-from .codegen import outputs, write_if_changed
+from .codegen import late_or_dynamic, outputs, write_if_changed
 from .configure import PREFERENCES, resolve
 from .errors import Diagnostic, MotivmlError, Severity
 from .model import Configuration, FeatureModel
+from .plugins import discover
+from .plugins import missing as missing_plugins
 from .robot import RobotFolder
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
@@ -172,7 +174,7 @@ def _verdict(report: Report, checked_variants: bool) -> None:
 def configure_command(
     target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str
 ) -> None:
-    """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml.
+    """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml, plugins.json.
 
     TARGET is a robot folder (default: the current folder). Files are rewritten only when
     their content changes; nothing is written when the variant is invalid.
@@ -190,11 +192,19 @@ def configure_command(
             sys.exit(1)
         model, config = reports[1].model, reports[1].config
         assert model is not None and config is not None
+        plugins, problems = discover(robot, model)
+        if problems:
+            for d in problems:
+                print_diagnostic(d)
+            out.print("[bold red]invalid[/]: plugin manifests: nothing written")
+            sys.exit(1)
         resolved = resolve(model, config, prefer)
         folder = Path(output) if output else Path("build") / robot.name / variant
-        written = write_if_changed(folder, outputs(resolved, prefix))
+        written = write_if_changed(folder, outputs(resolved, prefix, plugins, robot.path))
     except MotivmlError as exc:
         fail(exc)
+    for d in missing_plugins(model, late_or_dynamic(resolved), plugins):
+        print_diagnostic(d)
     chosen = resolved.selected()
     by_solver = sum(
         1

@@ -30,6 +30,9 @@ from .loader import Document, JSONPath
 
 FEATURE_MODEL = "feature-model.schema.json"
 CONFIGURATION = "configuration.schema.json"
+PLUGIN = "plugin.schema.json"
+ROBOT = "robot.schema.json"
+IDENTIFIER_PATTERN = "^[A-Za-z_][A-Za-z0-9_]*(?!\\n)$"
 
 _TYPE_NAMES = {
     "object": "an object",
@@ -144,8 +147,12 @@ def _messages(
     elif kind == "required":
         missing = [key for key in err.validator_value if key not in instance]
         message = f"missing required key {', '.join(repr(k) for k in missing)}"
-    elif kind == "pattern":
+    elif kind == "pattern" and err.validator_value == IDENTIFIER_PATTERN:
         message = f"{instance!r} is not a valid id: use letters, digits and _, not starting with a digit"
+    elif kind == "pattern":
+        message = (
+            f"{instance!r} is not of the required form ({err.schema.get('description', err.validator_value)})"
+        )
     elif kind == "minLength":
         message = "must not be empty"
     else:  # a schema keyword we do not phrase specially: still located, never the schema dump
@@ -230,6 +237,13 @@ def check_configuration(doc: Document) -> list[Diagnostic]:
             )
             found.extend(_errors(entry_validator, entry, doc, ("properties", i), feature))
     return _ordered(found)
+
+
+def check_document(doc: Document, name: str, what: str) -> list[Diagnostic]:
+    """Schema errors of a small, shallow document (a plugin manifest, robot.json)."""
+    if not isinstance(doc.root, dict):
+        return [error(doc.locate(()), f"{what} is a JSON object, found {_describe(doc.root)}", "schema.type")]
+    return _ordered(_errors(_validator(name), doc.root, doc, (), None))
 
 
 @functools.cache

@@ -33,7 +33,9 @@ def configure(*args: str) -> tuple[int, str]:
 
 
 @pytest.mark.parametrize("variant", ["lab", "field"])
-@pytest.mark.parametrize("name", ["variant.lock.json", "features.h", "bindings.yaml", "static_loader.hpp"])
+@pytest.mark.parametrize(
+    "name", ["variant.lock.json", "features.h", "bindings.yaml", "static_loader.hpp", "plugins.json"]
+)
 def test_golden_files(tmp_path: Path, variant: str, name: str) -> None:
     code, output = configure(str(SIMPLEBOT), "--variant", variant, "-o", str(tmp_path))
     assert code == 0, output
@@ -54,7 +56,7 @@ def test_unchanged_files_are_not_rewritten(tmp_path: Path) -> None:
     configure(str(SIMPLEBOT), "--variant", "lab", "-o", str(tmp_path))
     stamps = {p.name: p.stat().st_mtime_ns for p in tmp_path.iterdir()}
     code, output = configure(str(SIMPLEBOT), "--variant", "lab", "-o", str(tmp_path))
-    assert code == 0 and output.count("unchanged ") == 4
+    assert code == 0 and output.count("unchanged ") == 5
     assert {p.name: p.stat().st_mtime_ns for p in tmp_path.iterdir()} == stamps
 
 

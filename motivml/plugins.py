@@ -1,0 +1,151 @@
+"""Plugin manifests: which plugin implements which feature, from the folders a robot declares.
+
+A robot folder may hold `robot.json` with `pluginDirectories` (relative to the robot
+folder). Each sub-folder of those holding a `plugin.json` is a plugin; its manifest is
+validated (schema, a feature of the model, an entry that stays inside the plugin folder)
+before anything else looks at it. Nothing is imported or loaded here: this module only
+says where each feature's implementation is, for `configure`'s plugins.json and, later,
+for the runtime.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+from .errors import Diagnostic, MotivmlError, error, warning
+from .loader import load_file
+from .model import FeatureModel
+from .robot import RobotFolder
+from .schema import PLUGIN, ROBOT, check_document
+
+
+@dataclass(frozen=True)
+class Plugin:
+    feature: str
+    kind: str  # "python" or "cpp"
+    entry: dict[str, str]
+    folder: Path
+    manifest: Path
+
+
+def _read(path: Path, schema: str, what: str) -> tuple[dict[str, object] | None, list[Diagnostic]]:
+    try:
+        doc = load_file(path)
+    except MotivmlError as exc:
+        if exc.exit_code != 1:
+            raise
+        return None, exc.diagnostics
+    problems = check_document(doc, schema, what)
+    return (None, problems) if problems else (doc.root, [])
+
+
+def plugin_directories(robot: RobotFolder) -> tuple[list[Path], list[Diagnostic]]:
+    """The plugin directories robot.json declares (none without robot.json)."""
+    settings_path = robot.path / "robot.json"
+    if not settings_path.is_file():
+        return [], []
+    settings, problems = _read(settings_path, ROBOT, "robot.json")
+    if settings is None:
+        return [], problems
+    folders: list[Path] = []
+    found: list[Diagnostic] = []
+    listed = settings.get("pluginDirectories", [])
+    assert isinstance(listed, list)
+    for position, name in enumerate(listed):
+        folder = robot.path / str(name)
+        if not folder.is_dir():
+            doc = load_file(settings_path)
+            found.append(
+                error(
+                    doc.locate(("pluginDirectories", position)),
+                    f"plugin directory {name!r} does not exist (relative to {robot.path})",
+                    "plugins.directory",
+                )
+            )
+            continue
+        folders.append(folder)
+    return folders, found
+
+
+def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin], list[Diagnostic]]:
+    """Every declared plugin by feature id; errors for bad manifests, in a stable order."""
+    folders, diagnostics = plugin_directories(robot)
+    plugins: dict[str, Plugin] = {}
+    for folder in folders:
+        for candidate in sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")):
+            manifest_path = candidate / "plugin.json"
+            if not manifest_path.is_file():
+                continue
+            manifest, problems = _read(manifest_path, PLUGIN, "a plugin manifest")
+            diagnostics += problems
+            if manifest is None:
+                continue
+            doc = load_file(manifest_path)
+            feature, kind, entry = str(manifest["feature"]), str(manifest["kind"]), manifest["entry"]
+            assert isinstance(entry, dict)
+            needed = "module" if kind == "python" else "library"
+            if needed not in entry:
+                diagnostics.append(
+                    error(
+                        doc.locate(("entry",)),
+                        f"a {kind} plugin's entry needs {needed!r}",
+                        "plugins.entry",
+                        feature,
+                    )
+                )
+                continue
+            if kind == "cpp" and (".." in PurePosixPath(entry["library"]).parts):
+                diagnostics.append(
+                    error(
+                        doc.locate(("entry", "library")),
+                        f"library {entry['library']!r} leaves the plugin folder",
+                        "plugins.escape",
+                        feature,
+                    )
+                )
+                continue
+            if feature not in model.index:
+                diagnostics.append(
+                    error(
+                        doc.locate(("feature",)),
+                        f"the plugin implements {feature!r}, which is not a feature of the model",
+                        "plugins.unknown-feature",
+                        feature,
+                    )
+                )
+                continue
+            if feature in plugins:
+                diagnostics.append(
+                    error(
+                        doc.locate(("feature",)),
+                        f"a second plugin for {feature} (the first is {plugins[feature].manifest})",
+                        "plugins.duplicate",
+                        feature,
+                    )
+                )
+                continue
+            plugins[feature] = Plugin(
+                feature, kind, {k: str(v) for k, v in entry.items()}, candidate, manifest_path
+            )
+    return plugins, diagnostics
+
+
+def missing(model: FeatureModel, features: list[str], plugins: dict[str, Plugin]) -> list[Diagnostic]:
+    """Warnings for selected Dynamic or Late features that no declared plugin implements."""
+    found = []
+    for feature_id in features:
+        if feature_id in plugins:
+            continue
+        index = model.index[feature_id]
+        where = model.source.locate(model.path(index, "id"))
+        found.append(
+            warning(
+                where,
+                f"no plugin implements {feature_id}, which the variant binds Dynamic or Late "
+                f"(declare a plugin directory in robot.json holding its plugin.json)",
+                "plugins.missing",
+                feature_id,
+            )
+        )
+    return found

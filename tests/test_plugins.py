@@ -1,0 +1,131 @@
+"""Plugin manifests and plugins.json: declared directories, validated manifests, located errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from click.testing import CliRunner
+
+from motivml.check import load_model
+from motivml.cli import main
+from motivml.plugins import discover
+from motivml.robot import RobotFolder
+
+MODEL = {
+    "id": "bot",
+    "name": "Bot",
+    "sub": [
+        {
+            "id": "slam",
+            "name": "SLAM",
+            "isMandatory": False,
+            "constraints": {"bindingTimeAllowed": "Late", "bindingModeAllowed": "Dynamic"},
+        },
+        {
+            "id": "hands",
+            "name": "Hands",
+            "isMandatory": False,
+            "constraints": {"bindingTimeAllowed": "Late", "bindingModeAllowed": "Dynamic"},
+        },
+    ],
+}
+
+
+def robot(tmp_path: Path, manifests: dict[str, Any], directories: list[str] | None = None) -> Path:
+    (tmp_path / "variants").mkdir()
+    (tmp_path / "model.json").write_text(json.dumps(MODEL))
+    (tmp_path / "variants" / "v.json").write_text(
+        json.dumps({"properties": [{"id": "slam"}, {"id": "hands"}]})
+    )
+    (tmp_path / "robot.json").write_text(
+        json.dumps({"pluginDirectories": directories or ["plugins"]}, indent=1)
+    )
+    for name, manifest in manifests.items():
+        (tmp_path / "plugins" / name).mkdir(parents=True)
+        (tmp_path / "plugins" / name / "plugin.json").write_text(json.dumps(manifest, indent=1))
+    return tmp_path
+
+
+def found(folder: Path) -> tuple[dict[str, Any], list[str]]:
+    model, _ = load_model(folder / "model.json")
+    assert model is not None
+    plugins, diagnostics = discover(RobotFolder.open(folder), model)
+    return plugins, [
+        f"{Path(d.location.file).parent.name}:{d.location.line}: {d.message}" for d in diagnostics
+    ]
+
+
+SLAM = {"feature": "slam", "kind": "python", "entry": {"module": "hector.slam", "class": "HectorSlam"}}
+
+
+def test_a_valid_manifest_is_found(tmp_path: Path) -> None:
+    plugins, problems = found(robot(tmp_path, {"hector": SLAM}))
+    assert problems == []
+    assert plugins["slam"].kind == "python" and plugins["slam"].entry == {
+        "module": "hector.slam",
+        "class": "HectorSlam",
+    }
+
+
+def test_manifest_errors_are_located(tmp_path: Path) -> None:
+    manifests = {
+        "a_rust": {"feature": "slam", "kind": "rust", "entry": {"class": "X"}},
+        "b_escape": {"feature": "hands", "kind": "cpp", "entry": {"library": "../evil.so", "class": "Hands"}},
+        "c_unknown": {"feature": "legs", "kind": "python", "entry": {"module": "legs", "class": "Legs"}},
+        "d_nomodule": {"feature": "slam", "kind": "python", "entry": {"class": "X"}},
+        "e_ok": SLAM,
+        "f_twice": SLAM,
+    }
+    plugins, problems = found(robot(tmp_path, manifests))
+    assert problems == [
+        "a_rust:3: 'rust' is not one of 'python', 'cpp'",
+        "b_escape:5: library '../evil.so' leaves the plugin folder",
+        "c_unknown:2: the plugin implements 'legs', which is not a feature of the model",
+        "d_nomodule:4: a python plugin's entry needs 'module'",
+        f"f_twice:2: a second plugin for slam (the first is {tmp_path / 'plugins' / 'e_ok' / 'plugin.json'})",
+    ]
+    assert list(plugins) == ["slam"]
+
+
+def test_an_undeclared_directory_is_not_searched(tmp_path: Path) -> None:
+    folder = robot(tmp_path, {"hector": SLAM}, directories=["elsewhere"])
+    plugins, problems = found(folder)
+    assert plugins == {}
+    assert problems == [
+        f"{tmp_path.name}:3: plugin directory 'elsewhere' does not exist (relative to {tmp_path})"
+    ]
+
+
+def test_configure_writes_plugins_json_and_warns_about_missing_plugins(tmp_path: Path) -> None:
+    folder = robot(tmp_path, {"hector": SLAM})
+    result = CliRunner().invoke(
+        main, ["configure", str(folder), "--variant", "v", "-o", str(tmp_path / "out")]
+    )
+    assert result.exit_code == 0, result.output
+    assert "warning: no plugin implements hands, which the variant binds Dynamic or Late" in result.output
+    data = json.loads((tmp_path / "out" / "plugins.json").read_text())
+    assert data["plugins"] == [
+        {
+            "feature": "slam",
+            "binding": "DL",
+            "plugin": {
+                "folder": "plugins/hector",
+                "kind": "python",
+                "entry": {"module": "hector.slam", "class": "HectorSlam"},
+            },
+        },
+        {"feature": "hands", "binding": "DL", "plugin": None},
+    ]
+
+
+def test_a_bad_manifest_stops_configure_before_writing(tmp_path: Path) -> None:
+    folder = robot(
+        tmp_path, {"bad": {"feature": "slam", "kind": "cpp", "entry": {"library": "../x.so", "class": "X"}}}
+    )
+    result = CliRunner().invoke(
+        main, ["configure", str(folder), "--variant", "v", "-o", str(tmp_path / "out")]
+    )
+    assert result.exit_code == 1 and "leaves the plugin folder" in result.output
+    assert not (tmp_path / "out").exists()
