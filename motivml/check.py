@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import encoding as enc
+from .architecture import read_architecture
 from .errors import Diagnostic, Location, MotivmlError, Severity, warning
 from .explain import Explainer
 from .loader import Document, load_file, no_gc
@@ -128,20 +129,33 @@ def validate_configuration(model: FeatureModel, config_path: str | Path, partial
     return _sorted(report)
 
 
+def validate_architecture(model: FeatureModel, path: str | Path) -> Report:
+    """Check an architecture document against its schema and the model."""
+    report = Report(str(path), "architecture", model=model)
+    doc, problems = _read(path, lambda d: [])
+    report.diagnostics += problems
+    if doc is not None:
+        report.diagnostics += read_architecture(doc, model)[1]
+    return _sorted(report)
+
+
 def validate(
     model_path: str | Path,
     config_paths: Sequence[str | Path] = (),
     partial: bool = False,
     analyse: bool = True,
+    architecture_path: str | Path | None = None,
 ) -> list[Report]:
-    """The model's report, then one per configuration (the model is read once).
+    """The model's report, then one per configuration, then the architecture's, if given.
 
-    Configurations are checked only against a sound model; an unsound one reports itself.
+    The model is read once; the other documents are checked only against a sound model.
     """
     model_report = validate_model(model_path, analyse)
     reports = [model_report]
     if model_report.model is not None:
         reports += [validate_configuration(model_report.model, c, partial) for c in config_paths]
+        if architecture_path is not None:
+            reports.append(validate_architecture(model_report.model, architecture_path))
     return reports
 
 

@@ -96,13 +96,16 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     """
     try:
         model_path, configs, analyse = _targets(target, config, variant)
-        reports = validate(model_path, configs, partial, analyse)
+        architecture = model_path.parent / "architecture.json" if Path(target).is_dir() else None
+        if architecture is not None and not architecture.is_file():
+            architecture = None
+        reports = validate(model_path, configs, partial, analyse, architecture)
     except MotivmlError as exc:
         if fmt == "json":
             _print_json(False, exc.diagnostics, [], [])
             sys.exit(exc.exit_code)
         fail(exc)
-    valid = all(r.valid for r in reports) and len(reports) == 1 + len(configs)
+    valid = all(r.valid for r in reports) and len(reports) == 1 + len(configs) + (architecture is not None)
     if fmt == "json":
         _print_json(
             valid,
@@ -123,7 +126,7 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
         for report in reports:
             for d in report.errors + report.warnings:
                 print_diagnostic(d)
-            if report.kind == "configuration" or report.analysed or report.diagnostics:
+            if report.kind != "model" or report.analysed or report.diagnostics:
                 _verdict(report, checked_variants=len(reports) > 1 or not configs)
     sys.exit(0 if valid else 1)
 

@@ -1,0 +1,286 @@
+"""The motion architecture document (architecture.json) and its validation.
+
+Structure after "Modeling of Movement Control Architectures based on Motion Primitives
+using Domain-Specific Languages": spaces (typed data), mappings between types,
+transformations within a type, adaptive modules (dynamical systems plus learners) and
+adaptive components (a module with its wiring, rate and criterion). Every element names
+the feature that brings it, so a variant's active features decide which elements exist.
+
+Validation, located like validate's messages: unknown or duplicate ids, elements of
+features the model does not have, a transformation between types or dimensions, a
+mapping within one type, a module whose dimension does not fit a port, a component's goal
+and feedback meeting in incompatible spaces, a criterion or dynamical system unfit for the
+component's kind, and cycles among goal connections (a component cannot wait on its own
+output within one tick; feedback may close loops).
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+from typing import Any
+
+from .errors import Diagnostic, Location, error
+from .loader import Document
+from .model import FeatureModel
+from .schema import check_document
+
+ARCHITECTURE = "architecture.schema.json"
+GOAL_DIRECTED = {"pointAttractor", "dmp"}
+PERIODIC = {"oscillators"}
+CRITERIA = {
+    "convergence": {"ReachingController", "Sequencer"},
+    "tracking": {"TrackingController", "PatternGenerator"},
+}
+SYSTEMS = {
+    "ReachingController": GOAL_DIRECTED,
+    "Sequencer": GOAL_DIRECTED,
+    "TrackingController": GOAL_DIRECTED | PERIODIC,
+    "PatternGenerator": PERIODIC,
+}
+SECTIONS = ("spaces", "mappings", "modules", "components")
+
+
+@dataclass
+class Architecture:
+    """The document's elements by id, per section (plain dicts as written, validated)."""
+
+    spaces: dict[str, dict[str, Any]]
+    mappings: dict[str, dict[str, Any]]
+    modules: dict[str, dict[str, Any]]
+    components: dict[str, dict[str, Any]]
+    source: Document
+
+    def elements_of(self, features: set[str]) -> Architecture:
+        """The elements brought by the given (active) features."""
+
+        def keep(section: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+            return {k: v for k, v in section.items() if v["feature"] in features}
+
+        return Architecture(
+            keep(self.spaces), keep(self.mappings), keep(self.modules), keep(self.components), self.source
+        )
+
+
+class _Checker:
+    def __init__(self, doc: Document, model: FeatureModel) -> None:
+        self.doc = doc
+        self.model = model
+        self.found: list[Diagnostic] = []
+        root = doc.root
+        self.position = {
+            (section, item["id"]): i for section in SECTIONS for i, item in enumerate(root.get(section, []))
+        }
+        self.by_id = {section: {item["id"]: item for item in root.get(section, [])} for section in SECTIONS}
+
+    def where(self, section: str, element: str, *keys: str) -> Location:
+        return self.doc.locate((section, self.position[(section, element)], *keys))
+
+    def report(self, section: str, element: str, keys: tuple[str, ...], message: str, rule: str) -> None:
+        feature = self.by_id[section][element].get("feature")
+        self.found.append(error(self.where(section, element, *keys), message, rule, feature))
+
+    def reference(self, section: str, element: str, keys: tuple[str, ...], target: str, kind: str) -> bool:
+        known = self.by_id[kind]
+        if target in known:
+            return True
+        close = difflib.get_close_matches(target, list(known), n=1, cutoff=0.75)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        singular = kind.removesuffix("s")
+        self.report(
+            section,
+            element,
+            keys,
+            f"{element} refers to unknown {singular} {target!r}{hint}",
+            "architecture.unknown-id",
+        )
+        return False
+
+    def run(self) -> None:
+        seen: dict[str, str] = {}
+        for section in SECTIONS:
+            for index, item in enumerate(self.doc.root.get(section, [])):
+                element = item["id"]
+                if element in seen:
+                    where = self.doc.locate((section, index, "id"))
+                    message = f"id {element!r} is used twice (also a {seen[element]})"
+                    self.found.append(error(where, message, "architecture.duplicate-id", item.get("feature")))
+                    continue
+                seen[element] = section.removesuffix("s")
+                if item["feature"] not in self.model.index:
+                    self.report(
+                        section,
+                        element,
+                        ("feature",),
+                        f"{element} is brought by {item['feature']!r}, which is not a feature of the model",
+                        "architecture.unknown-feature",
+                    )
+        if any(d.rule == "architecture.duplicate-id" for d in self.found):
+            return  # references would be ambiguous
+        for element, mapping in self.by_id["mappings"].items():
+            self.mapping(element, mapping)
+        for element, component in self.by_id["components"].items():
+            self.component(element, component)
+        self.cycles()
+
+    def mapping(self, element: str, mapping: dict[str, Any]) -> None:
+        ends = [mapping["from"], mapping["to"]]
+        if not all(
+            self.reference("mappings", element, (key,), mapping[key], "spaces") for key in ("from", "to")
+        ):
+            return
+        source, target = (self.by_id["spaces"][end] for end in ends)
+        if mapping["kind"] == "transformation" and (source["type"], source["dimension"]) != (
+            target["type"],
+            target["dimension"],
+        ):
+            self.report(
+                "mappings",
+                element,
+                ("kind",),
+                f"transformation {element} changes {_shape(source)} into {_shape(target)}: a transformation stays within one type and dimension (use a mapping)",
+                "architecture.transformation",
+            )
+        if mapping["kind"] != "transformation" and source["type"] == target["type"]:
+            self.report(
+                "mappings",
+                element,
+                ("kind",),
+                f"{mapping['kind']} {element} stays within {source['type']}: use a transformation",
+                "architecture.mapping",
+            )
+
+    def module_side(self, element: str, port: str) -> dict[str, Any] | None:
+        """The space a component's module sees on a port, after its mapping (if known)."""
+        connection = self.by_id["components"][element].get(port)
+        if connection is None:
+            return None
+        if not self.reference("components", element, (port, "space"), connection["space"], "spaces"):
+            return None
+        through = connection.get("through")
+        if through is None:
+            outer_space: dict[str, Any] = self.by_id["spaces"][connection["space"]]
+            return outer_space
+        if not self.reference("components", element, (port, "through"), through, "mappings"):
+            return None
+        mapping = self.by_id["mappings"][through]
+        outer = "to" if port == "output" else "from"
+        inner = "from" if port == "output" else "to"
+        if mapping[outer] != connection["space"]:
+            self.report(
+                "components",
+                element,
+                (port, "through"),
+                f"{through} connects {mapping['from']} to {mapping['to']}, not {connection['space']} on the {port} of {element}",
+                "architecture.connection",
+            )
+            return None
+        inner_space: dict[str, Any] | None = self.by_id["spaces"].get(mapping[inner])
+        return inner_space
+
+    def component(self, element: str, component: dict[str, Any]) -> None:
+        kind = component["kind"]
+        if not self.reference("components", element, ("module",), component["module"], "modules"):
+            module = None
+        else:
+            module = self.by_id["modules"][component["module"]]
+        sides = {port: self.module_side(element, port) for port in ("goal", "feedback", "output")}
+        goal, feedback = sides["goal"], sides["feedback"]
+        if goal is not None and feedback is not None and _key(goal) != _key(feedback):
+            self.report(
+                "components",
+                element,
+                ("feedback",),
+                f"the goal ({_shape(goal)}) and feedback ({_shape(feedback)}) of {element} meet in incompatible spaces",
+                "architecture.connection",
+            )
+        criterion = component.get("criterion")
+        if criterion is not None and kind not in CRITERIA[criterion["type"]]:
+            self.report(
+                "components",
+                element,
+                ("criterion", "type"),
+                f"a {criterion['type']} criterion does not fit a {kind} (it fits {', '.join(sorted(CRITERIA[criterion['type']]))})",
+                "architecture.criterion",
+            )
+        if module is None:
+            return
+        dimension = sum(system["dimension"] for system in module["systems"])
+        for port, side in sides.items():
+            if side is not None and side["dimension"] != dimension:
+                self.report(
+                    "components",
+                    element,
+                    (port,),
+                    f"the {port} of {element} is {_shape(side)} but module {module['id']} has dimension {dimension}",
+                    "architecture.dimension",
+                )
+        unfit = [s["type"] for s in module["systems"] if s["type"] not in SYSTEMS[kind]]
+        if unfit:
+            self.report(
+                "components",
+                element,
+                ("module",),
+                f"a {kind} cannot run {', '.join(unfit)} (module {module['id']})",
+                "architecture.system",
+            )
+
+    def cycles(self) -> None:
+        """Components connected output -> goal must be acyclic (stepped in dependency order)."""
+        components = self.by_id["components"]
+        readers: dict[str, list[str]] = {}
+        for element, component in components.items():
+            if "goal" in component:
+                readers.setdefault(component["goal"]["space"], []).append(element)
+        edges = {e: sorted(readers.get(c["output"]["space"], [])) for e, c in components.items()}
+        state: dict[str, int] = {}
+        for start in components:
+            if state.get(start):
+                continue
+            stack: list[tuple[str, int]] = [(start, 0)]
+            path: list[str] = []
+            while stack:
+                node, index = stack.pop()
+                if index == 0:
+                    state[node] = 1
+                    path.append(node)
+                nexts = edges[node]
+                if index < len(nexts):
+                    stack.append((node, index + 1))
+                    child = nexts[index]
+                    if state.get(child) == 1:
+                        loop = path[path.index(child) :] + [child]
+                        self.report(
+                            "components",
+                            child,
+                            ("goal",),
+                            f"components wait on each other's output within a tick: {' -> '.join(loop)}",
+                            "architecture.cycle",
+                        )
+                    elif not state.get(child):
+                        stack.append((child, 0))
+                else:
+                    state[node] = 2
+                    path.pop()
+
+
+def _key(space: dict[str, Any]) -> tuple[str, int]:
+    return space["type"], space["dimension"]
+
+
+def _shape(space: dict[str, Any]) -> str:
+    unit = f" [{space['unit']}]" if space.get("unit") else ""
+    return f"{space['id']}: {space['type']}({space['dimension']}){unit}"
+
+
+def read_architecture(doc: Document, model: FeatureModel) -> tuple[Architecture | None, list[Diagnostic]]:
+    """Validate an architecture document against the schema and the model."""
+    problems = check_document(doc, ARCHITECTURE, "an architecture document")
+    if problems:
+        return None, problems
+    checker = _Checker(doc, model)
+    checker.run()
+    if checker.found:
+        return None, checker.found
+    by_id = checker.by_id
+    return Architecture(by_id["spaces"], by_id["mappings"], by_id["modules"], by_id["components"], doc), []
