@@ -13,18 +13,18 @@ variant check reports only what concerns the variant (and a void model).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import encoding as enc
 from .architecture import read_architecture
-from .errors import Diagnostic, Location, MotivmlError, Severity, warning
+from .errors import Diagnostic, Location, Severity, warning
 from .explain import Explainer
-from .loader import Document, load_file, no_gc
+from .loader import no_gc
 from .model import Configuration, Feature, FeatureModel
 from .reader import read_configuration, read_model
-from .schema import check_configuration, check_feature_model
+from .schema import check_configuration, check_feature_model, read_checked
 
 EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
 LISTED_WARNINGS = 100  # per kind: located one by one; the rest are summed up in one warning
@@ -55,32 +55,13 @@ class Report:
         return not self.errors
 
 
-def _read(
-    path: str | Path, schema_check: Callable[[Document], list[Diagnostic]]
-) -> tuple[Document | None, list[Diagnostic]]:
-    """Load a document and check it against its schema; None (and why) when unusable.
-
-    Only invalid documents become diagnostics; environment problems (a missing file)
-    propagate to the caller's exit code.
-    """
-    try:
-        doc = load_file(path)
-    except MotivmlError as exc:
-        if exc.exit_code != 1:
-            raise
-        return None, exc.diagnostics
-    with no_gc():
-        problems = schema_check(doc)
-    return (None, problems) if problems else (doc, [])
-
-
 def _usable(diagnostics: list[Diagnostic]) -> bool:
     return not any(d.severity is Severity.ERROR for d in diagnostics)
 
 
 def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]:
     """Read a feature model file; None when it cannot be used (the diagnostics say why)."""
-    doc, problems = _read(path, check_feature_model)
+    doc, problems = read_checked(path, check_feature_model)
     if doc is None:
         return None, problems
     with no_gc():
@@ -92,7 +73,7 @@ def load_configuration(
     path: str | Path, model: FeatureModel, partial: bool = False
 ) -> tuple[Configuration | None, list[Diagnostic]]:
     """Read a configuration of `model`; None when it cannot be used (the diagnostics say why)."""
-    doc, problems = _read(path, check_configuration)
+    doc, problems = read_checked(path, check_configuration)
     if doc is None:
         return None, problems
     with no_gc():
@@ -132,7 +113,7 @@ def validate_configuration(model: FeatureModel, config_path: str | Path, partial
 def validate_architecture(model: FeatureModel, path: str | Path) -> Report:
     """Check an architecture document against its schema and the model."""
     report = Report(str(path), "architecture", model=model)
-    doc, problems = _read(path, lambda d: [])
+    doc, problems = read_checked(path, lambda d: [])
     report.diagnostics += problems
     if doc is not None:
         report.diagnostics += read_architecture(doc, model)[1]

@@ -13,11 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from .errors import Diagnostic, MotivmlError, error, warning
+from .errors import Diagnostic, error, warning
 from .loader import load_file
 from .model import FeatureModel
 from .robot import RobotFolder
-from .schema import PLUGIN, ROBOT, check_document
+from .schema import PLUGIN, ROBOT, check_document, read_checked
 
 
 @dataclass(frozen=True)
@@ -30,14 +30,8 @@ class Plugin:
 
 
 def _read(path: Path, schema: str, what: str) -> tuple[dict[str, object] | None, list[Diagnostic]]:
-    try:
-        doc = load_file(path)
-    except MotivmlError as exc:
-        if exc.exit_code != 1:
-            raise
-        return None, exc.diagnostics
-    problems = check_document(doc, schema, what)
-    return (None, problems) if problems else (doc.root, [])
+    doc, problems = read_checked(path, lambda d: check_document(d, schema, what))
+    return (doc.root if doc is not None else None), problems
 
 
 def plugin_directories(robot: RobotFolder) -> tuple[list[Path], list[Diagnostic]]:

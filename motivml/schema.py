@@ -17,7 +17,7 @@ import difflib
 import functools
 import json
 import re
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -25,8 +25,8 @@ from typing import Any
 from jsonschema import Draft202012Validator
 from jsonschema.exceptions import ValidationError
 
-from .errors import Diagnostic, EnvironmentProblem, Location, error
-from .loader import Document, JSONPath
+from .errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from .loader import Document, JSONPath, load_file, no_gc
 
 FEATURE_MODEL = "feature-model.schema.json"
 CONFIGURATION = "configuration.schema.json"
@@ -380,3 +380,22 @@ def _errors(
                 feature,
             )
         ]
+
+
+def read_checked(
+    path: str | Path, schema_check: Callable[[Document], list[Diagnostic]]
+) -> tuple[Document | None, list[Diagnostic]]:
+    """Load a document and check it against its schema; None (and why) when unusable.
+
+    Only invalid documents become diagnostics; environment problems (a missing file)
+    propagate, so that the caller's exit code says so.
+    """
+    try:
+        doc = load_file(path)
+    except MotivmlError as exc:
+        if exc.exit_code != 1:
+            raise
+        return None, exc.diagnostics
+    with no_gc():
+        problems = schema_check(doc)
+    return (None, problems) if problems else (doc, [])
