@@ -272,9 +272,6 @@ def _as_warning(explained: Diagnostic, where: Location, head: str, rule: str, fe
     )
 
 
-STATES = ("SE", "SL", "DE", "DL")
-
-
 def binding_states(model: FeatureModel, config: Configuration | None) -> list[set[str]]:
     """Per feature, what valid variants (of the configuration) can make of it.
 

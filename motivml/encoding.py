@@ -343,13 +343,11 @@ class Encoding:
         possible = [False] * len(targets)
         base = self.assumptions(with_config)
         pending: list[int] = list(range(len(targets)))
-        self.cover_solves = 0
         for hint in [*hints, None]:
             if hint is None:
                 self._prefer(targets, pending)
             else:
                 self.solver.set_phases(list(hint))
-            self.cover_solves += 1
             if not self.solver.solve(assumptions=base):
                 return possible
             pending = self._mark(targets, possible, pending)
@@ -357,7 +355,6 @@ class Encoding:
         while pending:
             k = pending[0]
             self._prefer(targets, pending)
-            self.cover_solves += 1
             if self.solver.solve(assumptions=[*base, *targets[k]]):
                 pending = self._mark(targets, possible, pending)
             else:

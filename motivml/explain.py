@@ -219,8 +219,8 @@ class Explainer:
         parent = self.model.features[fact.a].parent
         return (fact.a,) if parent is None else (fact.a, parent)
 
-    def sentence(self, mus: Sequence[int]) -> tuple[str, str, Fact, tuple[Fact, ...]]:
-        """(message, rule, primary fact, all facts) for one minimal conflict."""
+    def sentence(self, mus: Sequence[int]) -> tuple[str, str, int, dict[int, Fact], tuple[Fact, ...]]:
+        """(message, rule, primary fact's index, each fact in words, all facts shown)."""
         facts = self.encoding.facts
         kinds = {facts[k].kind for k in mus}
         main = next((kind for kind in PRIORITY if kind in kinds), None)
@@ -277,23 +277,16 @@ class Explainer:
         ordered = tuple(dict.fromkeys(words[k] for k in [*shown_statements, *values]))
         if enc.START in kinds:
             ordered += (words[next(k for k in mus if facts[k].kind == enc.START)],)
-        return message, rule, words[primary_k], ordered
+        return message, rule, primary_k, words, ordered
 
     def diagnostic(
         self, mus: Sequence[int], severity: Severity = Severity.ERROR, prefix: str = ""
     ) -> Diagnostic:
-        message, rule, primary, facts = self.sentence(mus)
-        feature = self._feature_of(mus, primary)
-        return Diagnostic(severity, primary.location, prefix + message, rule, feature, facts)
-
-    def _feature_of(self, mus: Sequence[int], primary: Fact) -> str | None:
-        for k in mus:
-            if self.statement(k) == primary:
-                fact = self.encoding.facts[k]
-                if fact.kind in (enc.GROUP_OR, enc.GROUP_XOR):
-                    return self._id(self.model.groups[fact.a].parent)
-                return self._id(fact.a)
-        return None
+        message, rule, primary, words, facts = self.sentence(mus)
+        fact = self.encoding.facts[primary]
+        group = fact.kind in (enc.GROUP_OR, enc.GROUP_XOR)
+        feature = self._id(self.model.groups[fact.a].parent if group else fact.a)
+        return Diagnostic(severity, words[primary].location, prefix + message, rule, feature, facts)
 
 
 def _join(parts: list[str]) -> str:

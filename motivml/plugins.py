@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from .errors import Diagnostic, error, warning
+from .errors import Diagnostic, EnvironmentProblem, Location, error, warning
 from .loader import load_file
 from .model import FeatureModel
 from .robot import RobotFolder
@@ -67,7 +67,13 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
     folders, diagnostics = plugin_directories(robot)
     plugins: dict[str, Plugin] = {}
     for folder in folders:
-        for candidate in sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        try:
+            candidates = sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith("."))
+        except OSError as exc:
+            raise EnvironmentProblem(
+                error(Location(str(folder)), f"cannot read: {exc.strerror}", "io")
+            ) from None
+        for candidate in candidates:
             manifest_path = candidate / "plugin.json"
             if not manifest_path.is_file():
                 continue
