@@ -38,6 +38,11 @@ SYSTEMS = {
     "TrackingController": GOAL_DIRECTED | PERIODIC,
     "PatternGenerator": PERIODIC,
 }
+PARAMETERS = {
+    "pointAttractor": {"alpha"},
+    "dmp": {"alpha", "basis", "duration", "demonstration"},
+    "oscillators": {"frequency", "coupling", "amplitude", "offsets", "phases"},
+}
 SECTIONS = ("spaces", "mappings", "modules", "components")
 
 
@@ -117,10 +122,23 @@ class _Checker:
                     )
         if any(d.rule == "architecture.duplicate-id" for d in self.found):
             return  # references would be ambiguous
+        for element, space in self.by_id["spaces"].items():
+            if "initial" in space and len(space["initial"]) != space["dimension"]:
+                self.report(
+                    "spaces",
+                    element,
+                    ("initial",),
+                    f"the initial value of {_shape(space)} has {len(space['initial'])} numbers",
+                    "architecture.value",
+                )
         for element, mapping in self.by_id["mappings"].items():
             self.mapping(element, mapping)
+        for element, module in self.by_id["modules"].items():
+            for number, system in enumerate(module["systems"]):
+                self.parameters(element, number, system)
         for element, component in self.by_id["components"].items():
             self.component(element, component)
+        self.writers()
         self.cycles()
 
     def mapping(self, element: str, mapping: dict[str, Any]) -> None:
@@ -141,6 +159,7 @@ class _Checker:
                 f"transformation {element} changes {_shape(source)} into {_shape(target)}: a transformation stays within one type and dimension (use a mapping)",
                 "architecture.transformation",
             )
+        self.function(element, mapping, source, target)
         if mapping["kind"] != "transformation" and source["type"] == target["type"]:
             self.report(
                 "mappings",
@@ -149,6 +168,129 @@ class _Checker:
                 f"{mapping['kind']} {element} stays within {source['type']}: use a transformation",
                 "architecture.mapping",
             )
+
+    def function(
+        self, element: str, mapping: dict[str, Any], source: dict[str, Any], target: dict[str, Any]
+    ) -> None:
+        """Does the mapping say what it computes, in a way that fits its two spaces?"""
+        kind, function = mapping["kind"], mapping.get("function")
+
+        def wrong(key: str, message: str) -> None:
+            self.report(
+                "mappings",
+                element,
+                ("function", key) if function else (key,),
+                message,
+                "architecture.function",
+            )
+
+        if kind == "adaptiveMapping" and "learner" not in mapping:
+            wrong("kind", f"adaptive mapping {element} needs a learner")
+        if function is None:
+            if kind == "mapping":
+                wrong("kind", f"mapping {element} needs a function: linear or planarArm")
+            return
+        rows, columns = target["dimension"], source["dimension"]
+        allowed = {"transformation": ("linear", "scale")}.get(kind, ("linear", "planarArm"))
+        if function["type"] not in allowed:
+            wrong("type", f"a {kind} cannot compute {function['type']} (it can: {', '.join(allowed)})")
+            return
+        needs = {"linear": ("matrix",), "scale": ("factor",), "planarArm": ("links",)}[function["type"]]
+        for key in sorted(
+            set(function) - set(needs) - {"type", "offset"} - {k for k in function if k.startswith("x-")}
+        ):
+            wrong(key, f"{key} is not a parameter of {function['type']}")
+        for key in needs:
+            if key not in function:
+                wrong("type", f"{function['type']} needs {key}")
+                return
+        if function["type"] == "linear":
+            shape = (len(function["matrix"]), {len(row) for row in function["matrix"]})
+            if shape != (rows, {columns}):
+                wrong(
+                    "matrix",
+                    f"the matrix of {element} must be {rows} x {columns} ({target['id']} from {source['id']})",
+                )
+        if (
+            function["type"] == "scale"
+            and isinstance(function["factor"], list)
+            and len(function["factor"]) != rows
+        ):
+            wrong("factor", f"{element} scales {rows} numbers but has {len(function['factor'])} factors")
+        if function["type"] == "planarArm" and (len(function["links"]), rows) != (columns, 2):
+            wrong(
+                "links",
+                f"a planar arm of {len(function['links'])} links maps JointAngles({len(function['links'])}) to a 2-dimensional position, not {_shape(source)} to {_shape(target)}",
+            )
+        if "offset" in function and (function["type"] == "scale" or len(function["offset"]) != rows):
+            wrong(
+                "offset", f"the offset of {element} must have {rows} numbers and belongs to a linear function"
+            )
+
+    def parameters(self, element: str, number: int, system: dict[str, Any]) -> None:
+        """System parameters belong to their type and have the system's dimension."""
+        kind, dimension = system["type"], system["dimension"]
+        for key in sorted(set(system) - {"type", "dimension"}):
+            if key.startswith("x-"):
+                continue
+            where = ("systems", str(number), key)
+            if key not in PARAMETERS[kind]:
+                self.report_at(
+                    "modules",
+                    element,
+                    (*where,),
+                    f"{key} is not a parameter of {kind}",
+                    "architecture.parameter",
+                )
+            elif key in ("offsets", "phases") and len(system[key]) != dimension:
+                self.report_at(
+                    "modules",
+                    element,
+                    (*where,),
+                    f"{key} of {element} needs {dimension} numbers",
+                    "architecture.parameter",
+                )
+            elif key == "demonstration":
+                lengths = {len(sample) for sample in system[key]["samples"]}
+                if lengths != {dimension}:
+                    self.report_at(
+                        "modules",
+                        element,
+                        (*where,),
+                        f"the demonstration of {element} must have samples of {dimension} numbers",
+                        "architecture.parameter",
+                    )
+
+    def report_at(self, section: str, element: str, keys: tuple[str, ...], message: str, rule: str) -> None:
+        path = tuple(int(k) if k.isdigit() else k for k in keys)
+        feature = self.by_id[section][element].get("feature")
+        self.found.append(
+            error(
+                self.doc.locate((section, self.position[(section, element)], *path)), message, rule, feature
+            )
+        )
+
+    def writers(self) -> None:
+        """A space is computed by component outputs (summed) or by one free mapping, not both."""
+        ports = {
+            c.get(port, {}).get("through")
+            for c in self.by_id["components"].values()
+            for port in ("goal", "feedback", "output")
+        }
+        written = {c["output"]["space"]: element for element, c in self.by_id["components"].items()}
+        for element, mapping in self.by_id["mappings"].items():
+            if element in ports or mapping["to"] not in self.by_id["spaces"]:
+                continue
+            other = written.get(mapping["to"])
+            if other is not None:
+                self.report(
+                    "mappings",
+                    element,
+                    ("to",),
+                    f"{mapping['to']} is written by component {other} and computed by {element}: a space has one kind of writer",
+                    "architecture.writers",
+                )
+            written[mapping["to"]] = element
 
     def module_side(self, element: str, port: str) -> dict[str, Any] | None:
         """The space a component's module sees on a port, after its mapping (if known)."""
@@ -203,8 +345,33 @@ class _Checker:
                 f"a {criterion['type']} criterion does not fit a {kind} (it fits {', '.join(sorted(CRITERIA[criterion['type']]))})",
                 "architecture.criterion",
             )
+        if "sequence" in component and kind != "Sequencer":
+            self.report(
+                "components",
+                element,
+                ("sequence",),
+                f"only a Sequencer has a sequence, not a {kind}",
+                "architecture.sequence",
+            )
+        if kind == "Sequencer" and "sequence" not in component and "goal" not in component:
+            self.report(
+                "components",
+                element,
+                ("kind",),
+                f"Sequencer {element} needs a sequence or a goal",
+                "architecture.sequence",
+            )
         if module is None:
             return
+        for number, point in enumerate(component.get("sequence", [])):
+            if len(point) != sum(system["dimension"] for system in module["systems"]):
+                self.report_at(
+                    "components",
+                    element,
+                    ("sequence", str(number)),
+                    f"via point {number} of {element} does not have the dimension of module {module['id']}",
+                    "architecture.sequence",
+                )
         dimension = sum(system["dimension"] for system in module["systems"])
         for port, side in sides.items():
             if side is not None and side["dimension"] != dimension:

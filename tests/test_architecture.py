@@ -46,6 +46,7 @@ VALID: dict[str, Any] = {
             "kind": "transformation",
             "from": "joint_goal",
             "to": "command",
+            "function": {"type": "scale", "factor": 0.5},
             "feature": "reaching",
         },
     ],
@@ -66,7 +67,7 @@ VALID: dict[str, Any] = {
             "rate": 100,
             "goal": {"space": "pose_goal", "through": "ik"},
             "feedback": {"space": "joints"},
-            "output": {"space": "command"},
+            "output": {"space": "command", "through": "scale"},
             "criterion": {"type": "convergence", "tolerance": 0.01},
             "feature": "reaching",
         },
@@ -148,6 +149,52 @@ CASES = {
         ),
         "$.components[1].module: a ReachingController cannot run oscillators (module cpg)",
     ),
+    "initial value of the wrong length": (
+        changed("spaces", 4, initial=[0.0, 1.0]),
+        "$.spaces[4].initial: the initial value of legs: JointAngles(4) [rad] has 2 numbers",
+    ),
+    "mapping without a function": (
+        changed("mappings", 0, kind="mapping"),
+        "$.mappings[0].kind: mapping ik needs a function: linear or planarArm",
+    ),
+    "function unfit for the kind": (
+        changed("mappings", 1, function={"type": "planarArm", "links": [1.0]}),
+        "$.mappings[1].function.type: a transformation cannot compute planarArm (it can: linear, scale)",
+    ),
+    "matrix of the wrong shape": (
+        changed("mappings", 1, function={"type": "linear", "matrix": [[1.0, 0.0]]}),
+        "$.mappings[1].function.matrix: the matrix of scale must be 7 x 7 (command from joint_goal)",
+    ),
+    "adaptive mapping without a learner": (
+        changed("mappings", 0, learner=None)
+        | {
+            "mappings": [
+                {k: v for k, v in VALID["mappings"][0].items() if k != "learner"},
+                VALID["mappings"][1],
+            ]
+        },
+        "$.mappings[0].kind: adaptive mapping ik needs a learner",
+    ),
+    "parameter of another system": (
+        changed("modules", 1, systems=[{"type": "oscillators", "dimension": 4, "basis": 10}]),
+        "$.modules[1].systems[0].basis: basis is not a parameter of oscillators",
+    ),
+    "offsets of the wrong length": (
+        changed("modules", 1, systems=[{"type": "oscillators", "dimension": 4, "offsets": [0.0, 3.1]}]),
+        "$.modules[1].systems[0].offsets: offsets of cpg needs 4 numbers",
+    ),
+    "sequence on another kind": (
+        changed("components", 0, sequence=[[0.0] * 7]),
+        "$.components[0].sequence: only a Sequencer has a sequence, not a ReachingController",
+    ),
+    "two writers of one space": (
+        {
+            **VALID,
+            "mappings": VALID["mappings"]
+            + [{"id": "copy", "kind": "transformation", "from": "joints", "to": "command", "feature": "arm"}],
+        },
+        "$.mappings[2].to: command is written by component reacher and computed by copy: a space has one kind of writer",
+    ),
 }
 
 
@@ -162,6 +209,7 @@ def test_goal_cycles_are_refused_with_the_chain() -> None:
     document = copy.deepcopy(VALID)
     document["components"][0]["output"] = {"space": "joint_goal"}
     document["components"][0]["goal"] = {"space": "joint_goal"}
+    document["mappings"].pop(0)  # ik would compute joint_goal, a second writer
     assert problems(document) == [
         "$.components[0].goal: components wait on each other's output within a tick: reacher -> reacher"
     ]
