@@ -16,7 +16,7 @@ from . import encoding as enc
 from .check import check_variant
 from .errors import MotivmlError
 from .loader import no_gc
-from .model import Configuration, Feature, FeatureModel
+from .model import Configuration, Entry, Feature, FeatureModel
 
 PREFERENCES = ("late", "dynamic")
 
@@ -120,3 +120,31 @@ def _preferences(
         + [(lit, time_weight) for lit in times]
         + [(lit, mode_weight) for lit in modes]
     )
+
+
+def as_configuration(variant: Variant) -> Configuration:
+    """The variant as a complete configuration (every feature decided, no Any)."""
+    entries = {}
+    for position, d in enumerate(variant.decisions):
+        time = "Early" if d.early else "Late"
+        mode = "Static" if d.static else "Dynamic"
+        entries[d.feature.id] = Entry(d.feature.id, d.selected, time, mode, position)
+    return Configuration(entries, variant.name)
+
+
+def start_state(variant: Variant) -> list[Feature]:
+    """The active set at start (semantics.md section 4), in definition order.
+
+    Every selected Early feature, completed with the fewest Late ones (earlier features
+    first among equals). A resolved variant always has one (its start state is part of
+    the encoding that resolved it); NoVariant says otherwise if that ever fails.
+    """
+    model = variant.model
+    late = [d.feature.index for d in variant.selected() if not d.early]
+    with enc.Encoding(model) as encoding:
+        encoding.set_configuration(as_configuration(variant))
+        active = encoding.start_state(late)
+    if active is None:
+        raise NoVariant(check_variant(model, as_configuration(variant)))
+    return [model.features[i] for i in active]
+

@@ -29,6 +29,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 
+from pysat.card import ITotalizer
 from pysat.examples.rc2 import RC2
 from pysat.formula import WCNF
 from pysat.solvers import Solver
@@ -401,6 +402,40 @@ class Encoding:
         with RC2(formula, solver="g4") as maxsat:
             model = maxsat.compute()
         return list(model) if model is not None else None
+
+    def start_state(self, late: Sequence[int]) -> list[int] | None:
+        """The active set at start (semantics.md section 4), as feature indices; None if none.
+
+        Call after `set_configuration` with a complete variant. `late` are the selected Late
+        features in definition order: the fewest of them are activated (an incremental
+        totalizer bounds the count, tightened until unsatisfiable), and among the smallest
+        sets the one that activates earlier features first (greedy in pre-order, each
+        choice kept as an assumption). One solver throughout.
+        """
+        base = self.assumptions()
+        if not self.solver.solve(assumptions=base):
+            return None
+        chosen: list[int] = []
+        if late:
+            literals = [self.a(i) for i in late]
+            counter = ITotalizer(lits=literals, ubound=len(literals), top_id=self._top)
+            self._top = counter.top_id
+            self.solver.append_formula(counter.cnf.clauses)
+            truth = set(self.assignment())
+            bound = sum(1 for literal in literals if literal in truth)
+            while bound and self.solver.solve(assumptions=[*base, -counter.rhs[bound - 1]]):
+                truth = set(self.assignment())
+                bound = sum(1 for literal in literals if literal in truth)
+            fixed = [*base, -counter.rhs[bound]] if bound < len(literals) else list(base)
+            for literal in literals:
+                ok = self.solver.solve(assumptions=[*fixed, literal])
+                fixed.append(literal if ok else -literal)
+            counter.delete()
+            if not self.solver.solve(assumptions=fixed):  # cannot happen: each step stayed satisfiable
+                return None
+        truth = set(self.assignment())
+        chosen = [i for i in range(self.n) if self.a(i) in truth]
+        return chosen
 
     # --------------------------------------------------------------- lifecycle
     def close(self) -> None:
