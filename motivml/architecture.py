@@ -139,6 +139,7 @@ class _Checker:
         for element, component in self.by_id["components"].items():
             self.component(element, component)
         self.writers()
+        self.shared_modules()
         self.cycles()
 
     def mapping(self, element: str, mapping: dict[str, Any]) -> None:
@@ -269,6 +270,21 @@ class _Checker:
                 self.doc.locate((section, self.position[(section, element)], *path)), message, rule, feature
             )
         )
+
+    def shared_modules(self) -> None:
+        """Each component runs its own module (a module's state is one component's)."""
+        user: dict[str, str] = {}
+        for element, component in self.by_id["components"].items():
+            module = component["module"]
+            if module in user:
+                self.report(
+                    "components",
+                    element,
+                    ("module",),
+                    f"module {module} already runs in component {user[module]}: each component needs a module of its own",
+                    "architecture.shared-module",
+                )
+            user.setdefault(module, element)
 
     def writers(self) -> None:
         """A space is computed by component outputs (summed) or by one free mapping, not both."""

@@ -10,12 +10,17 @@ from __future__ import annotations
 import json
 import re
 import sys
+import threading
+import time
 from pathlib import Path
 from typing import NoReturn
 
 import click
-from rich.console import Console
+from rich import box
+from rich.console import Console, Group
+from rich.live import Live
 from rich.markup import escape
+from rich.table import Table
 from rich.tree import Tree
 
 from . import __version__, impact
@@ -23,10 +28,12 @@ from .check import Report, analyse_model, binding_states, validate
 from .codegen import late_or_dynamic, outputs, write_if_changed
 from .configure import PREFERENCES, resolve
 from .errors import Diagnostic, MotivmlError, Severity
+from .launch import launch
 from .model import Configuration, FeatureModel
 from .plugins import discover
 from .plugins import missing as missing_plugins
 from .robot import RobotFolder
+from .runtime import RealClock, RunStats, Runtime, SimulatedClock, Snapshot
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
 err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
@@ -380,3 +387,149 @@ def _short(token: str) -> str:
 
 if __name__ == "__main__":
     main()
+
+
+@main.command("run")
+@click.argument("target", type=click.Path())
+@click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
+@click.option(
+    "--duration",
+    type=click.FloatRange(min=0, min_open=True, max=86400),
+    default=5.0,
+    show_default=True,
+    help="Seconds of clock time to run.",
+)
+@click.option(
+    "--rate",
+    type=click.FloatRange(min=1, max=100_000),
+    default=1000.0,
+    show_default=True,
+    help="Control loop rate in Hz.",
+)
+@click.option(
+    "--clock",
+    type=click.Choice(["real", "simulated"]),
+    default="real",
+    show_default=True,
+    help="real: tick on the wall clock; simulated: tick as fast as possible in simulated time.",
+)
+@click.option("--live/--no-live", default=None, help="Show the live view (default: when on a terminal).")
+@click.option(
+    "--prefer",
+    type=click.Choice(PREFERENCES),
+    multiple=True,
+    help="Resolve the variant as configure --prefer does.",
+)
+def run_command(
+    target: str,
+    variant: str,
+    duration: float,
+    rate: float,
+    clock: str,
+    live: bool | None,
+    prefer: tuple[str, ...],
+) -> None:
+    """Build the motion architecture of a variant's active features and run it at a fixed rate.
+
+    The active set at start is every Early feature plus the fewest Late ones the model
+    needs (semantics.md section 4); exactly their spaces, mappings, modules and components
+    run. Ends with a summary: each component's status and when its criterion fired, each
+    module's learning state, the final space values and the loop's timing.
+    """
+    try:
+        robot = launch(target, variant, rate, prefer)
+    except MotivmlError as exc:
+        for d in exc.diagnostics:
+            print_diagnostic(d)
+        out.print(f"[bold red]cannot run[/]: {escape(target)} variant {escape(variant)}")
+        sys.exit(exc.exit_code)
+    for d in robot.warnings:
+        print_diagnostic(d)
+    runtime = robot.runtime
+    out.print(
+        f"running {escape(robot.folder.name)} variant {escape(variant)}: "
+        f"{_plural(len(robot.assembly.components), 'component')} of {_plural(len(robot.active), 'active feature')} "
+        f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, {duration:g} s"
+    )
+    chosen = RealClock() if clock == "real" else SimulatedClock()
+    show = out.is_terminal if live is None else live
+    result: list[RunStats] = []
+    worker = threading.Thread(target=lambda: result.append(runtime.run(duration, chosen)), daemon=True)
+    began = time.perf_counter()
+    interrupted = False
+    try:
+        worker.start()
+        if show:
+            with Live(_live_view(runtime, began), console=out, refresh_per_second=4, transient=True) as view:
+                while worker.is_alive():
+                    worker.join(0.25)
+                    view.update(_live_view(runtime, began))
+        else:
+            while worker.is_alive():
+                worker.join(0.25)
+    except KeyboardInterrupt:
+        interrupted = True
+        runtime.stop()
+        worker.join()
+    if not result:
+        out.print("[bold red]the run ended without a result[/]")
+        sys.exit(3)
+    _summary(runtime, result[0])
+    sys.exit(130 if interrupted else 0)
+
+
+STATUS_COLOURS = {"converged": "green", "tracking": "green", "ongoing": "yellow", "learning": "cyan"}
+
+
+def _components_table(snapshot: Snapshot, runtime: Runtime | None = None) -> Table:
+    table = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 2, 0, 0))
+    for column in ("component", "kind", "status", "error", "learning"):
+        table.add_column(column, justify="right" if column == "error" else "left", no_wrap=True)
+    if runtime is not None:
+        table.add_column("fired at", no_wrap=True)
+    for c in snapshot.components:
+        colour = STATUS_COLOURS.get(c.status, "white")
+        row = [
+            escape(c.id),
+            c.kind,
+            f"[{colour}]{c.status}[/]",
+            "" if c.error != c.error else f"{c.error:.4f}",
+            c.learning,
+        ]
+        if runtime is not None:
+            fired = next(
+                (e for e in runtime.events if e.component == c.id and e.status in ("converged", "tracking")),
+                None,
+            )
+            row.append(f"{fired.time:.3f} s" if fired else "-")
+        table.add_row(*row)
+    return table
+
+
+def _live_view(runtime: Runtime, began: float) -> Group:
+    snapshot = runtime.status()
+    wall = time.perf_counter() - began
+    achieved = snapshot.tick / wall if wall > 0 else 0.0
+    head = f"tick {snapshot.tick}  t = {snapshot.time:.3f} s  achieved {achieved:,.0f} Hz (asked {runtime.rate:g} Hz)"
+    return Group(head, _components_table(snapshot))
+
+
+def _summary(runtime: Runtime, stats: RunStats) -> None:
+    snapshot = runtime.status()
+    out.print(_components_table(snapshot, runtime))
+    for module, state, learned in snapshot.modules:
+        extra = f", learned {learned} time{'s' if learned != 1 else ''}" if learned else ""
+        out.print(f"module {escape(module)}: {state}{extra}")
+    for space, value in runtime.assembly.values.items():
+        numbers = ", ".join(f"{v:.3f}" for v in value)
+        out.print(f"space {escape(space)} = [{numbers}]")
+    line = f"{stats.ticks} ticks, {snapshot.time:.3f} s of control time"
+    if stats.clock == "real":
+        p50, p99 = (stats.percentile(stats.jitter, q) * 1e3 for q in (50, 99))
+        worst = max(stats.jitter, default=0.0) * 1e3
+        line += (
+            f" in {stats.elapsed:.3f} s: {stats.achieved:,.1f} Hz achieved (asked {stats.rate:g} Hz); "
+            f"jitter p50 {p50:.3f} ms, p99 {p99:.3f} ms, max {worst:.3f} ms; "
+            f"{_plural(stats.missed, 'missed deadline')}; CPU {stats.cpu_share:.0%}"
+        )
+    out.print(line)

@@ -147,4 +147,3 @@ def start_state(variant: Variant) -> list[Feature]:
     if active is None:
         raise NoVariant(check_variant(model, as_configuration(variant)))
     return [model.features[i] for i in active]
-

@@ -24,6 +24,29 @@ def ridge(features: Matrix, targets: Matrix, regularisation: float = 1e-6) -> Ma
     return np.asarray(np.linalg.solve(gram, x.T @ y))
 
 
+class LinearRLS:
+    """y = [x, 1] W learned online by recursive least squares (an affine map)."""
+
+    def __init__(self, inputs: int, outputs: int, regularisation: float = 1e-6) -> None:
+        self.weights = np.zeros((inputs + 1, outputs))
+        self._inverse = np.eye(inputs + 1) / regularisation
+
+    @staticmethod
+    def _features(x: Matrix) -> Matrix:
+        x = np.atleast_2d(np.asarray(x, dtype=float))
+        return np.hstack([x, np.ones((len(x), 1))])
+
+    def update(self, x: Matrix, y: Matrix) -> None:
+        h = self._features(x)[0]
+        ph = self._inverse @ h
+        gain = ph / (1.0 + h @ ph)
+        self.weights = self.weights + np.outer(gain, np.atleast_1d(y) - h @ self.weights)
+        self._inverse = self._inverse - np.outer(gain, ph)
+
+    def predict(self, x: Matrix) -> Matrix:
+        return np.asarray(self._features(x) @ self.weights)
+
+
 class ExtremeLearningMachine:
     """y = tanh(x A + b) W, with A, b random and fixed, W learned."""
 

@@ -187,6 +187,17 @@ CASES = {
         changed("components", 0, sequence=[[0.0] * 7]),
         "$.components[0].sequence: only a Sequencer has a sequence, not a ReachingController",
     ),
+    "module shared by two components": (
+        changed(
+            "components",
+            1,
+            module="reach_dmp",
+            kind="ReachingController",
+            criterion={"type": "convergence", "tolerance": 0.1},
+            output={"space": "joints"},
+        ),
+        "$.components[1].module: module reach_dmp already runs in component reacher: each component needs a module of its own",
+    ),
     "two writers of one space": (
         {
             **VALID,

@@ -30,11 +30,32 @@ EXPECTED_ERRORS = {
         "member of each of its groups (exactly one for XOR) and no two active features that exclude each other "
         "(section 4)"
     ],
+    ("reaching_arm", "broken_both_static"): [
+        "25:17: $.properties[2].props.mode: dmp_reach and attractor_reach are alternatives in reaching's XOR group, "
+        "but dmp_reach is configured Static and attractor_reach is selected: two members of an XOR group can both "
+        "be selected only as Dynamic alternatives, at most one of them Early (rules 2.2 and 3.3)"
+    ],
+    ("quadruped", "broken_two_gaits"): [
+        "17:17: $.properties[1].props.mode: trot and pace are alternatives in locomotion's XOR group, but trot is "
+        "configured Static and pace is selected: two members of an XOR group can both be selected only as Dynamic "
+        "alternatives, at most one of them Early (rules 2.2 and 3.3)"
+    ],
+    ("mixture_arm", "broken_no_primitive"): [
+        "22:19: $.properties[2].selected: primitives has the OR group reach_left, reach_right, circle, but "
+        "reach_left is not selected, reach_right is not selected, circle is not selected and primitives is "
+        "selected: an OR group needs a selected member when its parent is selected (rule 2.2)"
+    ],
 }
 
 
-def test_three_robots_ship() -> None:
-    assert ROBOTS == ["simplebot", "tiago_service", "uv_disinfection"]
+def test_six_robots_ship() -> None:
+    assert ROBOTS == ["mixture_arm", "quadruped", "reaching_arm", "simplebot", "tiago_service", "uv_disinfection"]
+
+
+@pytest.mark.parametrize("robot", [r for r in ROBOTS if (ROOT / r / "architecture.json").is_file()])
+def test_architecture_is_valid(robot: str) -> None:
+    reports = validate(ROOT / robot / "model.json", architecture_path=ROOT / robot / "architecture.json")
+    assert [d.message for r in reports for d in r.diagnostics] == []
 
 
 @pytest.mark.parametrize("robot", ROBOTS)

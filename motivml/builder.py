@@ -1,0 +1,458 @@
+"""The robot builder: from a variant's active features to an executable motion architecture.
+
+`build(architecture, active)` instantiates exactly the elements of the active features:
+spaces (numpy vectors, from their initial values), mappings (the functions of
+architecture.json, adaptive ones with their learner), one module instance per adaptive
+module and one `Component` per adaptive component, wired to its spaces. It orders the
+components so that a component whose output is another's goal steps first within a tick
+(the document forbids cycles among goal connections), and the free mappings (those on no
+port) after them, each after the mappings it reads from.
+
+What a tick means for each element (the runtime calls `Assembly.tick`):
+
+* a component steps when due (every `loop rate / component rate` ticks): it reads its goal
+  and feedback through their mappings, steps its module, and writes its output through its
+  mapping; several components writing one space are *superposed* (the space holds the sum
+  of their latest outputs), which is how a mixture of controllers combines;
+* goal-directed systems restart from the current position when the goal changes; periodic
+  systems oscillate around the goal (or zero);
+* a criterion compares goal and feedback (or the module's own output when there is no
+  feedback): convergence -> "converged", tracking -> "tracking", else "ongoing"; without
+  a criterion a component is "running". A pattern generator tracks when its oscillators are
+  locked to the wanted phase differences within the tolerance;
+* module lifecycle: `executing` drives the output; `offlineLearning` drives nothing and
+  records learning data (the feedback, else the goal); `onlineLearning` drives the output
+  and records. Leaving a learning state learns from the recording: a DMP's weights by ridge
+  regression (the recording is its new demonstration).
+
+Missing references (a component of an active feature using a space of an inactive one) are
+refused with a located `BuildError`, never half built.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .architecture import Architecture
+from .dynamics import CoupledOscillators, DiscreteDMP, PointAttractor
+from .errors import Diagnostic, MotivmlError, error, warning
+from .learners import ExtremeLearningMachine, LinearRLS
+
+Vector = NDArray[np.float64]
+Function = Callable[[Vector], Vector]
+STATES = ("executing", "onlineLearning", "offlineLearning")
+
+
+class BuildError(MotivmlError):
+    """The active features' elements do not make a runnable architecture."""
+
+
+# ----------------------------------------------------------------------------- mappings
+def make_function(mapping: dict[str, Any], inputs: int, outputs: int) -> Function:
+    """What a mapping computes, as a function of numpy vectors."""
+    spec = mapping.get("function")
+    if mapping["kind"] == "adaptiveMapping":
+        teacher = make_function({"kind": "mapping", "function": spec}, inputs, outputs) if spec else None
+        return AdaptiveMapping(mapping["learner"], inputs, outputs, teacher)
+    if spec is None:
+        return lambda x: x.copy()
+    if spec["type"] == "scale":
+        factor = np.asarray(spec["factor"], dtype=float)
+        return lambda x: factor * x
+    if spec["type"] == "linear":
+        matrix = np.asarray(spec["matrix"], dtype=float)
+        offset = np.asarray(spec.get("offset", np.zeros(outputs)), dtype=float)
+        return lambda x: np.asarray(matrix @ x + offset)
+    links = np.asarray(spec["links"], dtype=float)
+    return lambda x: planar_arm(links, x)
+
+
+def planar_arm(links: Vector, angles: Vector) -> Vector:
+    """Forward kinematics of a planar serial arm: the hand's (x, y)."""
+    absolute = np.cumsum(angles)
+    return np.array([links @ np.cos(absolute), links @ np.sin(absolute)])
+
+
+class AdaptiveMapping:
+    """A learned mapping: predicts with its learner; learns online from a teacher if any."""
+
+    def __init__(self, learner: dict[str, Any], inputs: int, outputs: int, teacher: Function | None) -> None:
+        self.model: ExtremeLearningMachine | LinearRLS = (
+            ExtremeLearningMachine(inputs, outputs, hidden=int(learner.get("x-hidden", 60)))
+            if learner["type"] == "elm"
+            else LinearRLS(inputs, outputs)
+        )
+        self.teacher = teacher
+        self.samples = 0
+        self.error = float("nan")
+
+    def __call__(self, x: Vector) -> Vector:
+        prediction = np.asarray(self.model.predict(x)[0], dtype=float)
+        if self.teacher is not None:
+            target = self.teacher(x)
+            self.error = float(np.linalg.norm(target - prediction))
+            self.model.update(x, target)
+            self.samples += 1
+        return prediction
+
+
+# ------------------------------------------------------------------------------ modules
+@dataclass
+class Module:
+    """An adaptive module: its dynamical systems side by side, and its lifecycle."""
+
+    id: str
+    systems: list[PointAttractor | DiscreteDMP | CoupledOscillators]
+    sizes: list[int]
+    state: str = "executing"
+    recording: list[Vector] = field(default_factory=list)
+    learned: int = 0  # how many times it has learned from a recording
+    record_dt: float = 0.001  # the step of the recording (the recording component's)
+
+    @property
+    def dimension(self) -> int:
+        return sum(self.sizes)
+
+    @property
+    def periodic(self) -> bool:
+        return all(isinstance(s, CoupledOscillators) for s in self.systems)
+
+    def _split(self, vector: Vector) -> list[Vector]:
+        return np.split(vector, np.cumsum(self.sizes)[:-1])
+
+    def position(self) -> Vector:
+        parts = [s.output() if isinstance(s, CoupledOscillators) else s.position for s in self.systems]
+        return np.concatenate(parts)
+
+    def reset(self, start: Vector, goal: Vector) -> None:
+        for system, x0, g in zip(self.systems, self._split(start), self._split(goal), strict=True):
+            if isinstance(system, DiscreteDMP):
+                system.reset(x0, g)
+            elif isinstance(system, PointAttractor):
+                system.position, system.velocity, system.goal = x0.copy(), np.zeros_like(x0), g.copy()
+
+    def step(self, dt: float, centre: Vector) -> Vector:
+        parts = []
+        for system, c in zip(self.systems, self._split(centre), strict=True):
+            if isinstance(system, CoupledOscillators):
+                parts.append(c + system.step(dt))
+            else:
+                parts.append(system.step(dt).copy())
+        return np.concatenate(parts)
+
+    def phase_error(self) -> float:
+        """Largest distance of the oscillators' phase differences from the wanted ones."""
+        worst = 0.0
+        for system in self.systems:
+            if isinstance(system, CoupledOscillators):
+                wanted = np.mod(system.offsets - system.offsets[0], 2 * np.pi)
+                gap = np.angle(np.exp(1j * (system.phase_differences() - wanted)))
+                worst = max(worst, float(np.max(np.abs(gap))))
+        return worst
+
+    def set_state(self, state: str) -> None:
+        """Change the lifecycle state; leaving a learning state learns from the recording."""
+        if state not in STATES:
+            raise ValueError(f"unknown learning state {state!r} (states: {', '.join(STATES)})")
+        if self.state != "executing" and state != self.state and len(self.recording) >= 3:
+            self.learn(np.array(self.recording))
+        if state != self.state:
+            self.recording = []
+        self.state = state
+
+    def learn(self, demonstration: Vector, dt: float | None = None) -> None:
+        """A DMP learns the recorded movement (at the rate it was recorded)."""
+        step = dt if dt is not None else self.record_dt
+        for system, part in zip(
+            self.systems, np.split(demonstration, np.cumsum(self.sizes)[:-1], axis=1), strict=True
+        ):
+            if isinstance(system, DiscreteDMP):
+                system.learn(part, step)
+        self.learned += 1
+
+
+def make_module(spec: dict[str, Any]) -> Module:
+    systems: list[PointAttractor | DiscreteDMP | CoupledOscillators] = []
+    for system in spec["systems"]:
+        n = system["dimension"]
+        if system["type"] == "pointAttractor":
+            systems.append(PointAttractor(np.zeros(n), np.zeros(n), alpha=system.get("alpha", 25.0)))
+        elif system["type"] == "dmp":
+            dmp = DiscreteDMP(n, basis=system.get("basis", 30), alpha=system.get("alpha", 25.0))
+            dmp.tau = system.get("duration", 1.0)
+            demonstration = system.get("demonstration")
+            if demonstration is not None:
+                dmp.learn(np.asarray(demonstration["samples"], dtype=float), demonstration["dt"])
+                if "duration" in system:
+                    dmp.tau = system["duration"]
+            systems.append(dmp)
+        else:
+            offsets = np.asarray(system.get("offsets", np.zeros(n)), dtype=float)
+            phases = np.asarray(system.get("phases", 0.3 * np.arange(n)), dtype=float)
+            systems.append(
+                CoupledOscillators(
+                    offsets,
+                    frequency=system.get("frequency", 1.0),
+                    coupling=system.get("coupling", 4.0),
+                    amplitude=system.get("amplitude", 1.0),
+                    phases=phases,
+                )
+            )
+    module = Module(spec["id"], systems, [s["dimension"] for s in spec["systems"]])
+    module.set_state(spec.get("state", "executing"))
+    return module
+
+
+# --------------------------------------------------------------------------- components
+@dataclass
+class Port:
+    space: str
+    function: Function | None
+
+    def read(self, values: dict[str, Vector]) -> Vector:
+        value = values[self.space]
+        return self.function(value) if self.function is not None else value
+
+
+@dataclass
+class Component:
+    id: str
+    kind: str
+    feature: str
+    module: Module
+    output: Port
+    goal: Port | None
+    feedback: Port | None
+    criterion: dict[str, Any] | None
+    divider: int  # steps every `divider` ticks
+    dt: float
+    sequence: list[Vector]
+    running: bool = True
+    status: str = "ongoing"
+    error: float = float("nan")  # the criterion's measure: distance or phase error
+    contribution: Vector | None = None
+    via: int = 0  # a Sequencer's current via point
+    _goal: Vector | None = None
+
+    def current_goal(self, values: dict[str, Vector]) -> Vector | None:
+        if self.sequence:
+            return self.sequence[self.via]
+        return self.goal.read(values) if self.goal is not None else None
+
+    def step(self, values: dict[str, Vector]) -> None:
+        module = self.module
+        goal = self.current_goal(values)
+        feedback = self.feedback.read(values) if self.feedback is not None else None
+        if module.state == "offlineLearning":
+            sample = feedback if feedback is not None else goal
+            if sample is not None:
+                module.recording.append(sample.copy())
+            module.record_dt = self.dt
+            self.contribution = None
+            self.status = "learning"
+            return
+        here = feedback if feedback is not None else module.position()
+        if goal is None:
+            goal = self._goal if self._goal is not None else here.copy()
+        if not module.periodic and (self._goal is None or not np.array_equal(goal, self._goal)):
+            module.reset(here, goal)
+        self._goal = goal.copy()
+        centre = goal if self.goal is not None or self.sequence else np.zeros(module.dimension)
+        out = module.step(self.dt, centre)
+        self.contribution = self.output.read({self.output.space: out}) if self.output.function else out
+        if module.state == "onlineLearning":
+            module.recording.append((feedback if feedback is not None else out).copy())
+            module.record_dt = self.dt
+        self.judge(goal, feedback if feedback is not None else out)
+
+    def judge(self, goal: Vector, measured: Vector) -> None:
+        if self.criterion is None:
+            self.status = "running"
+            return
+        tolerance = self.criterion["tolerance"]
+        if self.module.periodic:
+            self.error = self.module.phase_error()
+        else:
+            self.error = float(np.linalg.norm(goal - measured))
+        within = self.error <= tolerance
+        if within and self.sequence and self.via < len(self.sequence) - 1:
+            self.via += 1
+            within = False
+        if self.criterion["type"] == "convergence":
+            self.status = "converged" if within else "ongoing"
+        else:
+            self.status = "tracking" if within else "ongoing"
+
+
+# ---------------------------------------------------------------------------- assembly
+@dataclass
+class Assembly:
+    """The built architecture: space values, components in stepping order, free mappings."""
+
+    values: dict[str, Vector]
+    spaces: dict[str, dict[str, Any]]
+    components: list[Component]
+    modules: dict[str, Module]
+    mappings: list[tuple[str, str, str, Function]]  # (id, from, to, function), in order
+    adaptive: dict[str, AdaptiveMapping]
+    writers: dict[str, list[Component]]
+
+    def tick(self, count: int) -> None:
+        values = self.values
+        for component in self.components:
+            if not component.running or count % component.divider:
+                continue
+            component.step(values)
+            space = component.output.space
+            parts = [c.contribution for c in self.writers[space] if c.contribution is not None]
+            if parts:
+                values[space] = parts[0] if len(parts) == 1 else np.sum(parts, axis=0)
+        for _, source, target, function in self.mappings:
+            values[target] = function(values[source])
+
+
+def _order(items: dict[str, Any], depends: Callable[[str], list[str]]) -> list[str]:
+    """Kahn's algorithm, document order among equals; items on a cycle keep document order last."""
+    remaining = {k: set(depends(k)) & set(items) for k in items}
+    ordered: list[str] = []
+    while remaining:
+        ready = [k for k, deps in remaining.items() if not deps]
+        if not ready:
+            ordered.extend(remaining)
+            break
+        for k in ready:
+            del remaining[k]
+            ordered.append(k)
+        for deps in remaining.values():
+            deps.difference_update(ready)
+    return ordered
+
+
+def build(architecture: Architecture, active: set[str], rate: float) -> tuple[Assembly, list[Diagnostic]]:
+    """Instantiate the active features' elements; warnings about rates come back as diagnostics."""
+    whole = architecture
+    arch = architecture.elements_of(active)
+    problems: list[Diagnostic] = []
+    warnings: list[Diagnostic] = []
+    positions = {
+        (section, item["id"]): i
+        for section in ("spaces", "mappings", "modules", "components")
+        for i, item in enumerate(whole.source.root.get(section, []))
+    }
+
+    def where(section: str, element: str, *keys: str | int) -> Any:
+        return whole.source.locate((section, positions[(section, element)], *keys))
+
+    def need(section: str, element: str, keys: tuple[str | int, ...], kind: str, target: str) -> bool:
+        if target in getattr(arch, kind):
+            return True
+        owner = getattr(whole, kind)[target]["feature"]
+        mine = getattr(arch, section)[element]["feature"]
+        problems.append(
+            error(
+                where(section, element, *keys),
+                f"{element} of feature {mine} needs {kind.removesuffix('s')} {target} of feature {owner}, which is not active",
+                "build.inactive",
+                mine,
+            )
+        )
+        return False
+
+    functions: dict[str, Function] = {}
+    adaptive: dict[str, AdaptiveMapping] = {}
+    for element, mapping in arch.mappings.items():
+        if need("mappings", element, ("from",), "spaces", mapping["from"]) and need(
+            "mappings", element, ("to",), "spaces", mapping["to"]
+        ):
+            inputs, outputs = (arch.spaces[mapping[k]]["dimension"] for k in ("from", "to"))
+            functions[element] = make_function(mapping, inputs, outputs)
+            if isinstance(functions[element], AdaptiveMapping):
+                adaptive[element] = functions[element]  # type: ignore[assignment]
+
+    modules: dict[str, Module] = {}
+    components: dict[str, Component] = {}
+    on_ports: set[str] = set()
+    for element, spec in arch.components.items():
+        ok = need("components", element, ("module",), "modules", spec["module"])
+        ports: dict[str, Port | None] = {}
+        for port in ("goal", "feedback", "output"):
+            connection = spec.get(port)
+            if connection is None:
+                ports[port] = None
+                continue
+            ok = need("components", element, (port, "space"), "spaces", connection["space"]) and ok
+            through = connection.get("through")
+            if through is not None:
+                on_ports.add(through)
+                ok = need("components", element, (port, "through"), "mappings", through) and ok
+            ports[port] = Port(connection["space"], functions.get(through) if through else None)
+        if not ok:
+            continue
+        component_rate = spec.get("rate", rate)
+        divider = max(1, round(rate / component_rate))
+        if component_rate > rate or abs(rate / divider - component_rate) > 1e-9 * rate:
+            warnings.append(
+                warning(
+                    where("components", element, "rate"),
+                    f"{element} asks for {component_rate:g} Hz; the loop runs at {rate:g} Hz, so it steps at {rate / divider:g} Hz",
+                    "build.rate",
+                    spec["feature"],
+                )
+            )
+        module = modules[spec["module"]] = make_module(arch.modules[spec["module"]])
+        output = ports["output"]
+        assert output is not None  # required by the schema
+        components[element] = Component(
+            element,
+            spec["kind"],
+            spec["feature"],
+            module,
+            output,
+            ports["goal"],
+            ports["feedback"],
+            spec.get("criterion"),
+            divider,
+            divider / rate,
+            [np.asarray(p, dtype=float) for p in spec.get("sequence", [])],
+        )
+    if problems:
+        raise BuildError(problems)
+    for element, spec in arch.modules.items():
+        modules.setdefault(element, make_module(spec))
+
+    values = {
+        k: np.asarray(s.get("initial", np.zeros(s["dimension"])), dtype=float) for k, s in arch.spaces.items()
+    }
+    for component in components.values():  # goal-directed systems start where their output is
+        if not component.module.periodic:
+            start = component.feedback.read(values) if component.feedback is not None else None
+            if start is None and component.output.function is None:
+                start = values[component.output.space]
+            if start is not None:
+                component.module.reset(start, start)
+    writers: dict[str, list[Component]] = {}
+    for component in components.values():
+        writers.setdefault(component.output.space, []).append(component)
+    goal_of = {
+        k: spec["goal"]["space"] for k, spec in arch.components.items() if "goal" in spec and k in components
+    }
+    order = _order(components, lambda k: [w.id for w in writers.get(goal_of.get(k, ""), [])])
+    free = {k: m for k, m in arch.mappings.items() if k not in on_ports and k in functions}
+    mapping_order = _order(free, lambda k: [j for j, m in free.items() if m["to"] == free[k]["from"]])
+    return (
+        Assembly(
+            values,
+            arch.spaces,
+            [components[k] for k in order],
+            modules,
+            [(k, free[k]["from"], free[k]["to"], functions[k]) for k in mapping_order],
+            adaptive,
+            writers,
+        ),
+        warnings,
+    )

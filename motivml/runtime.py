@@ -1,0 +1,217 @@
+"""The fixed-rate loop that runs a built motion architecture, on a simulated or a real clock.
+
+`Runtime(assembly, rate)` ticks the assembly: each tick steps the due components in
+dependency order, writes their spaces, evaluates the free mappings and the criteria, and
+records every change of a component's status as an `Event` (the tick and time a criterion
+fired). `status()` is a snapshot for views and reports.
+
+Two clocks:
+
+* `SimulatedClock`: time is `tick / rate`; `run` never sleeps, so tests are deterministic and
+  take as long as the computation.
+* `RealClock`: ticks start on a fixed schedule of `1 / rate` seconds (default 1 kHz). It
+  sleeps until shortly before a deadline and spins the rest, with the cyclic garbage
+  collector paused and a short interpreter switch interval for the run. A tick that starts
+  later than the next deadline is a *missed deadline*; the slots it overran are skipped, not
+  bunched up. `RunStats` has the achieved rate, the jitter (start - deadline) p50/p99/max,
+  the work time per tick and the CPU share of the process.
+"""
+
+from __future__ import annotations
+
+import gc
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .builder import Assembly
+
+
+@dataclass(frozen=True)
+class Event:
+    tick: int
+    time: float
+    component: str
+    status: str
+
+
+@dataclass
+class RunStats:
+    clock: str
+    rate: float  # asked for
+    ticks: int = 0
+    elapsed: float = 0.0  # clock time of the run, s
+    jitter: list[float] = field(default_factory=list)  # s, one per tick (real clock)
+    work: list[float] = field(default_factory=list)  # s, one per tick (real clock)
+    missed: int = 0
+    cpu: float = 0.0  # process CPU time during the run, s
+
+    @property
+    def achieved(self) -> float:
+        return self.ticks / self.elapsed if self.elapsed > 0 else 0.0
+
+    def percentile(self, values: list[float], q: float) -> float:
+        return float(np.percentile(values, q)) if values else 0.0
+
+    @property
+    def cpu_share(self) -> float:
+        return self.cpu / self.elapsed if self.elapsed > 0 else 0.0
+
+
+@dataclass(frozen=True)
+class ComponentStatus:
+    id: str
+    kind: str
+    feature: str
+    status: str
+    error: float
+    module: str
+    learning: str
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    tick: int
+    time: float
+    components: tuple[ComponentStatus, ...]
+    modules: tuple[tuple[str, str, int], ...]  # (id, learning state, times learned)
+
+
+class SimulatedClock:
+    name = "simulated"
+
+    def now(self) -> float:
+        return 0.0
+
+    def wait_until(self, deadline: float) -> float:
+        return deadline
+
+
+class RealClock:
+    name = "real"
+    spin = 0.0004  # s before a deadline: sleep until then, spin the rest
+
+    def now(self) -> float:
+        return time.perf_counter()
+
+    def wait_until(self, deadline: float) -> float:
+        ahead = deadline - time.perf_counter() - self.spin
+        if ahead > 0:
+            time.sleep(ahead)
+        now = time.perf_counter()
+        while now < deadline:
+            now = time.perf_counter()
+        return now
+
+
+class Runtime:
+    def __init__(self, assembly: Assembly, rate: float = 1000.0) -> None:
+        if not rate > 0:
+            raise ValueError("the rate must be positive")
+        self.assembly = assembly
+        self.rate = rate
+        self.ticks = 0
+        self.events: list[Event] = []
+        self.stop_requested = threading.Event()
+
+    @property
+    def time(self) -> float:
+        return self.ticks / self.rate
+
+    def tick(self) -> None:
+        """One control cycle (between two ticks is where reconfigurations commit)."""
+        before = [c.status for c in self.assembly.components]
+        self.assembly.tick(self.ticks)
+        self.ticks += 1
+        for component, old in zip(self.assembly.components, before, strict=True):
+            if component.status != old:
+                self.events.append(Event(self.ticks, self.time, component.id, component.status))
+
+    def send(self, space: str, value: list[float] | np.ndarray) -> None:
+        """Write a space no component writes (a goal, a sensor value)."""
+        values = self.assembly.values
+        if space not in values:
+            raise KeyError(f"no active space {space!r}")
+        if self.assembly.writers.get(space):
+            raise ValueError(f"{space} is written by {', '.join(c.id for c in self.assembly.writers[space])}")
+        vector = np.asarray(value, dtype=float)
+        if vector.shape != values[space].shape:
+            raise ValueError(f"{space} holds {values[space].size} numbers, not {vector.size}")
+        values[space] = vector
+
+    def first(self, component: str, status: str) -> Event | None:
+        """When a component first reached a status (e.g. its criterion fired)."""
+        return next((e for e in self.events if e.component == component and e.status == status), None)
+
+    def status(self) -> Snapshot:
+        components = tuple(
+            ComponentStatus(
+                c.id, c.kind, c.feature, c.status if c.running else "stopped", c.error, c.module.id, c.module.state
+            )
+            for c in self.assembly.components
+        )
+        modules = tuple((m.id, m.state, m.learned) for m in self.assembly.modules.values())
+        return Snapshot(self.ticks, self.time, components, modules)
+
+    def run(
+        self,
+        duration: float,
+        clock: SimulatedClock | RealClock | None = None,
+        until: Callable[[Runtime], bool] | None = None,
+    ) -> RunStats:
+        """Tick for `duration` seconds of clock time (or until `until` or `stop()`)."""
+        clock = clock or SimulatedClock()
+        stats = RunStats(clock.name, self.rate)
+        total = round(duration * self.rate)
+        if isinstance(clock, SimulatedClock):
+            for _ in range(total):
+                if self.stop_requested.is_set() or (until is not None and until(self)):
+                    break
+                self.tick()
+                stats.ticks += 1
+            stats.elapsed = stats.ticks / self.rate
+            return stats
+        return self._run_real(total, clock, until, stats)
+
+    def _run_real(
+        self, total: int, clock: RealClock, until: Callable[[Runtime], bool] | None, stats: RunStats
+    ) -> RunStats:
+        period = 1.0 / self.rate
+        switch = sys.getswitchinterval()
+        collecting = gc.isenabled()
+        gc.collect()
+        gc.disable()
+        sys.setswitchinterval(min(switch, 0.0001))
+        cpu0 = time.process_time()
+        start = clock.now() + period
+        slot = 0
+        try:
+            while slot < total:
+                if self.stop_requested.is_set() or (until is not None and until(self)):
+                    break
+                deadline = start + slot * period
+                began = clock.wait_until(deadline)
+                self.tick()
+                ended = clock.now()
+                stats.ticks += 1
+                stats.jitter.append(began - deadline)
+                stats.work.append(ended - began)
+                slot += 1
+                late = int((ended - (start + slot * period)) / period)
+                if ended > start + slot * period:  # the next tick cannot start on time
+                    stats.missed += 1
+                    slot += late
+        finally:
+            stats.elapsed = clock.now() - start
+            stats.cpu = time.process_time() - cpu0
+            sys.setswitchinterval(switch)
+            if collecting:
+                gc.enable()
+        return stats
+
+    def stop(self) -> None:
+        self.stop_requested.set()

@@ -1,0 +1,361 @@
+"""The robot builder and the fixed-rate runtime, in simulated time (deterministic, no sleeping)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from motivml.builder import BuildError, planar_arm
+from motivml.cli import main
+from motivml.launch import Robot, launch
+from motivml.runtime import RealClock
+
+EXAMPLES = Path(__file__).parent.parent / "feature_models"
+TROT = np.array([0.0, np.pi, np.pi, 0.0])
+
+
+def trace(robot: Robot, seconds: float, space: str) -> np.ndarray:
+    """Tick for `seconds` of simulated time and return a space's values, one row per tick."""
+    rows = []
+    for _ in range(round(seconds * robot.runtime.rate)):
+        robot.runtime.tick()
+        rows.append(robot.assembly.values[space].copy())
+    return np.array(rows)
+
+
+def component(robot: Robot, name: str) -> Any:
+    return next(c for c in robot.assembly.components if c.id == name)
+
+
+# ----------------------------------------------------------------------- reaching arm
+def test_the_arm_reaches_its_goal_with_the_learned_dmp_and_its_criterion_fires() -> None:
+    robot = launch(EXAMPLES / "reaching_arm", "dmp")
+    assert robot.active == ["reaching_arm", "joint_control", "reaching", "dmp_reach"]
+    assert [c.id for c in robot.assembly.components] == ["DMPReacher"]
+    path = trace(robot, 3.0, "ArmCommand")
+    goal = robot.assembly.values["ArmGoal"]
+    assert np.linalg.norm(path[-1] - goal) < 1e-3
+    fired = robot.runtime.first("DMPReacher", "converged")
+    assert fired is not None and 1.0 < fired.time < 2.0
+    # The learned shape carries over to the new goal: the elbow swings out first,
+    # where a straight reach from 0 to -0.5 would never go above 0.
+    assert path[:, 1].max() > 0.1
+    assert component(robot, "DMPReacher").status == "converged"
+
+
+def test_the_attractor_variant_binds_the_other_primitive_and_the_hand_monitor() -> None:
+    robot = launch(EXAMPLES / "reaching_arm", "attractor")
+    assert [c.id for c in robot.assembly.components] == ["AttractorReacher"]
+    assert "HandPosition" in robot.assembly.values  # hand_monitor is Early here
+    path = trace(robot, 2.0, "ArmCommand")
+    assert path[:, 1].max() <= 1e-12  # a straight, critically damped reach: no swing
+    assert robot.runtime.first("AttractorReacher", "converged") is not None
+    hand = planar_arm(np.array([0.4, 0.3, 0.2]), robot.assembly.values["ArmCommand"])
+    assert np.allclose(robot.assembly.values["HandPosition"], hand)
+
+
+def test_late_features_are_not_built_unless_the_start_state_needs_them() -> None:
+    assert "HandPosition" not in launch(EXAMPLES / "reaching_arm", "dmp").assembly.values
+    swappable = launch(EXAMPLES / "reaching_arm", "swappable")
+    assert [c.id for c in swappable.assembly.components] == ["DMPReacher"]  # first XOR member
+
+
+def test_a_new_goal_restarts_the_reach_from_where_the_arm_is() -> None:
+    robot = launch(EXAMPLES / "reaching_arm", "attractor")
+    robot.runtime.run(2.0)
+    robot.runtime.send("ArmGoal", [0.0, 0.5, 0.0])
+    robot.runtime.tick()
+    assert component(robot, "AttractorReacher").status == "ongoing"
+    robot.runtime.run(2.0)
+    assert np.allclose(robot.assembly.values["ArmCommand"], [0.0, 0.5, 0.0], atol=1e-2)
+    statuses = [e.status for e in robot.runtime.events if e.component == "AttractorReacher"]
+    assert statuses == ["converged", "ongoing", "converged"]
+
+
+# ------------------------------------------------------------------------- quadruped
+def test_the_quadruped_trots_and_keeps_its_gait() -> None:
+    robot = launch(EXAMPLES / "quadruped", "trot")
+    assert [c.id for c in robot.assembly.components] == ["TrotGenerator", "PostureController"]
+    robot.runtime.run(5.0)
+    generator = component(robot, "TrotGenerator")
+    cpg = generator.module.systems[0]
+    gap = np.angle(np.exp(1j * (cpg.phase_differences() - TROT)))
+    assert np.abs(gap).max() < 1e-3
+    events = [e for e in robot.runtime.events if e.component == "TrotGenerator"]
+    assert [e.status for e in events] == ["tracking"] and events[0].time < 1.0  # locked, and stays locked
+    # The legs' command is the superposition of the posture and the scaled pattern.
+    posture = component(robot, "PostureController").contribution
+    assert np.allclose(posture, [0.5, 0.5, -0.5, -0.5], atol=1e-3)
+    assert np.allclose(robot.assembly.values["LegCommand"], posture + 0.3 * np.sin(cpg.phases))
+
+
+def test_the_pace_variant_runs_the_other_gait_without_reflexes() -> None:
+    robot = launch(EXAMPLES / "quadruped", "pace")
+    assert [c.id for c in robot.assembly.components] == ["PaceGenerator", "PostureController"]
+    assert "ContactForce" not in robot.assembly.values
+    robot.runtime.run(3.0)
+    cpg = component(robot, "PaceGenerator").module.systems[0]
+    gap = np.angle(np.exp(1j * (cpg.phase_differences() - np.array([0.0, np.pi, 0.0, np.pi]))))
+    assert np.abs(gap).max() < 1e-3
+
+
+def test_a_contact_force_triggers_the_stumble_reflex() -> None:
+    robot = launch(EXAMPLES / "quadruped", "gaits_at_run_time")
+    assert [c.id for c in robot.assembly.components] == [
+        "TrotGenerator",
+        "PostureController",
+        "ReflexController",
+    ]
+    robot.runtime.run(1.0)
+    robot.runtime.send("ContactForce", [10.0, 0.0, 0.0, 0.0])
+    robot.runtime.run(0.2)
+    reflex = component(robot, "ReflexController").contribution
+    assert np.allclose(reflex, [0.2, 0.0, 0.0, 0.0], atol=1e-3)
+    assert component(robot, "ReflexController").status == "tracking"
+
+
+# --------------------------------------------------------------------------- mixture
+def test_the_mixture_superposes_its_scaled_controllers_every_tick() -> None:
+    robot = launch(EXAMPLES / "mixture_arm", "mixed")
+    trackers = [component(robot, name) for name in ("LeftTracker", "RightTracker", "CircleTracker")]
+    for _ in range(500):
+        robot.runtime.tick()
+        expected = sum(t.contribution for t in trackers)
+        assert np.allclose(robot.assembly.values["Command"], expected)
+    robot.runtime.run(2.0)
+    left, right, circle = (t.module.position() for t in trackers)
+    assert np.allclose(left, [1.0, 0.4], atol=1e-3) and np.allclose(right, [-1.0, 0.8], atol=1e-3)
+    assert np.allclose(robot.assembly.values["Command"], 0.5 * left + 0.3 * right + 0.2 * circle)
+    assert all(t.status == "tracking" for t in trackers)
+
+
+def test_a_variant_with_fewer_primitives_mixes_fewer() -> None:
+    robot = launch(EXAMPLES / "mixture_arm", "reach_only")
+    assert [c.id for c in robot.assembly.components] == ["LeftTracker", "RightTracker"]
+    robot.runtime.run(3.0)
+    assert np.allclose(robot.assembly.values["Command"], [0.2, 0.44], atol=1e-3)
+
+
+# --------------------------------------------------------------- small inline robots
+MODEL = {
+    "id": "bot",
+    "name": "Bot",
+    "sub": [
+        {"id": "base", "name": "Base", "isMandatory": True},
+        {"id": "extra", "name": "Extra", "isMandatory": False},
+    ],
+}
+
+
+def robot_folder(tmp_path: Path, architecture: dict[str, Any], extra: bool = False) -> Path:
+    (tmp_path / "variants").mkdir(parents=True)
+    (tmp_path / "model.json").write_text(json.dumps(MODEL))
+    entry = (
+        {"id": "extra", "props": {"time": "Early", "mode": "Static"}}
+        if extra
+        else {"id": "extra", "selected": False}
+    )
+    (tmp_path / "variants" / "v.json").write_text(json.dumps({"properties": [entry]}))
+    (tmp_path / "architecture.json").write_text(json.dumps(architecture, indent=1))
+    return tmp_path
+
+
+def space(name: str, n: int, feature: str = "base", **more: Any) -> dict[str, Any]:
+    return {"id": name, "type": "JointAngles", "dimension": n, "feature": feature, **more}
+
+
+def test_a_sequencer_visits_its_via_points_in_order(tmp_path: Path) -> None:
+    points = [[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]
+    architecture = {
+        "spaces": [space("Out", 2)],
+        "modules": [{"id": "m", "systems": [{"type": "pointAttractor", "dimension": 2}], "feature": "base"}],
+        "components": [
+            {
+                "id": "seq",
+                "kind": "Sequencer",
+                "module": "m",
+                "sequence": points,
+                "output": {"space": "Out"},
+                "criterion": {"type": "convergence", "tolerance": 0.01},
+                "feature": "base",
+            }
+        ],
+    }
+    robot = launch(robot_folder(tmp_path, architecture), "v")
+    path = trace(robot, 5.0, "Out")
+    visits = [int(np.argmin(np.linalg.norm(path - p, axis=1))) for p in points]
+    assert visits == sorted(visits) and all(
+        np.linalg.norm(path[i] - p) < 0.01 for i, p in zip(visits, points, strict=True)
+    )
+    assert component(robot, "seq").status == "converged" and component(robot, "seq").via == 2
+
+
+def test_an_offline_learning_module_records_then_learns_a_dmp(tmp_path: Path) -> None:
+    architecture = {
+        "spaces": [space("Goal", 1), space("Teacher", 1), space("Out", 1)],
+        "modules": [
+            {
+                "id": "m",
+                "systems": [{"type": "dmp", "dimension": 1}],
+                "state": "offlineLearning",
+                "feature": "base",
+            }
+        ],
+        "components": [
+            {
+                "id": "learner",
+                "kind": "ReachingController",
+                "module": "m",
+                "goal": {"space": "Goal"},
+                "feedback": {"space": "Teacher"},
+                "output": {"space": "Out"},
+                "feature": "base",
+            }
+        ],
+    }
+    robot = launch(robot_folder(tmp_path, architecture), "v", rate=100)
+    runtime, module = robot.runtime, robot.assembly.modules["m"]
+    times = np.linspace(0.0, 1.0, 101)
+    shown = np.sin(np.pi * times) * 0.5 + times  # 0 -> 1 with a bump
+    for value in shown:
+        runtime.send("Teacher", [value])
+        runtime.tick()
+    assert component(robot, "learner").status == "learning" and len(module.recording) == 101
+    assert "Out" in robot.assembly.values and robot.assembly.values["Out"][0] == 0.0  # drives nothing
+    module.set_state("executing")
+    assert module.learned == 1 and module.recording == []
+    reproduced = module.systems[0].rollout([0.0], [1.0], 0.01, 101)[:, 0]
+    assert np.sqrt(np.mean((reproduced - shown) ** 2)) < 0.03
+
+
+def test_an_adaptive_mapping_learns_from_its_teacher(tmp_path: Path) -> None:
+    architecture = {
+        "spaces": [space("In", 2), {"id": "Hand", "type": "Position", "dimension": 2, "feature": "base"}],
+        "mappings": [
+            {
+                "id": "learned",
+                "kind": "adaptiveMapping",
+                "from": "In",
+                "to": "Hand",
+                "learner": {"type": "elm"},
+                "function": {"type": "planarArm", "links": [0.5, 0.5]},
+                "feature": "base",
+            }
+        ],
+    }
+    robot = launch(robot_folder(tmp_path, architecture), "v")
+    rng = np.random.default_rng(1)
+    mapping = robot.assembly.adaptive["learned"]
+    for x in rng.uniform(-1.0, 1.0, (2000, 2)):
+        robot.runtime.send("In", x)
+        robot.runtime.tick()
+    assert mapping.samples == 2000 and mapping.error < 0.02
+    probe = np.array([0.3, -0.2])
+    assert np.linalg.norm(mapping.model.predict(probe)[0] - planar_arm(np.array([0.5, 0.5]), probe)) < 0.02
+
+
+def test_an_element_of_an_inactive_feature_is_a_located_build_error(tmp_path: Path) -> None:
+    architecture = {
+        "spaces": [space("Out", 1, feature="extra")],
+        "modules": [{"id": "m", "systems": [{"type": "pointAttractor", "dimension": 1}], "feature": "base"}],
+        "components": [
+            {
+                "id": "c",
+                "kind": "ReachingController",
+                "module": "m",
+                "output": {"space": "Out"},
+                "feature": "base",
+            }
+        ],
+    }
+    with pytest.raises(BuildError) as caught:
+        launch(robot_folder(tmp_path, architecture), "v")
+    [problem] = caught.value.diagnostics
+    assert problem.location.path == "$.components[0].output.space"
+    assert problem.message == "c of feature base needs space Out of feature extra, which is not active"
+    assert launch(robot_folder(tmp_path / "with", architecture, extra=True), "v").assembly.components
+
+
+def test_a_component_rate_the_loop_cannot_keep_is_a_warning(tmp_path: Path) -> None:
+    architecture = {
+        "spaces": [space("Out", 1)],
+        "modules": [{"id": "m", "systems": [{"type": "pointAttractor", "dimension": 1}], "feature": "base"}],
+        "components": [
+            {
+                "id": "c",
+                "kind": "ReachingController",
+                "module": "m",
+                "rate": 300,
+                "output": {"space": "Out"},
+                "feature": "base",
+            }
+        ],
+    }
+    robot = launch(robot_folder(tmp_path, architecture), "v")
+    assert [w.message for w in robot.warnings] == [
+        "c asks for 300 Hz; the loop runs at 1000 Hz, so it steps at 333.333 Hz"
+    ]
+    assert component(robot, "c").divider == 3
+
+
+def test_simulated_runs_are_deterministic_and_real_runs_are_timed() -> None:
+    first, second = (launch(EXAMPLES / "quadruped", "trot") for _ in range(2))
+    first.runtime.run(1.0)
+    second.runtime.run(1.0)
+    assert np.array_equal(first.assembly.values["LegCommand"], second.assembly.values["LegCommand"])
+    stats = launch(EXAMPLES / "quadruped", "trot").runtime.run(0.05, RealClock())
+    assert stats.clock == "real" and stats.ticks + stats.missed >= 45 and len(stats.jitter) == stats.ticks
+    assert stats.elapsed > 0.04 and stats.cpu > 0
+
+
+def test_sending_to_a_written_or_misshapen_space_is_refused() -> None:
+    runtime = launch(EXAMPLES / "quadruped", "trot").runtime
+    with pytest.raises(ValueError, match="LegCommand is written by TrotGenerator, PostureController"):
+        runtime.send("LegCommand", [0.0] * 4)
+    with pytest.raises(ValueError, match="PostureGoal holds 4 numbers, not 2"):
+        runtime.send("PostureGoal", [0.0, 1.0])
+    with pytest.raises(KeyError):
+        runtime.send("ContactForce", [0.0] * 4)  # reflexes are not in this variant
+
+
+# ----------------------------------------------------------------------------- CLI
+@pytest.mark.parametrize(
+    ("robot", "variant", "fired"),
+    [
+        ("reaching_arm", "dmp", "DMPReacher"),
+        ("quadruped", "trot", "TrotGenerator"),
+        ("mixture_arm", "mixed", "CircleTracker"),
+    ],
+)
+def test_run_prints_a_summary(robot: str, variant: str, fired: str) -> None:
+    result = CliRunner().invoke(
+        main, ["run", str(EXAMPLES / robot), "--variant", variant, "--duration", "3", "--clock", "simulated"]
+    )
+    assert result.exit_code == 0, result.output
+    row = next(line for line in result.output.splitlines() if line.strip().startswith(fired))
+    assert ("converged" in row or "tracking" in row) and row.rstrip().endswith(" s")
+    assert result.output.splitlines()[-1] == "3000 ticks, 3.000 s of control time"
+
+
+def test_run_refuses_invalid_variants_and_robots_without_an_architecture() -> None:
+    runner = CliRunner()
+    broken = runner.invoke(
+        main, ["run", str(EXAMPLES / "quadruped"), "--variant", "broken_two_gaits", "--clock", "simulated"]
+    )
+    assert broken.exit_code == 1 and "rules 2.2 and 3.3" in broken.output
+    assert "cannot run" in broken.output.splitlines()[-1]
+    none = runner.invoke(main, ["run", str(EXAMPLES / "simplebot"), "--variant", "lab"])
+    assert none.exit_code == 3 and "no architecture.json" in none.output
+    assert (
+        runner.invoke(
+            main, ["run", str(EXAMPLES / "quadruped"), "--variant", "trot", "--rate", "0"]
+        ).exit_code
+        == 2
+    )
+    unknown = runner.invoke(main, ["run", str(EXAMPLES / "quadruped"), "--variant", "gallop"])
+    assert unknown.exit_code == 2 and "no variant 'gallop'" in unknown.output
