@@ -66,6 +66,79 @@ class Architecture:
             keep(self.spaces), keep(self.mappings), keep(self.modules), keep(self.components), self.source
         )
 
+    def locate(self, section: str, element: str, *keys: str) -> Location:
+        index = next(i for i, item in enumerate(self.source.root.get(section, [])) if item["id"] == element)
+        return self.source.locate((section, index, *keys))
+
+
+@dataclass(frozen=True)
+class Reference:
+    """One element using another: where it says so, and the features that bring both."""
+
+    section: str
+    element: str
+    keys: tuple[str, ...]
+    kind: str  # the used element's section
+    target: str
+    user_feature: str
+    target_feature: str
+
+
+def references(architecture: Architecture) -> list[Reference]:
+    """Every use of one element by another, in document order."""
+    found = []
+    for element, mapping in architecture.mappings.items():
+        for key in ("from", "to"):
+            space = architecture.spaces[mapping[key]]
+            found.append(
+                Reference(
+                    "mappings", element, (key,), "spaces", space["id"], mapping["feature"], space["feature"]
+                )
+            )
+    for element, component in architecture.components.items():
+        module = architecture.modules[component["module"]]
+        found.append(
+            Reference(
+                "components",
+                element,
+                ("module",),
+                "modules",
+                module["id"],
+                component["feature"],
+                module["feature"],
+            )
+        )
+        for port in ("goal", "feedback", "output"):
+            connection = component.get(port)
+            if connection is None:
+                continue
+            space = architecture.spaces[connection["space"]]
+            found.append(
+                Reference(
+                    "components",
+                    element,
+                    (port, "space"),
+                    "spaces",
+                    space["id"],
+                    component["feature"],
+                    space["feature"],
+                )
+            )
+            if "through" in connection:
+                mapping = architecture.mappings[connection["through"]]
+                found.append(
+                    Reference(
+                        "components",
+                        element,
+                        (port, "through"),
+                        "mappings",
+                        mapping["id"],
+                        component["feature"],
+                        mapping["feature"],
+                    )
+                )
+    return found
+
 
 class _Checker:
     def __init__(self, doc: Document, model: FeatureModel) -> None:

@@ -31,6 +31,7 @@ refused with a located `BuildError`, never half built.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -114,16 +115,14 @@ class Module:
     learned: int = 0  # how many times it has learned from a recording
     record_dt: float = 0.001  # the step of the recording (the recording component's)
 
-    @property
-    def dimension(self) -> int:
-        return sum(self.sizes)
-
-    @property
-    def periodic(self) -> bool:
-        return all(isinstance(s, CoupledOscillators) for s in self.systems)
+    def __post_init__(self) -> None:
+        self.dimension = sum(self.sizes)
+        self.periodic = all(isinstance(s, CoupledOscillators) for s in self.systems)
+        self._cuts = list(np.cumsum(self.sizes)[:-1])
+        self._single = self.systems[0] if len(self.systems) == 1 else None
 
     def _split(self, vector: Vector) -> list[Vector]:
-        return np.split(vector, np.cumsum(self.sizes)[:-1])
+        return [vector] if self._single is not None else np.split(vector, self._cuts)
 
     def position(self) -> Vector:
         parts = [s.output() if isinstance(s, CoupledOscillators) else s.position for s in self.systems]
@@ -137,12 +136,17 @@ class Module:
                 system.position, system.velocity, system.goal = x0.copy(), np.zeros_like(x0), g.copy()
 
     def step(self, dt: float, centre: Vector) -> Vector:
+        single = self._single
+        if single is not None:  # the common case, without splitting and joining
+            if isinstance(single, CoupledOscillators):
+                return centre + single.step(dt)
+            return single.step(dt)  # a new array each step: safe to share
         parts = []
         for system, c in zip(self.systems, self._split(centre), strict=True):
             if isinstance(system, CoupledOscillators):
                 parts.append(c + system.step(dt))
             else:
-                parts.append(system.step(dt).copy())
+                parts.append(system.step(dt))
         return np.concatenate(parts)
 
     def phase_error(self) -> float:
@@ -150,9 +154,11 @@ class Module:
         worst = 0.0
         for system in self.systems:
             if isinstance(system, CoupledOscillators):
-                wanted = np.mod(system.offsets - system.offsets[0], 2 * np.pi)
-                gap = np.angle(np.exp(1j * (system.phase_differences() - wanted)))
-                worst = max(worst, float(np.max(np.abs(gap))))
+                phases = system.phases
+                gap = (
+                    np.mod(phases - phases[0] - system.offsets + system.offsets[0] + np.pi, 2 * np.pi) - np.pi
+                )
+                worst = max(worst, float(np.abs(gap).max()))
         return worst
 
     def set_state(self, state: str) -> None:
@@ -237,12 +243,24 @@ class Component:
     error: float = float("nan")  # the criterion's measure: distance or phase error
     contribution: Vector | None = None
     via: int = 0  # a Sequencer's current via point
-    _goal: Vector | None = None
+    _goal: Vector | None = None  # the goal the module was last reset to
+    _raw: Vector | None = None  # the goal space's value last read
+    _read: Vector | None = None  # ... and what the goal port made of it
+
+    def __post_init__(self) -> None:
+        self._zero = np.zeros(self.module.dimension)
 
     def current_goal(self, values: dict[str, Vector]) -> Vector | None:
+        """The module-side goal; read through its mapping only when the space changed."""
         if self.sequence:
             return self.sequence[self.via]
-        return self.goal.read(values) if self.goal is not None else None
+        if self.goal is None:
+            return None
+        raw = values[self.goal.space]
+        if raw is not self._raw:  # spaces are replaced, never changed in place
+            self._raw = raw
+            self._read = self.goal.read(values)
+        return self._read
 
     def step(self, values: dict[str, Vector]) -> None:
         module = self.module
@@ -256,15 +274,19 @@ class Component:
             self.contribution = None
             self.status = "learning"
             return
-        here = feedback if feedback is not None else module.position()
         if goal is None:
-            goal = self._goal if self._goal is not None else here.copy()
-        if not module.periodic and (self._goal is None or not np.array_equal(goal, self._goal)):
-            module.reset(here, goal)
-        self._goal = goal.copy()
-        centre = goal if self.goal is not None or self.sequence else np.zeros(module.dimension)
+            goal = (
+                self._goal
+                if self._goal is not None
+                else (feedback if feedback is not None else module.position())
+            )
+        if not module.periodic and goal is not self._goal:
+            if self._goal is None or not np.array_equal(goal, self._goal):
+                module.reset(feedback if feedback is not None else module.position(), goal)
+            self._goal = goal
+        centre = goal if self.goal is not None or self.sequence else self._zero
         out = module.step(self.dt, centre)
-        self.contribution = self.output.read({self.output.space: out}) if self.output.function else out
+        self.contribution = self.output.function(out) if self.output.function is not None else out
         if module.state == "onlineLearning":
             module.recording.append((feedback if feedback is not None else out).copy())
             module.record_dt = self.dt
@@ -278,7 +300,8 @@ class Component:
         if self.module.periodic:
             self.error = self.module.phase_error()
         else:
-            self.error = float(np.linalg.norm(goal - measured))
+            gap = goal - measured
+            self.error = math.sqrt(float(gap @ gap))
         within = self.error <= tolerance
         if within and self.sequence and self.via < len(self.sequence) - 1:
             self.via += 1
@@ -309,9 +332,13 @@ class Assembly:
                 continue
             component.step(values)
             space = component.output.space
-            parts = [c.contribution for c in self.writers[space] if c.contribution is not None]
-            if parts:
-                values[space] = parts[0] if len(parts) == 1 else np.sum(parts, axis=0)
+            total = None
+            for writer in self.writers[space]:  # superposition: the sum of the latest outputs
+                part = writer.contribution
+                if part is not None:
+                    total = part if total is None else total + part
+            if total is not None:
+                values[space] = total
         for _, source, target, function in self.mappings:
             values[target] = function(values[source])
 

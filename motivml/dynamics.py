@@ -80,6 +80,7 @@ class DiscreteDMP:
         self.centres = np.exp(-self.alpha_s * np.linspace(0.0, 1.0, self.basis))
         widths = np.diff(self.centres) ** 2
         self.widths = 1.0 / np.append(widths, widths[-1])
+        self._negative_widths = -self.widths
         if self.weights.size == 0:
             self.weights = np.zeros((self.basis, self.dimension))
         self.reset(np.zeros(self.dimension), np.zeros(self.dimension))
@@ -118,13 +119,17 @@ class DiscreteDMP:
         self.position = self.x0.copy()
         self.velocity = np.zeros_like(self.x0)
         self.phase = 1.0
+        self._scale = np.where(np.abs(self.goal - self.x0) > 1e-9, self.goal - self.x0, 1.0)
 
     def step(self, dt: float) -> Vector:
-        scale = np.where(np.abs(self.goal - self.x0) > 1e-9, self.goal - self.x0, 1.0)
-        forcing = (self._features(self.phase) @ self.weights)[0] * scale
+        phase = self.phase
+        psi = np.exp(self._negative_widths * (phase - self.centres) ** 2)
+        forcing = (psi @ self.weights) * (phase / psi.sum()) * self._scale
+        tau = self.tau
+        spring = self.alpha * self.beta
         acceleration = (
-            self.alpha * (self.beta * (self.goal - self.position) - self.tau * self.velocity) + forcing
-        ) / self.tau**2
+            spring * (self.goal - self.position) - (self.alpha * tau) * self.velocity + forcing
+        ) / (tau * tau)
         self.velocity = self.velocity + dt * acceleration
         self.position = self.position + dt * self.velocity
         self.phase += dt * (-self.alpha_s * self.phase / self.tau)

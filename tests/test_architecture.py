@@ -276,3 +276,26 @@ def _small(schema: dict[str, Any]) -> dict[str, Any]:
 def test_schema_valid_documents_never_crash(document: dict[str, Any]) -> None:
     for line in problems(document):
         assert line.startswith("$.")
+
+
+def test_an_element_using_one_of_a_feature_that_can_be_inactive_is_an_error(tmp_path: Path) -> None:
+    """Family-wide: some variant activates gait without reaching, so walker could not be built."""
+    from motivml.check import validate_architecture
+
+    document = copy.deepcopy(VALID)
+    document["spaces"].append(
+        {"id": "gait_out", "type": "JointAngles", "dimension": 4, "feature": "reaching"}
+    )
+    document["components"][1]["output"] = {"space": "gait_out"}
+    path = tmp_path / "architecture.json"
+    path.write_text(json.dumps(document, indent=1))
+    model, _ = read_model(parse(json.dumps(MODEL), "model.json"))
+    report = validate_architecture(model, path)
+    assert [f"{d.location.path}: {d.message}" for d in report.diagnostics] == [
+        "$.components[1].output.space: walker (feature gait) uses space gait_out of feature reaching, but the model "
+        "lets reaching be inactive while gait is active: bring both with one feature, or make gait include reaching"
+    ]
+    included = copy.deepcopy(MODEL)
+    included["sub"][1]["constraints"] = {"featuresIncluded": ["reaching"]}
+    model, _ = read_model(parse(json.dumps(included), "model.json"))
+    assert validate_architecture(model, path).diagnostics == []
