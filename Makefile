@@ -25,3 +25,4 @@ test: setup
 bench: setup
 	$(BIN)/python bench/validate_bench.py
 	$(BIN)/python bench/configure_bench.py
+	$(BIN)/python bench/run_bench.py

@@ -403,7 +403,6 @@ def build(architecture: Architecture, active: set[str], rate: float) -> tuple[As
 
     modules: dict[str, Module] = {}
     components: dict[str, Component] = {}
-    on_ports: set[str] = set()
     for element, spec in arch.components.items():
         ok = need("components", element, ("module",), "modules", spec["module"])
         ports: dict[str, Port | None] = {}
@@ -415,7 +414,6 @@ def build(architecture: Architecture, active: set[str], rate: float) -> tuple[As
             ok = need("components", element, (port, "space"), "spaces", connection["space"]) and ok
             through = connection.get("through")
             if through is not None:
-                on_ports.add(through)
                 ok = need("components", element, (port, "through"), "mappings", through) and ok
             ports[port] = Port(connection["space"], functions.get(through) if through else None)
         if not ok:
@@ -469,7 +467,13 @@ def build(architecture: Architecture, active: set[str], rate: float) -> tuple[As
         k: spec["goal"]["space"] for k, spec in arch.components.items() if "goal" in spec and k in components
     }
     order = _order(components, lambda k: [w.id for w in writers.get(goal_of.get(k, ""), [])])
-    free = {k: m for k, m in arch.mappings.items() if k not in on_ports and k in functions}
+    on_any_port = {  # of the whole document: a port's mapping never computes on its own
+        connection["through"]
+        for spec in whole.components.values()
+        for port in ("goal", "feedback", "output")
+        if (connection := spec.get(port)) is not None and "through" in connection
+    }
+    free = {k: m for k, m in arch.mappings.items() if k not in on_any_port and k in functions}
     mapping_order = _order(free, lambda k: [j for j, m in free.items() if m["to"] == free[k]["from"]])
     return (
         Assembly(

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 import sys
 import threading
 import time
@@ -23,12 +24,12 @@ from rich.markup import escape
 from rich.table import Table
 from rich.tree import Tree
 
-from . import __version__, impact
+from . import __version__, graph, impact
 from .check import Report, analyse_model, binding_states, validate
 from .codegen import late_or_dynamic, outputs, write_if_changed
 from .configure import PREFERENCES, resolve
 from .errors import Diagnostic, MotivmlError, Severity
-from .launch import launch
+from .launch import ARCHITECTURE_FILE, launch, load
 from .model import Configuration, FeatureModel
 from .plugins import discover
 from .plugins import missing as missing_plugins
@@ -533,3 +534,54 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
             f"{_plural(stats.missed, 'missed deadline')}; CPU {stats.cpu_share:.0%}"
         )
     out.print(line)
+
+
+@main.command("graph")
+@click.argument("target", default=".", type=click.Path())
+@click.option(
+    "--variant", help="Draw this variant: its selection and bindings, and the architecture it starts with."
+)
+@click.option("--format", "fmt", type=click.Choice(["dot", "graphml"]), default="dot", show_default=True)
+@click.option(
+    "-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant or model>/)."
+)
+def graph_command(target: str, variant: str | None, fmt: str, output: str | None) -> None:
+    """Draw the feature model and the motion architecture of a robot folder.
+
+    Writes feature-model.FORMAT and, when the robot has an architecture.json,
+    architecture.FORMAT. With --format dot, SVG pictures are rendered beside them when
+    Graphviz's `dot` is installed. With --variant, unselected features are greyed out and
+    the architecture shows the elements of the variant's active set at start (what
+    `motivml run` builds).
+    """
+    try:
+        loaded = load(target, variant)
+        robot = loaded.folder
+        draw = graph.feature_model_dot if fmt == "dot" else graph.feature_model_graphml
+        files = {f"feature-model.{fmt}": draw(loaded.model, loaded.variant)}
+        architecture = loaded.architecture
+        if architecture is not None:
+            pick = graph.architecture_dot if fmt == "dot" else graph.architecture_graphml
+            files[f"architecture.{fmt}"] = pick(architecture, loaded.active)
+        rendered = False
+        if fmt == "dot" and shutil.which("dot") is not None:
+            for name in list(files):
+                svg = graph.render_svg(files[name])
+                if svg is not None:
+                    files[name.removesuffix(".dot") + ".svg"] = svg.decode("utf-8")
+                    rendered = True
+        folder = Path(output) if output else Path("build") / robot.name / (variant or "model")
+        written = write_if_changed(folder, files)
+    except MotivmlError as exc:
+        for d in exc.diagnostics:
+            print_diagnostic(d)
+        out.print(f"[bold red]nothing drawn[/]: {escape(target)}")
+        sys.exit(exc.exit_code)
+    if architecture is None:
+        out.print(f"{escape(robot.name)} has no {ARCHITECTURE_FILE}: drawing the feature model only")
+    for name, changed in written.items():
+        out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")
+    if fmt == "dot" and not rendered:
+        out.print(
+            "Graphviz's dot is not installed: no SVG (install graphviz, or render the .dot files elsewhere)"
+        )

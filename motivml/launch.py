@@ -19,6 +19,7 @@ from .builder import Assembly, build
 from .check import load_configuration, load_model
 from .configure import Variant, resolve, start_state
 from .errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
+from .model import FeatureModel
 from .robot import RobotFolder
 from .runtime import Runtime
 from .schema import read_checked
@@ -41,31 +42,72 @@ def _errors(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
     return [d for d in diagnostics if d.severity is Severity.ERROR]
 
 
-def read_robot_architecture(folder: RobotFolder, variant: Variant) -> Architecture:
+@dataclass
+class Loaded:
+    """A robot folder read and checked: its model, and a variant with its start state."""
+
+    folder: RobotFolder
+    model: FeatureModel
+    variant: Variant | None
+    active: list[str] | None  # the start state's feature ids, definition order
+    architecture: Architecture | None
+
+
+def read_robot_architecture(folder: RobotFolder, model: FeatureModel, required: bool) -> Architecture | None:
     path = folder.path / ARCHITECTURE_FILE
     if not path.is_file():
+        if not required:
+            return None
         raise EnvironmentProblem(
-            error(Location(str(path)), "no architecture.json: this robot has no motion architecture to run", "io")
+            error(
+                Location(str(path)),
+                "no architecture.json: this robot has no motion architecture to run",
+                "io",
+            )
         )
     doc, problems = read_checked(path, lambda d: [])
     if doc is None:
         raise DocumentError(problems)
-    architecture, problems = read_architecture(doc, variant.model)
+    architecture, problems = read_architecture(doc, model)
     if architecture is None:
         raise DocumentError(problems)
     return architecture
 
 
-def launch(target: str | Path, variant_name: str, rate: float = 1000.0, prefer: tuple[str, ...] = ()) -> Robot:
+def load(
+    target: str | Path,
+    variant_name: str | None,
+    prefer: tuple[str, ...] = (),
+    need_architecture: bool = False,
+) -> Loaded:
+    """Read a robot folder: the model, the variant resolved with its start state, the architecture."""
     folder = RobotFolder.open(target)
     model, diagnostics = load_model(folder.model_path)
     if model is None:
         raise DocumentError(_errors(diagnostics))
-    config, diagnostics = load_configuration(folder.variant_path(variant_name), model, partial=True)
-    if config is None:
-        raise DocumentError(_errors(diagnostics))
-    variant = resolve(model, config, prefer)
-    active = [f.id for f in start_state(variant)]
-    architecture = read_robot_architecture(folder, variant)
-    assembly, warnings = build(architecture, set(active), rate)
-    return Robot(folder, variant, active, architecture, assembly, Runtime(assembly, rate), warnings)
+    variant, active = None, None
+    if variant_name is not None:
+        config, diagnostics = load_configuration(folder.variant_path(variant_name), model, partial=True)
+        if config is None:
+            raise DocumentError(_errors(diagnostics))
+        variant = resolve(model, config, prefer)
+        active = [f.id for f in start_state(variant)]
+    return Loaded(folder, model, variant, active, read_robot_architecture(folder, model, need_architecture))
+
+
+def launch(
+    target: str | Path, variant_name: str, rate: float = 1000.0, prefer: tuple[str, ...] = ()
+) -> Robot:
+    """Build a variant's start state into a runtime at `rate` Hz."""
+    loaded = load(target, variant_name, prefer, need_architecture=True)
+    assert loaded.variant is not None and loaded.active is not None and loaded.architecture is not None
+    assembly, warnings = build(loaded.architecture, set(loaded.active), rate)
+    return Robot(
+        loaded.folder,
+        loaded.variant,
+        loaded.active,
+        loaded.architecture,
+        assembly,
+        Runtime(assembly, rate),
+        warnings,
+    )
