@@ -120,6 +120,7 @@ class Module:
         self.periodic = all(isinstance(s, CoupledOscillators) for s in self.systems)
         self._cuts = list(np.cumsum(self.sizes)[:-1])
         self._single = self.systems[0] if len(self.systems) == 1 else None
+        self._no_centre = np.zeros(self.dimension)  # what a component without a goal passes
 
     def _split(self, vector: Vector) -> list[Vector]:
         return [vector] if self._single is not None else np.split(vector, self._cuts)
@@ -139,7 +140,8 @@ class Module:
         single = self._single
         if single is not None:  # the common case, without splitting and joining
             if isinstance(single, CoupledOscillators):
-                return centre + single.step(dt)
+                out = single.step(dt)
+                return out if centre is self._no_centre else centre + out
             return single.step(dt)  # a new array each step: safe to share
         parts = []
         for system, c in zip(self.systems, self._split(centre), strict=True):
@@ -151,15 +153,9 @@ class Module:
 
     def phase_error(self) -> float:
         """Largest distance of the oscillators' phase differences from the wanted ones."""
-        worst = 0.0
-        for system in self.systems:
-            if isinstance(system, CoupledOscillators):
-                phases = system.phases
-                gap = (
-                    np.mod(phases - phases[0] - system.offsets + system.offsets[0] + np.pi, 2 * np.pi) - np.pi
-                )
-                worst = max(worst, float(np.abs(gap).max()))
-        return worst
+        return max(
+            (s.locking_error() for s in self.systems if isinstance(s, CoupledOscillators)), default=0.0
+        )
 
     def set_state(self, state: str) -> None:
         """Change the lifecycle state; leaving a learning state learns from the recording."""
@@ -247,9 +243,6 @@ class Component:
     _raw: Vector | None = None  # the goal space's value last read
     _read: Vector | None = None  # ... and what the goal port made of it
 
-    def __post_init__(self) -> None:
-        self._zero = np.zeros(self.module.dimension)
-
     def current_goal(self, values: dict[str, Vector]) -> Vector | None:
         """The module-side goal; read through its mapping only when the space changed."""
         if self.sequence:
@@ -274,25 +267,29 @@ class Component:
             self.contribution = None
             self.status = "learning"
             return
-        if goal is None:
-            goal = (
-                self._goal
-                if self._goal is not None
-                else (feedback if feedback is not None else module.position())
-            )
-        if not module.periodic and goal is not self._goal:
-            if self._goal is None or not np.array_equal(goal, self._goal):
-                module.reset(feedback if feedback is not None else module.position(), goal)
-            self._goal = goal
-        centre = goal if self.goal is not None or self.sequence else self._zero
-        out = module.step(self.dt, centre)
+        if module.periodic:  # oscillates around the goal, if any
+            out = module.step(self.dt, goal if goal is not None else module._no_centre)
+        else:  # goal-directed: restarts from where it is when the goal changes
+            here = feedback
+            if goal is None:
+                goal = (
+                    self._goal
+                    if self._goal is not None
+                    else (here if here is not None else module.position())
+                )
+            if goal is not self._goal:
+                if self._goal is None or not np.array_equal(goal, self._goal):
+                    module.reset(here if here is not None else module.position(), goal)
+                self._goal = goal
+            out = module.step(self.dt, goal)
         self.contribution = self.output.function(out) if self.output.function is not None else out
         if module.state == "onlineLearning":
             module.recording.append((feedback if feedback is not None else out).copy())
             module.record_dt = self.dt
-        self.judge(goal, feedback if feedback is not None else out)
+        self.judge(goal if goal is not None else out, feedback if feedback is not None else out)
 
     def judge(self, goal: Vector, measured: Vector) -> None:
+        """Evaluate the criterion (a periodic module's by its phase locking, not its goal)."""
         if self.criterion is None:
             self.status = "running"
             return

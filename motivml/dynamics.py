@@ -165,14 +165,21 @@ class CoupledOscillators:
         self.phases = _vector(self.phases)
 
     def step(self, dt: float) -> Vector:
-        wanted = self.offsets[None, :] - self.offsets[:, None]
-        actual = self.phases[None, :] - self.phases[:, None]
-        coupling = self.coupling * np.sin(actual - wanted).sum(axis=1)
+        # sin(phi_j - phi_i - (o_j - o_i)) = sin(u_j - u_i) with u = phi - o, and
+        # sum_j sin(u_j - u_i) = cos(u_i) sum_j sin(u_j) - sin(u_i) sum_j cos(u_j): O(n), not O(n^2)
+        u = self.phases - self.offsets
+        sines, cosines = np.sin(u), np.cos(u)
+        coupling = self.coupling * (cosines * sines.sum() - sines * cosines.sum())
         self.phases = self.phases + dt * (2 * np.pi * self.frequency + coupling)
         return self.output()
 
     def output(self) -> Vector:
         return self.amplitude * np.sin(self.phases)
+
+    def locking_error(self) -> float:
+        """Largest distance (rad) of the phase differences from the wanted ones."""
+        u = self.phases - self.offsets
+        return float(np.abs(np.mod(u - u[0] + np.pi, 2 * np.pi) - np.pi).max())
 
     def phase_differences(self) -> Vector:
         """Phases relative to oscillator 0, wrapped into [0, 2 pi)."""

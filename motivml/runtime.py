@@ -150,7 +150,13 @@ class Runtime:
     def status(self) -> Snapshot:
         components = tuple(
             ComponentStatus(
-                c.id, c.kind, c.feature, c.status if c.running else "stopped", c.error, c.module.id, c.module.state
+                c.id,
+                c.kind,
+                c.feature,
+                c.status if c.running else "stopped",
+                c.error,
+                c.module.id,
+                c.module.state,
             )
             for c in self.assembly.components
         )
