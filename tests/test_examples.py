@@ -49,7 +49,14 @@ EXPECTED_ERRORS = {
 
 
 def test_six_robots_ship() -> None:
-    assert ROBOTS == ["mixture_arm", "quadruped", "reaching_arm", "simplebot", "tiago_service", "uv_disinfection"]
+    assert ROBOTS == [
+        "mixture_arm",
+        "quadruped",
+        "reaching_arm",
+        "simplebot",
+        "tiago_service",
+        "uv_disinfection",
+    ]
 
 
 @pytest.mark.parametrize("robot", [r for r in ROBOTS if (ROOT / r / "architecture.json").is_file()])
