@@ -447,6 +447,8 @@ def run_command(
     for d in robot.warnings:
         print_diagnostic(d)
     runtime = robot.runtime
+    if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
+        out.width = max(out.width, 160)
     out.print(
         f"running {escape(robot.folder.name)} variant {escape(variant)}: "
         f"{_plural(len(robot.assembly.components), 'component')} of {_plural(len(robot.active), 'active feature')} "
@@ -483,7 +485,7 @@ STATUS_COLOURS = {"converged": "green", "tracking": "green", "ongoing": "yellow"
 
 
 def _components_table(snapshot: Snapshot, runtime: Runtime | None = None) -> Table:
-    table = Table(box=box.SIMPLE_HEAD, pad_edge=False, padding=(0, 2, 0, 0))
+    table = Table(box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False)
     for column in ("component", "kind", "status", "error", "learning"):
         table.add_column(column, justify="right" if column == "error" else "left", no_wrap=True)
     if runtime is not None:
