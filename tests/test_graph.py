@@ -397,3 +397,22 @@ def test_graph_command_refuses_an_invalid_variant_and_writes_nothing(tmp_path: P
     assert names == (
         ["feature-model.dot", "feature-model.svg"] if shutil.which("dot") else ["feature-model.dot"]
     )
+
+
+PICTURES = {"reaching_arm": "dmp", "quadruped": "gaits_at_run_time", "mixture_arm": "mixed"}
+
+
+@pytest.mark.parametrize("robot", sorted(PICTURES))
+def test_the_guides_pictures_are_what_graph_draws_now(robot: str, tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    root = Path(__file__).resolve().parent.parent
+    args = ["graph", str(root / "feature_models" / robot), "--variant", PICTURES[robot], "-o", str(tmp_path)]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    committed = root / "guidelines" / "images" / robot
+    for drawn in sorted(tmp_path.iterdir()):
+        assert drawn.read_text() == (committed / drawn.name).read_text(), (
+            f"regenerate {committed / drawn.name}"
+        )

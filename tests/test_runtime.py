@@ -359,3 +359,22 @@ def test_run_refuses_invalid_variants_and_robots_without_an_architecture() -> No
     )
     unknown = runner.invoke(main, ["run", str(EXAMPLES / "quadruped"), "--variant", "gallop"])
     assert unknown.exit_code == 2 and "no variant 'gallop'" in unknown.output
+
+
+def test_the_live_view_runs_beside_the_loop() -> None:
+    result = CliRunner().invoke(
+        main,
+        [
+            "run",
+            str(EXAMPLES / "quadruped"),
+            "--variant",
+            "trot",
+            "--duration",
+            "0.3",
+            "--rate",
+            "500",
+            "--live",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    assert "ticks" in result.output.splitlines()[-1] and "Hz achieved (asked 500 Hz)" in result.output
