@@ -25,7 +25,7 @@ This is the only module that imports pysat. Solvers are opened with `with Encodi
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 
@@ -56,7 +56,10 @@ SUB_TIME = "sub-time"  # 3.2: a child is not bound before its parent
 UNIT_TIME = "unit-time"  # 3.2: a Dynamic parent's mandatory child has its time
 ALLOWED_TIME = "allowed-time"  # 3: bindingTimeAllowed
 ALLOWED_MODE = "allowed-mode"  # 3: bindingModeAllowed
-START = "start"  # 4: the start state exists
+START = "start"  # 4: the active set is part of the selection and satisfies section 2
+START_EARLY = "start-early"  # 4: at start, every selected Early feature is active
+ACTIVE = "active"  # run time: a feature is in the active set a reconfiguration asks for
+INACTIVE = "inactive"  # run time: ... or not
 # Configuration facts (literals, no selector)
 CONFIG_SELECTED = "config-selected"
 CONFIG_DESELECTED = "config-deselected"
@@ -92,6 +95,7 @@ class Encoding:
         self.facts: list[Fact] = []  # explain build: every fact; hard build: config facts
         self.literals: list[int] = []  # the assumption literal of each fact
         self._top = 4 * n
+        self._activity: int | None = None  # index of the first ACTIVE fact, once made
         self._clauses: list[list[int]] = []
         self._encode_model()
         self.model_facts = len(self.facts)
@@ -148,10 +152,13 @@ class Encoding:
         s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
         features = self.model.features
         start = self._fact(START, 0)
-        # Section 4: A is a subset of the selection, holds every selected Early feature,
-        # and satisfies section 2 in full (the a-level clauses below, each under START too).
+        early = self._fact(START_EARLY, 0)
+        # Section 4: A is a subset of the selection and satisfies section 2 in full (the
+        # a-level clauses below, each under START too); at start it holds every selected
+        # Early feature (START_EARLY, left out when the run time checks a reconfiguration).
         for i in range(self.n):
-            self._add(start, [-a(i), s(i)], [-s(i), -E(i), a(i)])
+            self._add(start, [-a(i), s(i)])
+            self._add(early, [-s(i), -E(i), a(i)])
         root = self._fact(ROOT, 0)
         self._add(root, [s(0)], [E(0)], [S(0)])
         # The root is active because it is the root (so START cannot stand in for ROOT).
@@ -269,31 +276,39 @@ class Encoding:
         return len(self.facts) - 1
 
     def conflicts(
-        self, with_config: bool = True, limit: int = 20, queries: Sequence[int] = ()
+        self,
+        with_config: bool = True,
+        limit: int = 20,
+        queries: Sequence[int] = (),
+        order: Sequence[int] | None = None,
+        fixed: Sequence[int] = (),
     ) -> list[list[int]]:
         """Minimal sets of conflicting facts (indices into `facts`), disjoint, best first.
 
         Each is a minimal unsatisfiable subset of the facts: drop any one and the rest has a
         valid variant. After one is found its facts are set aside and the search goes on,
         so independent problems are all reported (up to `limit`). `queries` (from
-        `query()`) are assumed too, so a dead feature's reason can be asked for.
+        `query()`) are assumed too, so a dead feature's reason can be asked for. `order`
+        replaces the facts considered (and their order); `fixed` literals are assumed
+        throughout without being facts of a conflict.
         """
         if not self.explain:
             raise ValueError("conflicts() needs Encoding(model, explain=True)")
         last = self._config_fact_range[1] if with_config else self.model_facts
         # Queries and configuration facts first: the solver's core tends to use the earliest.
-        order = [*queries, *range(self.model_facts, last), *range(self.model_facts)]
+        if order is None:
+            order = [*queries, *range(self.model_facts, last), *range(self.model_facts)]
         remaining = dict.fromkeys(order)  # ordered set
         found: list[list[int]] = []
         by_literal: dict[int, int] = {}
         for k in order:
             by_literal.setdefault(self.literals[k], k)
         while len(found) < limit:
-            assumptions = [self.literals[k] for k in remaining]
+            assumptions = [*fixed, *(self.literals[k] for k in remaining)]
             if self.solver.solve(assumptions=assumptions):
                 break
             core = self._core(by_literal, remaining)
-            core = self._minimise(core)
+            core = self._minimise(core, fixed)
             found.append(sorted(core))
             for k in core:
                 remaining.pop(k, None)
@@ -305,16 +320,16 @@ class Encoding:
         core = self.solver.get_core() or []
         return [by_literal[lit] for lit in core if by_literal.get(lit) in allowed_set]
 
-    def _minimise(self, core: list[int]) -> list[int]:
+    def _minimise(self, core: list[int], fixed: Sequence[int] = ()) -> list[int]:
         """Deletion-based shrinking of an unsatisfiable set of facts to a minimal one."""
         by_literal = {self.literals[k]: k for k in core}
         # Facts tried for deletion first are the least likely to stay: the start-state
         # fact goes first, so a conflict that section 2 or 3 explains is not blamed on it.
-        current = sorted(core, key=lambda k: self.facts[k].kind != START)
+        current = sorted(core, key=lambda k: self.facts[k].kind not in (START, START_EARLY))
         i = 0
         while i < len(current):
             trial = current[:i] + current[i + 1 :]
-            if self.solver.solve(assumptions=[self.literals[k] for k in trial]):
+            if self.solver.solve(assumptions=[*fixed, *(self.literals[k] for k in trial)]):
                 i += 1  # needed
             else:
                 smaller = set(self._core(by_literal, trial))
@@ -402,6 +417,33 @@ class Encoding:
         with RC2(formula, solver="g4") as maxsat:
             model = maxsat.compute()
         return list(model) if model is not None else None
+
+    def active_set_conflicts(
+        self, fixed: Sequence[int], active: Collection[int], limit: int = 5
+    ) -> list[list[int]]:
+        """Why `active` (feature indices) cannot be the run time's active set; [] if it can.
+
+        Explain build only. `fixed` are the variant's literals (s, E, S of every feature),
+        assumed but never blamed. The facts are every model fact except START_EARLY (a
+        Dynamic Early feature may be unloaded at run time) and, per feature, "active" or
+        "inactive" as asked: a conflict names the model statements and the features whose
+        activity contradicts them (semantics.md section 4: A satisfies section 2).
+        """
+        if not self.explain:
+            raise ValueError("active_set_conflicts() needs Encoding(model, explain=True)")
+        if self._activity is None:
+            self._activity = len(self.facts)
+            for kind, sign in ((ACTIVE, 1), (INACTIVE, -1)):
+                for i in range(self.n):
+                    self.facts.append(Fact(kind, i))
+                    self.literals.append(sign * self.a(i))
+        wanted = set(active)
+        chosen = [self._activity + (i if i in wanted else self.n + i) for i in range(self.n)]
+        model = [k for k in range(self.model_facts) if self.facts[k].kind != START_EARLY]
+        assumptions = [*fixed, *(self.literals[k] for k in model), *(self.literals[k] for k in chosen)]
+        if self.solver.solve(assumptions=assumptions):
+            return []
+        return self.conflicts(limit=limit, order=[*chosen, *model], fixed=fixed)
 
     def start_state(self, late: Sequence[int]) -> list[int] | None:
         """The active set at start (semantics.md section 4), as feature indices; None if none.

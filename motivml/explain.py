@@ -75,14 +75,38 @@ _FAMILY = {
     **dict.fromkeys((enc.PARENT, enc.SUB_MODE, enc.SUB_TIME), "parent"),
 }
 VALUE_KINDS = frozenset(
-    {enc.ROOT, enc.ALLOWED_TIME, enc.ALLOWED_MODE, *enc.CONFIG_KINDS, "query-selected", "query-binding"}
+    {
+        enc.ROOT,
+        enc.ALLOWED_TIME,
+        enc.ALLOWED_MODE,
+        *enc.CONFIG_KINDS,
+        "query-selected",
+        "query-binding",
+        enc.ACTIVE,
+        enc.INACTIVE,
+    }
+)
+STATE_KINDS = frozenset({enc.START, enc.START_EARLY})
+RUN_TIME_WHY = (
+    "section 4",
+    "at every moment the active set has every active parent's mandatory sub-features, one active "
+    "member of each of its groups (exactly one for XOR), every feature an active feature includes, "
+    "and no two active features that exclude each other (section 4)",
 )
 
 
 class Explainer:
     """Turns facts of one encoding into words and locations."""
 
-    def __init__(self, encoding: enc.Encoding, model: FeatureModel, config: Configuration | None) -> None:
+    def __init__(
+        self,
+        encoding: enc.Encoding,
+        model: FeatureModel,
+        config: Configuration | None,
+        run_time: bool = False,
+    ) -> None:
+        """`run_time`: explain a reconfiguration's active set, not a variant's start state."""
+        self.run_time = run_time
         self.encoding = encoding
         self.model = model
         self.config = config
@@ -121,8 +145,16 @@ class Explainer:
             )
         if kind == enc.ROOT:
             return Fact(f"{self._id(0)} is the root", self.model_location(0, "id"), rule)
-        if kind == enc.START:
-            return Fact("the robot must be able to start", self.model_location(0), rule)
+        if kind in STATE_KINDS:
+            text = (
+                "the active set satisfies section 2 at every moment"
+                if self.run_time
+                else "the robot must be able to start"
+            )
+            return Fact(text, self.model_location(0), "section 4")
+        if kind in (enc.ACTIVE, enc.INACTIVE):
+            state = "active" if kind == enc.ACTIVE else "inactive"
+            return Fact(f"{self._id(a)} would be {state}", self.model_location(a, "id"), "request")
         if kind in (enc.PARENT, enc.SUB_MODE, enc.SUB_TIME):
             parent = model.features[a].parent
             assert parent is not None
@@ -225,13 +257,15 @@ class Explainer:
         kinds = {facts[k].kind for k in mus}
         main = next((kind for kind in PRIORITY if kind in kinds), None)
         rule, why = WHY[main] if main is not None else ("", "these facts contradict each other")
+        if self.run_time:
+            main, (rule, why) = enc.START, RUN_TIME_WHY
         main_k = next((k for k in mus if facts[k].kind == main), mus[0])
         focus = self.mentions(main_k)[0] if main not in VALUE_KINDS else facts[main_k].a
 
         # One statement per model relation: "slam requires gridmap" says "includes" too.
         statements: dict[tuple[str, int, int], int] = {}
         for k in sorted(
-            (k for k in mus if facts[k].kind not in VALUE_KINDS and facts[k].kind != enc.START),
+            (k for k in mus if facts[k].kind not in VALUE_KINDS and facts[k].kind not in STATE_KINDS),
             key=lambda k: PRIORITY.index(facts[k].kind),
         ):
             key = (_FAMILY.get(facts[k].kind, facts[k].kind), facts[k].a, facts[k].b)
@@ -275,8 +309,8 @@ class Explainer:
         )
         primary_k = next(iter(config_facts or shown_statements or values))
         ordered = tuple(dict.fromkeys(words[k] for k in [*shown_statements, *values]))
-        if enc.START in kinds:
-            ordered += (words[next(k for k in mus if facts[k].kind == enc.START)],)
+        if kinds & STATE_KINDS:
+            ordered += (words[next(k for k in mus if facts[k].kind in STATE_KINDS)],)
         return message, rule, primary_k, words, ordered
 
     def diagnostic(

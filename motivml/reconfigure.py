@@ -1,0 +1,216 @@
+"""Reconfiguration at run time: loads and unloads as checked transactions (semantics.md section 4).
+
+A `Request` asks to load, unload, reload or swap features of a running variant. `plan`
+turns it into the new active set, or refuses it with the reason and changes nothing:
+
+* only features of the model, and only selected ones, load; a Static Early feature is
+  compiled in, so it is always active and never loads or unloads at run time;
+* a Static feature never unloads (a Static Late one stays once loaded), nor reloads;
+* unloading a feature unloads its active subtree; loading a feature loads its selected
+  mandatory sub-features with it (a Dynamic feature and its mandatory children move as one
+  unit); a feature whose parent is inactive loads only with its parent in the same request;
+* the resulting active set must satisfy section 2 in full, checked on the one SAT encoding
+  (explain build, the variant's literals fixed, the start-state rule that every Early
+  feature is active left out): a refusal says which statements of the model the new set
+  would break, in the words `validate` uses.
+
+`Reconfigurer` keeps one incremental solver per running variant, so a check costs one solve
+(a few hundred microseconds on the example robots); the explanation is computed only for a
+refusal.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Collection
+from dataclasses import dataclass
+from types import TracebackType
+
+from . import encoding as enc
+from .configure import Variant
+from .errors import Diagnostic, Location, MotivmlError, error
+from .explain import Explainer
+from .model import Configuration
+
+ACTIONS = ("load", "unload", "reload", "swap")
+
+
+class Refused(MotivmlError):
+    """The request would break a rule of section 4; nothing changed."""
+
+
+@dataclass(frozen=True)
+class Request:
+    action: str  # load | unload | reload | swap
+    features: tuple[str, ...]  # swap: (the one to unload, the one to load)
+
+    def __str__(self) -> str:
+        return f"{self.action} {' '.join(self.features)}"
+
+
+@dataclass(frozen=True)
+class Plan:
+    """An accepted request: the active set before and after, what loads and unloads."""
+
+    request: Request
+    before: frozenset[str]
+    after: frozenset[str]
+    loads: tuple[str, ...]  # definition order (parents first)
+    unloads: tuple[str, ...]  # reverse definition order (children first)
+
+
+class Reconfigurer:
+    def __init__(self, variant: Variant, config: Configuration | None = None) -> None:
+        """`config`: the variant's document, to point messages at its entries."""
+        self.variant = variant
+        self.model = variant.model
+        self.config = config
+        self.decisions = {d.feature.id: d for d in variant.decisions}
+        self.encoding = enc.Encoding(self.model, explain=True)
+        self.fixed: list[int] = []
+        for d in variant.decisions:
+            i = d.feature.index
+            e = self.encoding
+            self.fixed += [e.s(i) if d.selected else -e.s(i), e.E(i) if d.early else -e.E(i)]
+            self.fixed.append(e.S(i) if d.static else -e.S(i))
+        self.explainer = Explainer(self.encoding, self.model, None, run_time=True)
+
+    # ------------------------------------------------------------------ messages
+    def _where(self, feature: str, *keys: str) -> Location:
+        if self.config is not None and feature in self.config.entries and self.config.source is not None:
+            location: Location = self.config.source.locate(self.config.path(feature, *keys))
+            return location
+        return self.explainer.model_location(self.model.index[feature], "id")
+
+    def _refuse(self, feature: str, message: str, rule: str, *keys: str) -> Refused:
+        return Refused(error(self._where(feature, *keys), message, rule, feature))
+
+    def _binding(self, feature: str) -> str:
+        d = self.decisions[feature]
+        return ("Static" if d.static else "Dynamic") + (" Early" if d.early else " Late")
+
+    # --------------------------------------------------------------------- plan
+    def plan(self, active: Collection[str], request: Request) -> Plan:
+        """The new active set of an accepted request; `Refused` says why not."""
+        if request.action not in ACTIONS:
+            raise ValueError(f"unknown action {request.action!r} (actions: {', '.join(ACTIONS)})")
+        wanted = 2 if request.action == "swap" else None
+        if not request.features or (wanted is not None and len(request.features) != wanted):
+            raise ValueError("swap takes two features, the others one or more")
+        for feature in request.features:
+            if feature not in self.model.index:
+                close = difflib.get_close_matches(feature, list(self.model.index), n=1, cutoff=0.75)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise Refused(
+                    error(
+                        self.explainer.model_location(0),
+                        f"no feature {feature!r} in the model{hint}",
+                        "reconfigure.unknown",
+                    )
+                )
+        before = frozenset(active)
+        if request.action == "reload":
+            for feature in request.features:
+                self._check_unload(feature, before, "reload")
+            return Plan(
+                request,
+                before,
+                before,
+                self._ordered(request.features),
+                self._ordered(request.features, True),
+            )
+        to_unload: set[str] = set()
+        to_load: set[str] = set()
+        if request.action in ("unload", "swap"):
+            for feature in request.features[:1] if request.action == "swap" else request.features:
+                self._check_unload(feature, before, "unload")
+                subtree = {self.model.features[i].id for i in self.model.subtree(self.model.index[feature])}
+                to_unload |= subtree & before
+        if request.action in ("load", "swap"):
+            for feature in request.features[1:] if request.action == "swap" else request.features:
+                self._check_load(feature, before - to_unload)
+                to_load |= self._unit(feature)
+        after = (before - to_unload) | to_load
+        for feature in sorted(to_load, key=self.model.index.__getitem__):
+            parent = self.model[feature].parent
+            if parent is not None and self.model.features[parent].id not in after:
+                parent_id = self.model.features[parent].id
+                raise self._refuse(
+                    feature,
+                    f"{feature} is a sub-feature of {parent_id}, which is not active: load {parent_id} in the same "
+                    f"request (section 4)",
+                    "reconfigure.parent",
+                )
+        conflicts = self.encoding.active_set_conflicts(
+            self.fixed, [self.model.index[f] for f in after], limit=5
+        )
+        if conflicts:
+            raise Refused([self.explainer.diagnostic(mus) for mus in conflicts])
+        return Plan(
+            request,
+            before,
+            frozenset(after),
+            self._ordered(to_load - before),
+            self._ordered(to_unload, reverse=True),
+        )
+
+    def _check_unload(self, feature: str, active: frozenset[str], verb: str) -> None:
+        if feature not in active:
+            raise self._refuse(
+                feature, f"{feature} is not active: there is nothing to {verb}", "reconfigure.inactive"
+            )
+        d = self.decisions[feature]
+        if d.static:
+            why = "it is compiled in" if d.early else "a Static Late feature stays once it is loaded"
+            raise self._refuse(
+                feature,
+                f"{feature} is bound {self._binding(feature)}: a Static feature never unloads or reloads; {why} (section 4)",
+                "reconfigure.static",
+                "props",
+                "mode",
+            )
+
+    def _check_load(self, feature: str, active: Collection[str]) -> None:
+        d = self.decisions[feature]
+        if not d.selected:
+            name = self.variant.name or "the variant"
+            raise self._refuse(
+                feature,
+                f"{feature} is not selected in {name}: only selected features load (section 4)",
+                "reconfigure.not-selected",
+            )
+        if feature in active:  # a selected Static Early feature always is: it is compiled in
+            raise self._refuse(feature, f"{feature} is already active", "reconfigure.active")
+
+    def _unit(self, feature: str) -> set[str]:
+        """The feature and its selected mandatory sub-features, recursively: they load as one."""
+        unit, stack = set(), [self.model.index[feature]]
+        while stack:
+            f = self.model.features[stack.pop()]
+            unit.add(f.id)
+            stack += [
+                c
+                for c in f.children
+                if self.model.features[c].mandatory and self.decisions[self.model.features[c].id].selected
+            ]
+        return unit
+
+    def _ordered(self, features: Collection[str], reverse: bool = False) -> tuple[str, ...]:
+        return tuple(sorted(features, key=self.model.index.__getitem__, reverse=reverse))
+
+    # --------------------------------------------------------------- lifecycle
+    def close(self) -> None:
+        self.encoding.close()
+
+    def __enter__(self) -> Reconfigurer:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+
+def explain_refusal(diagnostics: list[Diagnostic]) -> str:
+    """One line per reason (for logs and the control socket)."""
+    return "; ".join(d.message for d in diagnostics)

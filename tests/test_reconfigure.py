@@ -1,0 +1,230 @@
+"""Run-time reconfiguration (semantics.md section 4): every refusal reason, and brute force."""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import pytest
+from helpers import config, feature
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from motivml.configure import NoVariant, resolve, start_state
+from motivml.loader import parse
+from motivml.model import FeatureModel
+from motivml.reader import read_configuration, read_model
+from motivml.reconfigure import Plan, Reconfigurer, Refused, Request
+from tests.test_property_sat import configurations, models
+from tests.test_start_state import satisfies_section_2
+
+ANY = {"time": "Any", "mode": "Any"}
+MODEL = feature(
+    "bot",
+    [
+        feature("base", isMandatory=True, time="Early", mode="Static"),
+        feature(
+            "slam",
+            [feature("hector", group="XOR", **ANY), feature("karto", group="XOR", **ANY)],
+            isMandatory=False,
+            **ANY,
+        ),
+        feature("logger", isMandatory=False, **ANY),
+        feature("camera", isMandatory=False, **ANY),
+        feature("lidar", isMandatory=False, exc=["sonar"], **ANY),
+        feature("sonar", isMandatory=False, **ANY),
+        feature(
+            "gestures", [feature("hands", isMandatory=True, **ANY)], isMandatory=False, inc=["camera"], **ANY
+        ),
+        feature("unused", isMandatory=False, **ANY),
+    ],
+)
+VARIANT = config(
+    ("base", "Early", "Static"),
+    ("slam", "Late", "Dynamic"),
+    ("hector", "Late", "Dynamic"),
+    ("karto", "Late", "Dynamic"),
+    ("logger", "Late", "Static"),
+    ("camera", "Late", "Static"),
+    ("lidar", "Early", "Dynamic"),
+    ("sonar", "Late", "Dynamic"),
+    ("gestures", "Late", "Dynamic"),
+    ("hands", "Late", "Dynamic"),
+    ("unused", False),
+)
+
+
+@pytest.fixture
+def robot() -> tuple[Reconfigurer, set[str]]:
+    model, _ = read_model(parse(json.dumps(MODEL, indent=1), "model.json"))
+    configuration, problems = read_configuration(parse(json.dumps(VARIANT, indent=1), "v.json"), model)
+    assert not problems
+    variant = resolve(model, configuration)
+    return Reconfigurer(variant, configuration), {f.id for f in start_state(variant)}
+
+
+def refusal(robot: tuple[Reconfigurer, set[str]], *requests: str) -> str:
+    """Apply requests in turn; the last must be refused: its first message."""
+    reconfigurer, active = robot
+    for text in requests[:-1]:
+        action, *features = text.split()
+        active = set(reconfigurer.plan(active, Request(action, tuple(features))).after)
+    action, *features = requests[-1].split()
+    with pytest.raises(Refused) as refused:
+        reconfigurer.plan(active, Request(action, tuple(features)))
+    d = refused.value.diagnostics[0]
+    return f"{d.location.path}: {d.message}"
+
+
+def test_the_start_state_and_accepted_requests(robot: tuple[Reconfigurer, set[str]]) -> None:
+    reconfigurer, active = robot
+    assert active == {"bot", "base", "lidar"}
+    plan = reconfigurer.plan(active, Request("load", ("slam", "hector")))
+    assert plan.loads == ("slam", "hector") and plan.unloads == ()
+    swap = reconfigurer.plan(plan.after, Request("swap", ("hector", "karto")))
+    assert swap.after == {"bot", "base", "lidar", "slam", "karto"}
+    camera = reconfigurer.plan(swap.after, Request("load", ("camera",)))
+    unit = reconfigurer.plan(camera.after, Request("load", ("gestures",)))
+    assert unit.loads == ("gestures", "hands")  # a Dynamic feature and its mandatory children
+    subtree = reconfigurer.plan(unit.after, Request("unload", ("slam",)))
+    assert subtree.unloads == ("karto", "slam")  # children first
+    reload = reconfigurer.plan(subtree.after, Request("reload", ("lidar",)))
+    assert reload.after == subtree.after and reload.loads == reload.unloads == ("lidar",)
+
+
+REFUSALS = {
+    "unknown feature": (["load hectr"], "$: no feature 'hectr' in the model (did you mean 'hector'?)"),
+    "not selected": (
+        ["load unused"],
+        "$.properties[10]: unused is not selected in the variant: only selected features load (section 4)",
+    ),
+    "Static Early never unloads": (
+        ["unload base"],
+        "$.properties[0].props.mode: base is bound Static Early: a Static feature never unloads or reloads; it is compiled in (section 4)",
+    ),
+    "Static Late stays once loaded": (
+        ["load logger", "unload logger"],
+        "$.properties[4].props.mode: logger is bound Static Late: a Static feature never unloads or reloads; a Static Late feature stays once it is loaded (section 4)",
+    ),
+    "only an active feature unloads": (
+        ["unload sonar"],
+        "$.properties[7]: sonar is not active: there is nothing to unload",
+    ),
+    "already active": (["load lidar"], "$.properties[6]: lidar is already active"),
+    "parent inactive": (
+        ["load hector"],
+        "$.properties[2]: hector is a sub-feature of slam, which is not active: load slam in the same request (section 4)",
+    ),
+    "XOR: exactly one": (
+        ["load slam hector", "load karto"],
+        "$.sub[1].sub[1].group: hector and karto are alternatives in slam's XOR group, but hector would be active and karto would be active: at every moment the active set has every active parent's mandatory sub-features, one active member of each of its groups (exactly one for XOR), every feature an active feature includes, and no two active features that exclude each other (section 4)",
+    ),
+    "XOR: at least one": (
+        ["load slam"],
+        "$.sub[1].sub[0].group: slam has the XOR group hector, karto, but slam would be active, hector would be inactive and karto would be inactive: at every moment the active set has every active parent's mandatory sub-features, one active member of each of its groups (exactly one for XOR), every feature an active feature includes, and no two active features that exclude each other (section 4)",
+    ),
+    "excludes": (
+        ["load sonar"],
+        "$.sub[4].constraints.featuresExcluded[0]: lidar excludes sonar, but lidar would be active and sonar would be active: at every moment the active set has every active parent's mandatory sub-features, one active member of each of its groups (exactly one for XOR), every feature an active feature includes, and no two active features that exclude each other (section 4)",
+    ),
+    "includes": (
+        ["load gestures"],
+        "$.sub[6].constraints.featuresIncluded[0]: gestures includes camera, but gestures would be active and camera would be inactive: at every moment the active set has every active parent's mandatory sub-features, one active member of each of its groups (exactly one for XOR), every feature an active feature includes, and no two active features that exclude each other (section 4)",
+    ),
+    "mandatory": (
+        ["load camera", "load gestures", "unload hands"],
+        "$.sub[6].sub[0].isMandatory: hands is a mandatory sub-feature of gestures, but gestures would be active and hands would be inactive: at every moment the active set has every active parent's mandatory sub-features, one active member of each of its groups (exactly one for XOR), every feature an active feature includes, and no two active features that exclude each other (section 4)",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(REFUSALS))
+def test_refusal(robot: tuple[Reconfigurer, set[str]], case: str) -> None:
+    requests, expected = REFUSALS[case]
+    assert refusal(robot, *requests) == expected
+
+
+def test_a_refusal_changes_nothing(robot: tuple[Reconfigurer, set[str]]) -> None:
+    reconfigurer, active = robot
+    before = set(active)
+    with pytest.raises(Refused):
+        reconfigurer.plan(active, Request("swap", ("lidar", "unused")))
+    assert active == before
+
+
+# --------------------------------------------------------------------------- brute force
+class Reference:
+    """Section 4's reconfiguration rules read directly, with section 2 checked by enumeration."""
+
+    def __init__(self, model: FeatureModel, selected: dict[str, tuple[bool, bool]]) -> None:
+        self.model = model
+        self.selected = selected  # id -> (early, static) for selected features
+
+    def subtree(self, f: str) -> set[str]:
+        return {self.model.features[i].id for i in self.model.subtree(self.model.index[f])}
+
+    def unit(self, f: str) -> set[str]:
+        out, todo = set(), [f]
+        while todo:
+            g = todo.pop()
+            out.add(g)
+            for c in self.model[g].children:
+                child = self.model.features[c]
+                if child.mandatory and child.id in self.selected:
+                    todo.append(child.id)
+        return out
+
+    def apply(self, active: set[str], action: str, features: tuple[str, ...]) -> set[str] | None:
+        unloads = features[:1] if action == "swap" else features if action in ("unload", "reload") else ()
+        loads = features[1:] if action == "swap" else features if action == "load" else ()
+        for f in unloads:
+            if f not in active or self.selected[f][1]:
+                return None
+        if action == "reload":
+            return set(active)
+        gone = set().union(*(self.subtree(f) for f in unloads)) & active if unloads else set()
+        rest = active - gone
+        for f in loads:
+            if f not in self.selected or f in rest:
+                return None
+        new = set().union(*(self.unit(f) for f in loads)) if loads else set()
+        after = rest | new
+        for f in new:
+            parent = self.model[f].parent
+            if parent is not None and self.model.features[parent].id not in after:
+                return None
+        return after if satisfies_section_2(self.model, {self.model.index[f] for f in after}) else None
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataObject) -> None:
+    raw: dict[str, Any] = data.draw(models(max_features=8))
+    model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    configuration, _ = read_configuration(
+        parse(json.dumps(data.draw(configurations(raw))), "v.json"), model, partial=True
+    )
+    try:
+        variant = resolve(model, configuration, ("late", "dynamic"))
+    except NoVariant:
+        return
+    selected = {d.feature.id: (d.early, d.static) for d in variant.selected()}
+    reference = Reference(model, selected)
+    active = {f.id for f in start_state(variant)}
+    ids = [f.id for f in model.features]
+    with Reconfigurer(variant) as reconfigurer:
+        for _ in range(6):
+            action = data.draw(st.sampled_from(["load", "unload", "reload", "swap"]))
+            count = 2 if action == "swap" else data.draw(st.integers(1, 2))
+            features = tuple(
+                data.draw(st.lists(st.sampled_from(ids), min_size=count, max_size=count, unique=True))
+            )
+            expected = reference.apply(active, action, features)
+            try:
+                plan: Plan | None = reconfigurer.plan(active, Request(action, features))
+            except Refused:
+                plan = None
+            assert (None if plan is None else set(plan.after)) == expected, (action, features, active)
+            if plan is not None:
+                active = set(plan.after)
+                assert satisfies_section_2(model, {model.index[f] for f in active})
