@@ -196,29 +196,83 @@ class Reference:
         return after if satisfies_section_2(self.model, {self.model.index[f] for f in after}) else None
 
 
+@st.composite
+def run_time_models(draw: st.DrawFn, n_max: int = 9) -> dict[str, Any]:
+    """Models with room for the run time: optional features with open bindings, OR/XOR
+    groups, a few mandatory sub-features, excludes; includes rarely (they force Static)."""
+    n = draw(st.integers(3, n_max))
+    ids = [f"f{i}" for i in range(n)]
+    nodes: list[dict[str, Any]] = [{"id": "f0", "name": "F0"}]
+    for i in range(1, n):
+        others = [x for x in ids[1:] if x != ids[i]]
+        node: dict[str, Any] = {
+            "id": ids[i],
+            "name": ids[i].upper(),
+            "group": draw(st.sampled_from(["", "", "OR", "XOR", "XOR"])),
+            "isMandatory": draw(st.sampled_from([False, False, False, True])),
+            "constraints": {
+                "bindingTimeAllowed": draw(st.sampled_from(["Any", "Any", "Any", "Late", "Early"])),
+                "bindingModeAllowed": draw(st.sampled_from(["Any", "Any", "Any", "Dynamic", "Static"])),
+                "featuresExcluded": draw(st.lists(st.sampled_from(others), max_size=1))
+                if draw(st.integers(0, 3)) == 0
+                else [],
+                "featuresIncluded": draw(st.lists(st.sampled_from(others), max_size=1))
+                if draw(st.integers(0, 5)) == 0
+                else [],
+            },
+        }
+        nodes[draw(st.integers(0, i - 1))].setdefault("sub", []).append(node)
+        nodes.append(node)
+    return nodes[0]
+
+
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.data())
 def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataObject) -> None:
-    raw: dict[str, Any] = data.draw(models(max_features=8))
-    model, _ = read_model(parse(json.dumps(raw), "model.json"))
-    configuration, _ = read_configuration(
-        parse(json.dumps(data.draw(configurations(raw))), "v.json"), model, partial=True
+    raw: dict[str, Any] = data.draw(
+        models(max_features=8) if data.draw(st.integers(0, 3)) == 0 else run_time_models()
     )
+    model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    # Half the time every feature selected with open bindings: the solver then binds all it
+    # may Late and Dynamic, which gives the run time the most to do.
+    everything = {
+        "properties": [{"id": f.id, "props": {"time": "Any", "mode": "Any"}} for f in model.features[1:]]
+    }
+    document = everything if data.draw(st.booleans()) else data.draw(configurations(raw))
+    configuration, _ = read_configuration(parse(json.dumps(document), "v.json"), model, partial=True)
     try:
         variant = resolve(model, configuration, ("late", "dynamic"))
     except NoVariant:
         return
     selected = {d.feature.id: (d.early, d.static) for d in variant.selected()}
+    if len(selected) == 1:
+        return  # only the root: nothing can change
     reference = Reference(model, selected)
     active = {f.id for f in start_state(variant)}
     ids = [f.id for f in model.features]
     with Reconfigurer(variant) as reconfigurer:
-        for _ in range(6):
+        for _ in range(8):
             action = data.draw(st.sampled_from(["load", "unload", "reload", "swap"]))
-            count = 2 if action == "swap" else data.draw(st.integers(1, 2))
-            features = tuple(
-                data.draw(st.lists(st.sampled_from(ids), min_size=count, max_size=count, unique=True))
-            )
+            # Mostly moves that can succeed (an inactive selected feature to load, an active
+            # Dynamic one to unload), sometimes any feature, so refusals are tried too.
+            loadable = [f for f in ids if f in selected and f not in active] or ids
+            unloadable = [f for f in ids if f in active and not selected[f][1]] or ids
+            pools = {
+                "load": [loadable],
+                "unload": [unloadable],
+                "reload": [unloadable],
+                "swap": [unloadable, loadable],
+            }
+            picks = []
+            for pool in pools[action]:
+                picks.append(
+                    data.draw(st.sampled_from(pool) if data.draw(st.integers(0, 4)) else st.sampled_from(ids))
+                )
+            if action in ("load", "unload") and data.draw(st.booleans()):
+                picks.append(data.draw(st.sampled_from(pools[action][0])))
+            features = tuple(dict.fromkeys(picks))
+            if action == "swap" and len(features) != 2:
+                continue
             expected = reference.apply(active, action, features)
             try:
                 plan: Plan | None = reconfigurer.plan(active, Request(action, features))
