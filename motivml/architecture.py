@@ -209,6 +209,18 @@ class _Checker:
         for element, module in self.by_id["modules"].items():
             for number, system in enumerate(module["systems"]):
                 self.parameters(element, number, system)
+            has_dmp = any(system["type"] == "dmp" for system in module["systems"])
+            for number, learner in enumerate(module.get("learners", [])):
+                if learner["type"] != "ridge" or not has_dmp:
+                    self.report_at(
+                        "modules",
+                        element,
+                        ("learners", str(number), "type"),
+                        f"a module's learner is ridge regression of its DMPs' weights, so {learner['type']} does not fit module {element}"
+                        + ("" if has_dmp else " (it has no DMP)")
+                        + " (an elm learns in an adaptive mapping)",
+                        "architecture.learner",
+                    )
         for element, component in self.by_id["components"].items():
             self.component(element, component)
         self.writers()

@@ -80,25 +80,41 @@ def planar_arm(links: Vector, angles: Vector) -> Vector:
 
 
 class AdaptiveMapping:
-    """A learned mapping: predicts with its learner; learns online from a teacher if any."""
+    """A learned mapping: predicts with its learner, and learns from a teacher if it has one.
+
+    online (the default): every evaluation is a sample, learned at once by recursive least
+    squares. offline: samples are collected, and the learner is fitted on all of them in one
+    batch every `BATCH` samples (predictions use the latest fit).
+    """
+
+    BATCH = 100
 
     def __init__(self, learner: dict[str, Any], inputs: int, outputs: int, teacher: Function | None) -> None:
         self.model: ExtremeLearningMachine | LinearRLS = (
-            ExtremeLearningMachine(inputs, outputs, hidden=int(learner.get("x-hidden", 60)))
+            ExtremeLearningMachine(inputs, outputs, hidden=int(learner.get("hidden", 60)))
             if learner["type"] == "elm"
             else LinearRLS(inputs, outputs)
         )
+        self.offline = learner.get("mode") == "offline"
         self.teacher = teacher
         self.samples = 0
         self.error = float("nan")
+        self._inputs: list[Vector] = []
+        self._targets: list[Vector] = []
 
     def __call__(self, x: Vector) -> Vector:
         prediction = np.asarray(self.model.predict(x)[0], dtype=float)
         if self.teacher is not None:
             target = self.teacher(x)
             self.error = float(np.linalg.norm(target - prediction))
-            self.model.update(x, target)
             self.samples += 1
+            if self.offline:
+                self._inputs.append(x.copy())
+                self._targets.append(target)
+                if self.samples % self.BATCH == 0:
+                    self.model.fit(np.array(self._inputs), np.array(self._targets))
+            else:
+                self.model.update(x, target)
         return prediction
 
 
@@ -127,6 +143,14 @@ class Module:
 
     def position(self) -> Vector:
         parts = [s.output() if isinstance(s, CoupledOscillators) else s.position for s in self.systems]
+        return np.concatenate(parts)
+
+    def hold(self) -> Vector:
+        """Where the module is, as a goal: goal-directed parts stay, periodic parts centre on 0."""
+        parts = [
+            np.zeros(n) if isinstance(s, CoupledOscillators) else s.position
+            for s, n in zip(self.systems, self.sizes, strict=True)
+        ]
         return np.concatenate(parts)
 
     def reset(self, start: Vector, goal: Vector) -> None:
@@ -272,11 +296,7 @@ class Component:
         else:  # goal-directed: restarts from where it is when the goal changes
             here = feedback
             if goal is None:
-                goal = (
-                    self._goal
-                    if self._goal is not None
-                    else (here if here is not None else module.position())
-                )
+                goal = self._goal if self._goal is not None else (here if here is not None else module.hold())
             if goal is not self._goal:
                 if self._goal is None or not np.array_equal(goal, self._goal):
                     module.reset(here if here is not None else module.position(), goal)
@@ -321,6 +341,28 @@ class Assembly:
     mappings: list[tuple[str, str, str, Function]]  # (id, from, to, function), in order
     adaptive: dict[str, AdaptiveMapping]
     writers: dict[str, list[Component]]
+    functions: dict[str, Function]  # every mapping's function by id (kept across changes)
+    fresh: list[Component]  # components built new, to prime before their first step
+    features: set[str]  # the active features it was built for
+
+    def prime(self) -> None:
+        """Start the fresh goal-directed components where their feedback or output is now.
+
+        A component with feedback starts there; the sole writer of its output space (with no
+        mapping on the way) starts at the space's value; superposed writers start at zero, so
+        their sum starts at the space's value only through what they add.
+        """
+        values = self.values
+        for component in self.fresh:
+            if component.module.periodic:
+                continue
+            start = component.feedback.read(values) if component.feedback is not None else None
+            sole = len(self.writers.get(component.output.space, [])) == 1
+            if start is None and component.output.function is None and sole:
+                start = values[component.output.space]
+            if start is not None:
+                component.module.reset(start, start)
+        self.fresh = []
 
     def tick(self, count: int) -> None:
         values = self.values
@@ -357,8 +399,18 @@ def _order(items: dict[str, Any], depends: Callable[[str], list[str]]) -> list[s
     return ordered
 
 
-def build(architecture: Architecture, active: set[str], rate: float) -> tuple[Assembly, list[Diagnostic]]:
-    """Instantiate the active features' elements; warnings about rates come back as diagnostics."""
+def build(
+    architecture: Architecture, active: set[str], rate: float, previous: Assembly | None = None
+) -> tuple[Assembly, list[Diagnostic]]:
+    """Instantiate the active features' elements; warnings about rates come back as diagnostics.
+
+    With `previous` (a reconfiguration), the elements that stay are the same objects, with
+    their state (a module's motion, a learner's weights, a space's value); only the elements
+    of features that come are new, and `Assembly.fresh` lists the new components, which the
+    runtime primes with the space values of the tick the change commits on.
+    """
+    kept_functions = previous.functions if previous is not None else {}
+    kept_components = {c.id: c for c in previous.components} if previous is not None else {}
     whole = architecture
     arch = architecture.elements_of(active)
     problems: list[Diagnostic] = []
@@ -394,7 +446,8 @@ def build(architecture: Architecture, active: set[str], rate: float) -> tuple[As
             "mappings", element, ("to",), "spaces", mapping["to"]
         ):
             inputs, outputs = (arch.spaces[mapping[k]]["dimension"] for k in ("from", "to"))
-            functions[element] = make_function(mapping, inputs, outputs)
+            kept = kept_functions.get(element)
+            functions[element] = kept if kept is not None else make_function(mapping, inputs, outputs)
             if isinstance(functions[element], AdaptiveMapping):
                 adaptive[element] = functions[element]  # type: ignore[assignment]
 
@@ -415,6 +468,10 @@ def build(architecture: Architecture, active: set[str], rate: float) -> tuple[As
             ports[port] = Port(connection["space"], functions.get(through) if through else None)
         if not ok:
             continue
+        if element in kept_components:
+            components[element] = kept_components[element]
+            modules[spec["module"]] = kept_components[element].module
+            continue
         component_rate = spec.get("rate", rate)
         divider = max(1, round(rate / component_rate))
         if component_rate > rate or abs(rate / divider - component_rate) > 1e-9 * rate:
@@ -427,6 +484,20 @@ def build(architecture: Architecture, active: set[str], rate: float) -> tuple[As
                 )
             )
         module = modules[spec["module"]] = make_module(arch.modules[spec["module"]])
+        for system in module.systems:  # semi-implicit Euler diverges once alpha * dt / tau >= 2
+            if isinstance(system, PointAttractor | DiscreteDMP):
+                tau = system.tau if isinstance(system, DiscreteDMP) else 1.0
+                if system.alpha * (divider / rate) / tau >= 2.0:
+                    problems.append(
+                        error(
+                            where("components", element, "rate" if "rate" in spec else "module"),
+                            f"{element} steps every {divider / rate:g} s, too coarse for module {module.id} "
+                            f"(alpha {system.alpha:g}{f', duration {tau:g} s' if tau != 1.0 else ''}): the "
+                            f"integration diverges unless alpha * step / duration < 2",
+                            "build.stability",
+                            spec["feature"],
+                        )
+                    )
         output = ports["output"]
         assert output is not None  # required by the schema
         components[element] = Component(
@@ -445,18 +516,16 @@ def build(architecture: Architecture, active: set[str], rate: float) -> tuple[As
     if problems:
         raise BuildError(problems)
     for element, spec in arch.modules.items():
-        modules.setdefault(element, make_module(spec))
+        if element not in modules:
+            kept_module = previous.modules.get(element) if previous is not None else None
+            modules[element] = kept_module if kept_module is not None else make_module(spec)
 
+    old = previous.values if previous is not None else {}
     values = {
-        k: np.asarray(s.get("initial", np.zeros(s["dimension"])), dtype=float) for k, s in arch.spaces.items()
+        k: old[k] if k in old else np.asarray(s.get("initial", np.zeros(s["dimension"])), dtype=float)
+        for k, s in arch.spaces.items()
     }
-    for component in components.values():  # goal-directed systems start where their output is
-        if not component.module.periodic:
-            start = component.feedback.read(values) if component.feedback is not None else None
-            if start is None and component.output.function is None:
-                start = values[component.output.space]
-            if start is not None:
-                component.module.reset(start, start)
+    fresh = [c for k, c in components.items() if k not in kept_components]
     writers: dict[str, list[Component]] = {}
     for component in components.values():
         writers.setdefault(component.output.space, []).append(component)
@@ -481,6 +550,9 @@ def build(architecture: Architecture, active: set[str], rate: float) -> tuple[As
             [(k, free[k]["from"], free[k]["to"], functions[k]) for k in mapping_order],
             adaptive,
             writers,
+            functions,
+            fresh,
+            set(active),
         ),
         warnings,
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import signal
 import sys
 import threading
 import time
@@ -386,10 +387,6 @@ def _short(token: str) -> str:
     return {"Static": "S", "Dynamic": "D", "Early": "E", "Late": "L", "Any": "*"}[token]
 
 
-if __name__ == "__main__":
-    main()
-
-
 @main.command("run")
 @click.argument("target", type=click.Path())
 @click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
@@ -444,6 +441,9 @@ def run_command(
             print_diagnostic(d)
         out.print(f"[bold red]cannot run[/]: {escape(target)} variant {escape(variant)}")
         sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        out.print("interrupted before the run started")
+        sys.exit(130)
     for d in robot.warnings:
         print_diagnostic(d)
     runtime = robot.runtime
@@ -457,28 +457,46 @@ def run_command(
     chosen = RealClock() if clock == "real" else SimulatedClock()
     show = out.is_terminal if live is None else live
     result: list[RunStats] = []
-    worker = threading.Thread(target=lambda: result.append(runtime.run(duration, chosen)), daemon=True)
+    finished = threading.Event()
+
+    def work() -> None:
+        try:
+            result.append(runtime.run(duration, chosen))
+        finally:
+            finished.set()
+
+    interrupted = threading.Event()
+
+    def interrupt(signum: int, frame: object) -> None:  # Ctrl-C: end the run, keep the summary
+        interrupted.set()
+        runtime.stop()
+
+    on_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, interrupt) if on_main else None
+    worker = threading.Thread(target=work, daemon=True, name="motivml-control")
     began = time.perf_counter()
-    interrupted = False
     try:
         worker.start()
         if show:
             with Live(_live_view(runtime, began), console=out, refresh_per_second=4, transient=True) as view:
-                while worker.is_alive():
-                    worker.join(0.25)
+                while not finished.wait(0.25):
                     view.update(_live_view(runtime, began))
         else:
-            while worker.is_alive():
-                worker.join(0.25)
-    except KeyboardInterrupt:
-        interrupted = True
-        runtime.stop()
-        worker.join()
+            finished.wait()
+    finally:
+        if on_main:
+            signal.signal(signal.SIGINT, previous)
     if not result:
         out.print("[bold red]the run ended without a result[/]")
         sys.exit(3)
     _summary(runtime, result[0])
-    sys.exit(130 if interrupted else 0)
+    diverged = runtime.diverged()
+    if diverged:
+        out.print(
+            f"[bold red]the run diverged[/]: {escape(', '.join(diverged))} hold non-finite values "
+            "(a system too stiff for its time step, or a goal out of range)"
+        )
+    sys.exit(130 if interrupted.is_set() else 1 if diverged else 0)
 
 
 STATUS_COLOURS = {"converged": "green", "tracking": "green", "ongoing": "yellow", "learning": "cyan"}
@@ -525,11 +543,11 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
         out.print(f"module {escape(module)}: {state}{extra}")
     for space, value in runtime.assembly.values.items():
         numbers = ", ".join(f"{v:.3f}" for v in value)
-        out.print(f"space {escape(space)} = [{numbers}]")
+        out.print(escape(f"space {space} = [{numbers}]"))
     line = f"{stats.ticks} ticks, {snapshot.time:.3f} s of control time"
     if stats.clock == "real":
         p50, p99 = (stats.percentile(stats.jitter, q) * 1e3 for q in (50, 99))
-        worst = max(stats.jitter, default=0.0) * 1e3
+        worst = (float(stats.jitter.max()) if len(stats.jitter) else 0.0) * 1e3
         line += (
             f" in {stats.elapsed:.3f} s: {stats.achieved:,.1f} Hz achieved (asked {stats.rate:g} Hz); "
             f"jitter p50 {p50:.3f} ms, p99 {p99:.3f} ms, max {worst:.3f} ms; "
@@ -587,3 +605,7 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
         out.print(
             "Graphviz's dot is not installed: no SVG (install graphviz, or render the .dot files elsewhere)"
         )
+
+
+if __name__ == "__main__":
+    main()

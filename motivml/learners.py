@@ -36,6 +36,12 @@ class LinearRLS:
         x = np.atleast_2d(np.asarray(x, dtype=float))
         return np.hstack([x, np.ones((len(x), 1))])
 
+    def fit(self, x: Matrix, y: Matrix) -> None:
+        """Offline learning: all samples at once (ridge regression)."""
+        h = self._features(x)
+        self.weights = ridge(h, np.asarray(y, dtype=float).reshape(len(h), -1))
+        self._inverse = np.asarray(np.linalg.inv(h.T @ h + 1e-6 * np.eye(h.shape[1])), dtype=float)
+
     def update(self, x: Matrix, y: Matrix) -> None:
         h = self._features(x)[0]
         ph = self._inverse @ h

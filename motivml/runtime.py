@@ -1,9 +1,9 @@
 """The fixed-rate loop that runs a built motion architecture, on a simulated or a real clock.
 
 `Runtime(assembly, rate)` ticks the assembly: each tick steps the due components in
-dependency order, writes their spaces, evaluates the free mappings and the criteria, and
-records every change of a component's status as an `Event` (the tick and time a criterion
-fired). `status()` is a snapshot for views and reports.
+dependency order (each reads its ports, steps its module, writes its output space and
+evaluates its criterion), then evaluates the free mappings, and records every change of a
+component's status as an `Event` (the tick and time a criterion fired). `status()` is a snapshot for views and reports.
 
 Two clocks:
 
@@ -11,15 +11,17 @@ Two clocks:
   take as long as the computation.
 * `RealClock`: ticks start on a fixed schedule of `1 / rate` seconds (default 1 kHz). It
   sleeps until shortly before a deadline and spins the rest, with the cyclic garbage
-  collector paused and a short interpreter switch interval for the run. A tick that starts
-  later than the next deadline is a *missed deadline*; the slots it overran are skipped, not
-  bunched up. `RunStats` has the achieved rate, the jitter (start - deadline) p50/p99/max,
-  the work time per tick and the CPU share of the process.
+  collector paused and a short interpreter switch interval for the run. When a tick ends
+  after the next deadline, the deadlines it overran are *missed*: no tick starts at them,
+  and the loop goes on at the first deadline still ahead (no bunching up). `RunStats` has
+  the achieved rate, the jitter (start - deadline) p50/p99/max, the work time per tick and
+  the CPU share of the process.
 """
 
 from __future__ import annotations
 
 import gc
+import math
 import sys
 import threading
 import time
@@ -39,23 +41,26 @@ class Event:
     status: str
 
 
+SAMPLES = 1 << 22  # per-tick timings kept: 70 minutes at 1 kHz (64 MiB); longer runs keep the first
+
+
 @dataclass
 class RunStats:
     clock: str
     rate: float  # asked for
     ticks: int = 0
     elapsed: float = 0.0  # clock time of the run, s
-    jitter: list[float] = field(default_factory=list)  # s, one per tick (real clock)
-    work: list[float] = field(default_factory=list)  # s, one per tick (real clock)
-    missed: int = 0
+    jitter: np.ndarray = field(default_factory=lambda: np.zeros(0))  # s, start - deadline, per tick
+    work: np.ndarray = field(default_factory=lambda: np.zeros(0))  # s, per tick
+    missed: int = 0  # deadlines at which no tick could start: the one before overran
     cpu: float = 0.0  # process CPU time during the run, s
 
     @property
     def achieved(self) -> float:
         return self.ticks / self.elapsed if self.elapsed > 0 else 0.0
 
-    def percentile(self, values: list[float], q: float) -> float:
-        return float(np.percentile(values, q)) if values else 0.0
+    def percentile(self, values: np.ndarray, q: float) -> float:
+        return float(np.percentile(values, q)) if len(values) else 0.0
 
     @property
     def cpu_share(self) -> float:
@@ -171,6 +176,12 @@ class Runtime:
     ) -> RunStats:
         """Tick for `duration` seconds of clock time (or until `until` or `stop()`)."""
         clock = clock or SimulatedClock()
+        with np.errstate(all="ignore"):  # a diverging system shows in the values, not as warnings
+            return self._run(duration, clock, until)
+
+    def _run(
+        self, duration: float, clock: SimulatedClock | RealClock, until: Callable[[Runtime], bool] | None
+    ) -> RunStats:
         stats = RunStats(clock.name, self.rate)
         total = round(duration * self.rate)
         if isinstance(clock, SimulatedClock):
@@ -187,6 +198,8 @@ class Runtime:
         self, total: int, clock: RealClock, until: Callable[[Runtime], bool] | None, stats: RunStats
     ) -> RunStats:
         period = 1.0 / self.rate
+        kept = min(total, SAMPLES)
+        jitter, work = np.empty(kept), np.empty(kept)
         switch = sys.getswitchinterval()
         collecting = gc.isenabled()
         gc.collect()
@@ -203,17 +216,19 @@ class Runtime:
                 began = clock.wait_until(deadline)
                 self.tick()
                 ended = clock.now()
+                if stats.ticks < kept:
+                    jitter[stats.ticks] = began - deadline
+                    work[stats.ticks] = ended - began
                 stats.ticks += 1
-                stats.jitter.append(began - deadline)
-                stats.work.append(ended - began)
                 slot += 1
-                late = int((ended - (start + slot * period)) / period)
-                if ended > start + slot * period:  # the next tick cannot start on time
-                    stats.missed += 1
-                    slot += late
+                if ended > start + slot * period:  # overran: skip to the first slot still ahead
+                    ahead = math.ceil((ended - start) / period)
+                    stats.missed += min(ahead, total) - slot
+                    slot = ahead
         finally:
-            stats.elapsed = clock.now() - start
+            stats.elapsed = max(clock.now() - start, min(slot, total) * period, 0.0)
             stats.cpu = time.process_time() - cpu0
+            stats.jitter, stats.work = jitter[: min(stats.ticks, kept)], work[: min(stats.ticks, kept)]
             sys.setswitchinterval(switch)
             if collecting:
                 gc.enable()
@@ -221,3 +236,7 @@ class Runtime:
 
     def stop(self) -> None:
         self.stop_requested.set()
+
+    def diverged(self) -> list[str]:
+        """Spaces holding a NaN or an infinity."""
+        return [k for k, v in self.assembly.values.items() if not np.isfinite(v).all()]

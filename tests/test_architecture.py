@@ -187,6 +187,11 @@ CASES = {
         changed("components", 0, sequence=[[0.0] * 7]),
         "$.components[0].sequence: only a Sequencer has a sequence, not a ReachingController",
     ),
+    "learner that does not fit a module": (
+        changed("modules", 1, learners=[{"type": "elm"}]),
+        "$.modules[1].learners[0].type: a module's learner is ridge regression of its DMPs' weights, so elm does "
+        "not fit module cpg (it has no DMP) (an elm learns in an adaptive mapping)",
+    ),
     "module shared by two components": (
         changed(
             "components",

@@ -233,7 +233,8 @@ def test_an_offline_learning_module_records_then_learns_a_dmp(tmp_path: Path) ->
     assert np.sqrt(np.mean((reproduced - shown) ** 2)) < 0.03
 
 
-def test_an_adaptive_mapping_learns_from_its_teacher(tmp_path: Path) -> None:
+@pytest.mark.parametrize("mode", ["online", "offline"])
+def test_an_adaptive_mapping_learns_from_its_teacher(tmp_path: Path, mode: str) -> None:
     architecture = {
         "spaces": [space("In", 2), {"id": "Hand", "type": "Position", "dimension": 2, "feature": "base"}],
         "mappings": [
@@ -242,7 +243,7 @@ def test_an_adaptive_mapping_learns_from_its_teacher(tmp_path: Path) -> None:
                 "kind": "adaptiveMapping",
                 "from": "In",
                 "to": "Hand",
-                "learner": {"type": "elm"},
+                "learner": {"type": "elm", "mode": mode},
                 "function": {"type": "planarArm", "links": [0.5, 0.5]},
                 "feature": "base",
             }
@@ -378,3 +379,177 @@ def test_the_live_view_runs_beside_the_loop() -> None:
     )
     assert result.exit_code == 0, result.output
     assert "ticks" in result.output.splitlines()[-1] and "Hz achieved (asked 500 Hz)" in result.output
+
+
+# ------------------------------------------------------------------ review findings
+class FakeClock(RealClock):
+    """A real-clock schedule with a hand-moved time: deterministic timing tests."""
+
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def now(self) -> float:
+        return self.t
+
+    def wait_until(self, deadline: float) -> float:
+        self.t = max(self.t, deadline)
+        return self.t
+
+
+def test_an_overrunning_tick_misses_the_deadlines_it_overran_and_the_loop_keeps_its_schedule() -> None:
+    robot = launch(EXAMPLES / "reaching_arm", "dmp")
+    clock = FakeClock()
+    work = iter([0.0001, 0.0025] + [0.0001] * 20)
+    tick = robot.runtime.tick
+
+    def timed_tick() -> None:
+        tick()
+        clock.t += next(work)
+
+    robot.runtime.tick = timed_tick  # type: ignore[method-assign]
+    stats = robot.runtime.run(0.010, clock)
+    # slot 1 ran 2.5 ms: deadlines 2 and 3 are missed, slot 4 starts on time
+    assert (stats.ticks, stats.missed) == (8, 2)
+    assert stats.elapsed == pytest.approx(0.010) and stats.achieved == pytest.approx(800.0)
+    assert np.all(stats.jitter == 0.0) and len(stats.work) == 8
+
+
+def test_a_very_short_real_run_reports_sane_figures() -> None:
+    stats = launch(EXAMPLES / "reaching_arm", "dmp").runtime.run(0.001, RealClock())
+    assert stats.ticks == 1 and stats.elapsed >= 0.001 and stats.achieved <= 1000.0
+
+
+def test_superposed_goal_directed_writers_start_from_zero(tmp_path: Path) -> None:
+    modules = [
+        {"id": m, "systems": [{"type": "pointAttractor", "dimension": 1}], "feature": "base"}
+        for m in ("m1", "m2")
+    ]
+    architecture = {
+        "spaces": [
+            space("Out", 1, initial=[0.5]),
+            space("G1", 1, initial=[1.0]),
+            space("G2", 1, initial=[2.0]),
+        ],
+        "modules": modules,
+        "components": [
+            {
+                "id": c,
+                "kind": "ReachingController",
+                "module": m,
+                "goal": {"space": g},
+                "output": {"space": "Out"},
+                "feature": "base",
+            }
+            for c, m, g in (("c1", "m1", "G1"), ("c2", "m2", "G2"))
+        ],
+    }
+    robot = launch(robot_folder(tmp_path, architecture), "v")
+    robot.runtime.tick()
+    assert abs(robot.assembly.values["Out"][0]) < 0.01  # not 2 x 0.5
+    robot.runtime.run(3.0)
+    assert robot.assembly.values["Out"] == pytest.approx([3.0], abs=1e-3)
+
+
+def test_a_time_step_too_coarse_for_a_system_is_refused_before_running() -> None:
+    result = CliRunner().invoke(
+        main,
+        [
+            "run",
+            str(EXAMPLES / "reaching_arm"),
+            "--variant",
+            "attractor",
+            "--rate",
+            "1",
+            "--clock",
+            "simulated",
+        ],
+    )
+    assert result.exit_code == 1
+    assert "the integration diverges unless alpha * step / duration < 2" in result.output
+
+
+def test_a_diverging_run_says_so_and_fails(tmp_path: Path) -> None:
+    architecture = {
+        "spaces": [space("Goal", 1, initial=[1e308]), space("Out", 1)],
+        "modules": [{"id": "m", "systems": [{"type": "pointAttractor", "dimension": 1}], "feature": "base"}],
+        "components": [
+            {
+                "id": "c",
+                "kind": "ReachingController",
+                "module": "m",
+                "goal": {"space": "Goal"},
+                "output": {"space": "Out"},
+                "feature": "base",
+            }
+        ],
+    }
+    folder = robot_folder(tmp_path, architecture)
+    result = CliRunner().invoke(
+        main, ["run", str(folder), "--variant", "v", "--duration", "1", "--clock", "simulated"]
+    )
+    assert result.exit_code == 1, result.output
+    assert "space Out = [nan]" in result.output or "space Out = [inf]" in result.output
+    assert "the run diverged: Out hold non-finite values" in result.output
+
+
+def test_a_mixed_module_without_a_goal_oscillates_around_zero(tmp_path: Path) -> None:
+    architecture = {
+        "spaces": [space("Out", 2)],
+        "modules": [
+            {
+                "id": "m",
+                "systems": [
+                    {"type": "pointAttractor", "dimension": 1},
+                    {"type": "oscillators", "dimension": 1, "phases": [1.2], "frequency": 2.0},
+                ],
+                "feature": "base",
+            }
+        ],
+        "components": [
+            {
+                "id": "c",
+                "kind": "TrackingController",
+                "module": "m",
+                "output": {"space": "Out"},
+                "feature": "base",
+            }
+        ],
+    }
+    robot = launch(robot_folder(tmp_path, architecture), "v")
+    path = trace(robot, 2.0, "Out")
+    assert abs(path[:, 1].mean()) < 0.05  # two full periods of sin around 0
+
+
+def test_ctrl_c_ends_the_run_with_its_summary() -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    command = [sys.executable, "-m", "motivml.cli", "run", str(EXAMPLES / "quadruped"), "--variant", "trot"]
+    process = subprocess.Popen(
+        [*command, "--duration", "30", "--no-live"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    time.sleep(3.0)
+    process.send_signal(signal.SIGINT)
+    output, _ = process.communicate(timeout=30)
+    assert process.returncode == 130, output
+    assert "TrotGenerator" in output and "Hz achieved" in output.splitlines()[-1]
+
+
+def test_the_live_view_shows_the_rate_and_every_component() -> None:
+    from rich.console import Console
+
+    from motivml.cli import _live_view
+
+    robot = launch(EXAMPLES / "quadruped", "trot")
+    robot.runtime.run(1.0)
+    console = Console(record=True, width=120)
+    console.print(_live_view(robot.runtime, began=0.0))
+    text = console.export_text()
+    assert "tick 1000" in text and "t = 1.000 s" in text and "asked 1000 Hz" in text
+    assert "TrotGenerator" in text and "tracking" in text and "PostureController" in text
