@@ -556,3 +556,8 @@ def build(
         ),
         warnings,
     )
+
+
+def empty_assembly(features: set[str]) -> Assembly:
+    """A robot without an architecture: nothing but its plugins runs."""
+    return Assembly({}, {}, [], {}, [], {}, {}, {}, [], features)

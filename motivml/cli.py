@@ -490,13 +490,20 @@ def run_command(
         out.print("[bold red]the run ended without a result[/]")
         sys.exit(3)
     _summary(runtime, result[0])
+    if runtime.failure is not None:
+        fault = runtime.failure
+        out.print(
+            f"[bold red]the run stopped[/]: {escape(fault.feature)} raised in its step at {fault.time:.3f} s "
+            f"(tick {fault.tick}): {escape(fault.error)}"
+        )
     diverged = runtime.diverged()
     if diverged:
         out.print(
             f"[bold red]the run diverged[/]: {escape(', '.join(diverged))} hold non-finite values "
             "(a system too stiff for its time step, or a goal out of range)"
         )
-    sys.exit(130 if interrupted.is_set() else 1 if diverged else 0)
+    robot.close()
+    sys.exit(130 if interrupted.is_set() else 1 if diverged or runtime.failure is not None else 0)
 
 
 STATUS_COLOURS = {"converged": "green", "tracking": "green", "ongoing": "yellow", "learning": "cyan"}
@@ -541,6 +548,12 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
     for module, state, learned in snapshot.modules:
         extra = f", learned {learned} time{'s' if learned != 1 else ''}" if learned else ""
         out.print(f"module {escape(module)}: {state}{extra}")
+    for feature, status in snapshot.plugins:
+        out.print(escape(f"plugin {feature}: {status}"))
+    for change in runtime.changes:
+        out.print(escape(f"at {change.time:.3f} s (tick {change.tick}): {change.request}"))
+    for at, tick, text in runtime.notes:
+        out.print(escape(f"at {at:.3f} s (tick {tick}): {text}"))
     for space, value in runtime.assembly.values.items():
         numbers = ", ".join(f"{v:.3f}" for v in value)
         out.print(escape(f"space {space} = [{numbers}]"))

@@ -103,3 +103,17 @@ def error(location: Location, message: str, rule: str, feature: str | None = Non
 
 def warning(location: Location, message: str, rule: str, feature: str | None = None) -> Diagnostic:
     return Diagnostic(Severity.WARNING, location, message, rule, feature)
+
+
+def describe_exception(exc: BaseException, within: object = None) -> str:
+    """`Type: first line` and the innermost frame that raised (inside folder `within`, if given)."""
+    import traceback
+    from pathlib import Path
+
+    frames = list(traceback.extract_tb(exc.__traceback__))
+    if within is not None:
+        root = str(Path(str(within)).resolve())
+        frames = [f for f in frames if str(Path(f.filename).resolve()).startswith(root)]
+    inner = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}{inner}"

@@ -15,14 +15,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .architecture import Architecture, read_architecture
-from .builder import Assembly, build
+from .builder import Assembly, build, empty_assembly
 from .check import load_configuration, load_model
 from .configure import Variant, resolve, start_state
 from .errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
-from .model import FeatureModel
+from .model import Configuration, FeatureModel
+from .plugins import discover
 from .robot import RobotFolder
 from .runtime import Runtime
 from .schema import read_checked
+from .transactions import Binder
 
 ARCHITECTURE_FILE = "architecture.json"
 
@@ -31,11 +33,20 @@ ARCHITECTURE_FILE = "architecture.json"
 class Robot:
     folder: RobotFolder
     variant: Variant
-    active: list[str]  # feature ids, definition order
-    architecture: Architecture
-    assembly: Assembly
+    active: list[str]  # feature ids at start, definition order
+    architecture: Architecture | None
     runtime: Runtime
+    binder: Binder
     warnings: list[Diagnostic]
+
+    @property
+    def assembly(self) -> Assembly:
+        """The architecture running now (a reconfiguration replaces it)."""
+        return self.runtime.assembly
+
+    def close(self) -> None:
+        """Stop the plugins and the binder's thread."""
+        self.binder.close()
 
 
 def _errors(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
@@ -51,6 +62,7 @@ class Loaded:
     variant: Variant | None
     active: list[str] | None  # the start state's feature ids, definition order
     architecture: Architecture | None
+    config: Configuration | None = None  # the variant's document
 
 
 def read_robot_architecture(folder: RobotFolder, model: FeatureModel, required: bool) -> Architecture | None:
@@ -85,29 +97,53 @@ def load(
     model, diagnostics = load_model(folder.model_path)
     if model is None:
         raise DocumentError(_errors(diagnostics))
-    variant, active = None, None
+    variant, active, config = None, None, None
     if variant_name is not None:
         config, diagnostics = load_configuration(folder.variant_path(variant_name), model, partial=True)
         if config is None:
             raise DocumentError(_errors(diagnostics))
         variant = resolve(model, config, prefer)
         active = [f.id for f in start_state(variant)]
-    return Loaded(folder, model, variant, active, read_robot_architecture(folder, model, need_architecture))
+    architecture = read_robot_architecture(folder, model, need_architecture)
+    return Loaded(folder, model, variant, active, architecture, config)
 
 
 def launch(
     target: str | Path, variant_name: str, rate: float = 1000.0, prefer: tuple[str, ...] = ()
 ) -> Robot:
-    """Build a variant's start state into a runtime at `rate` Hz."""
-    loaded = load(target, variant_name, prefer, need_architecture=True)
-    assert loaded.variant is not None and loaded.active is not None and loaded.architecture is not None
-    assembly, warnings = build(loaded.architecture, set(loaded.active), rate)
-    return Robot(
-        loaded.folder,
+    """Build a variant's start state into a runtime at `rate` Hz, its plugins started.
+
+    The robot folder needs an architecture.json, plugins (robot.json), or both; the
+    start state's architecture elements are built and its features' plugins started (all
+    or none: a plugin that fails to start stops the others and raises PluginError).
+    """
+    loaded = load(target, variant_name, prefer)
+    assert loaded.variant is not None and loaded.active is not None
+    plugins, problems = discover(loaded.folder, loaded.model)
+    if _errors(problems):
+        raise DocumentError(_errors(problems))
+    if loaded.architecture is None and not plugins:
+        path = loaded.folder.path / ARCHITECTURE_FILE
+        raise EnvironmentProblem(
+            error(
+                Location(str(path)),
+                "no architecture.json and no plugins: this robot has nothing to run",
+                "io",
+            )
+        )
+    if loaded.architecture is not None:
+        assembly, warnings = build(loaded.architecture, set(loaded.active), rate)
+    else:
+        assembly, warnings = empty_assembly(set(loaded.active)), []
+    runtime = Runtime(assembly, rate)
+    binder = Binder(
+        runtime,
         loaded.variant,
-        loaded.active,
         loaded.architecture,
-        assembly,
-        Runtime(assembly, rate),
-        warnings,
+        plugins,
+        loaded.active,
+        loaded.config,
+        loaded.folder.name,
     )
+    binder.start()
+    return Robot(loaded.folder, loaded.variant, loaded.active, loaded.architecture, runtime, binder, warnings)

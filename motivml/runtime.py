@@ -22,15 +22,67 @@ from __future__ import annotations
 
 import gc
 import math
+import queue
 import sys
 import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from .builder import Assembly
+from .errors import describe_exception
+
+
+@dataclass
+class Running:
+    """A plugin instance in the loop."""
+
+    feature: str
+    instance: Any
+    static: bool  # a fault stops the run (Dynamic: the feature is unloaded instead)
+    folder: object = None  # the plugin's folder: where a fault's frame is looked for
+    faulted: bool = False
+
+
+@dataclass(frozen=True)
+class Change:
+    """An accepted reconfiguration, as it took effect."""
+
+    tick: int  # the first tick that ran with it
+    time: float  # control time, s
+    wall: float  # time.time() when it was committed
+    clock: float  # time.perf_counter() when it was committed
+    request: str
+    loads: tuple[str, ...]
+    unloads: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Fault:
+    tick: int
+    time: float
+    feature: str
+    error: str
+    static: bool
+
+
+@dataclass
+class Commit:
+    """What a prepared reconfiguration changes; applied by the control thread between ticks."""
+
+    request: str
+    loads: tuple[str, ...]
+    unloads: tuple[str, ...]
+    assembly: Assembly | None  # the new architecture, or None when it does not change
+    add: dict[str, Running]
+    remove: tuple[str, ...]  # features whose plugin leaves the loop
+    done: threading.Event = field(default_factory=threading.Event)
+    removed: list[Running] = field(default_factory=list)  # to stop, off the control thread
+    change: Change | None = None
+    withdrawn: bool = False
 
 
 @dataclass(frozen=True)
@@ -84,6 +136,14 @@ class Snapshot:
     time: float
     components: tuple[ComponentStatus, ...]
     modules: tuple[tuple[str, str, int], ...]  # (id, learning state, times learned)
+    plugins: tuple[tuple[str, str], ...] = ()  # (feature, status line or "faulted")
+
+
+def _status(instance: Any) -> str:
+    try:
+        return str(instance.status())[:80]
+    except Exception as exc:  # a view never fails because of a plugin
+        return f"status() raised {type(exc).__name__}"
 
 
 class SimulatedClock:
@@ -122,19 +182,99 @@ class Runtime:
         self.ticks = 0
         self.events: list[Event] = []
         self.stop_requested = threading.Event()
+        self.plugins: dict[str, Running] = {}
+        self.changes: list[Change] = []
+        self.faults: list[Fault] = []
+        self.notes: list[tuple[float, int, str]] = []  # (control time, tick, text): the run's log
+        self.on_fault: Callable[[Fault], None] | None = None  # Dynamic plugin faults go here
+        self.failure: Fault | None = None  # a Static plugin's fault, which ends the run
+        self._commits: queue.SimpleQueue[Commit] = queue.SimpleQueue()
+        self._lock = threading.Lock()  # commit versus withdraw
+        assembly.prime()
 
     @property
     def time(self) -> float:
         return self.ticks / self.rate
 
     def tick(self) -> None:
-        """One control cycle (between two ticks is where reconfigurations commit)."""
+        """One control cycle; reconfigurations commit just before it, between two ticks."""
+        if not self._commits.empty():
+            self._apply_commits()
         before = [c.status for c in self.assembly.components]
         self.assembly.tick(self.ticks)
         self.ticks += 1
         for component, old in zip(self.assembly.components, before, strict=True):
             if component.status != old:
                 self.events.append(Event(self.ticks, self.time, component.id, component.status))
+        if self.plugins:
+            now = self.time
+            for running in list(self.plugins.values()):
+                if running.faulted:
+                    continue
+                try:
+                    running.instance.step(now)
+                except Exception as exc:  # a plugin may raise anything; the loop goes on
+                    self._fault(running, exc)
+
+    # ------------------------------------------------------------ reconfiguration
+    def submit(self, commit: Commit) -> None:
+        """Queue a prepared reconfiguration for the next tick (any thread)."""
+        self._commits.put(commit)
+
+    def withdraw(self, commit: Commit) -> bool:
+        """Take back a commit that has not been applied (the loop stopped); True if taken."""
+        with self._lock:
+            if commit.done.is_set():
+                return False
+            commit.withdrawn = True
+            return True
+
+    def _apply_commits(self) -> None:
+        while not self._commits.empty():
+            commit = self._commits.get()
+            with self._lock:
+                if commit.withdrawn:
+                    continue
+                if commit.assembly is not None:
+                    new, old = commit.assembly, self.assembly.values
+                    for space in new.values:
+                        if space in old:
+                            new.values[space] = old[space]
+                    new.prime()
+                    self.assembly = new
+                for feature in commit.remove:
+                    running = self.plugins.pop(feature, None)
+                    if running is not None:
+                        commit.removed.append(running)
+                self.plugins.update(commit.add)
+                commit.change = Change(
+                    self.ticks,
+                    self.time,
+                    time.time(),
+                    time.perf_counter(),
+                    commit.request,
+                    commit.loads,
+                    commit.unloads,
+                )
+                self.changes.append(commit.change)
+                commit.done.set()
+
+    def _fault(self, running: Running, exc: Exception) -> None:
+        running.faulted = True
+        fault = Fault(
+            self.ticks, self.time, running.feature, describe_exception(exc, running.folder), running.static
+        )
+        self.faults.append(fault)
+        self.note(f"{running.feature} raised in step: {fault.error}")
+        if running.static:
+            self.failure = fault
+            self.stop()
+        elif self.on_fault is not None:
+            self.on_fault(fault)
+
+    def note(self, text: str) -> None:
+        """A line in the run's log, stamped with the control time and tick."""
+        self.notes.append((self.time, self.ticks, text))
 
     def send(self, space: str, value: list[float] | np.ndarray) -> None:
         """Write a space no component writes (a goal, a sensor value)."""
@@ -166,7 +306,10 @@ class Runtime:
             for c in self.assembly.components
         )
         modules = tuple((m.id, m.state, m.learned) for m in self.assembly.modules.values())
-        return Snapshot(self.ticks, self.time, components, modules)
+        plugins = tuple(
+            (r.feature, "faulted" if r.faulted else _status(r.instance)) for r in list(self.plugins.values())
+        )
+        return Snapshot(self.ticks, self.time, components, modules, plugins)
 
     def run(
         self,

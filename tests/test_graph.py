@@ -391,7 +391,7 @@ def test_graph_command_refuses_an_invalid_variant_and_writes_nothing(tmp_path: P
         main, ["graph", str(examples / "quadruped"), "--variant", "broken_two_gaits", "-o", str(out)]
     )
     assert result.exit_code == 1 and "rules 2.2 and 3.3" in result.output and not out.exists()
-    model_only = CliRunner().invoke(main, ["graph", str(examples / "simplebot"), "-o", str(out)])
+    model_only = CliRunner().invoke(main, ["graph", str(examples / "uv_disinfection"), "-o", str(out)])
     assert model_only.exit_code == 0 and "drawing the feature model only" in model_only.output
     names = sorted(p.name for p in out.iterdir())
     assert names == (

@@ -54,6 +54,7 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     shutil.copytree(ROOT / "guidelines", work / "guidelines")
     shutil.copytree(ROOT / "schemas", work / "schemas")
     shutil.copytree(ROOT / "cpp_static", work / "cpp_static")
+    shutil.copytree(ROOT / "plugins", work / "plugins")
     return work
 
 
@@ -74,7 +75,7 @@ def update() -> None:
 
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        for name in ("feature_models", "guidelines", "schemas", "cpp_static"):
+        for name in ("feature_models", "guidelines", "schemas", "cpp_static", "plugins"):
             shutil.copytree(ROOT / name, work / name)
         env = dict(
             os.environ, PATH=f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}", COLUMNS="80"

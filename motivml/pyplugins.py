@@ -1,0 +1,116 @@
+"""Python feature plugins, loaded through pluginbase: one plugin source per robot.
+
+Every Python plugin folder a robot declares is on its robot's plugin source's search path,
+so plugin modules import under a namespace of their own (never `sys.modules`' top level,
+never another robot's). Entry modules must have distinct names across a robot's plugins.
+`create` imports the entry module (once), finds the class and constructs it; `reload`
+re-executes the entry module from disk, so a Dynamic feature picks up edited code without
+a restart (submodules it imports are not reloaded). Every failure is a `PluginError` that
+names the plugin's manifest and what went wrong, with the classes the module does have.
+"""
+
+from __future__ import annotations
+
+import importlib
+import itertools
+from types import ModuleType
+from typing import Any
+
+from pluginbase import PluginBase, PluginSource
+
+from .errors import Diagnostic, EnvironmentProblem, Location, describe_exception, error
+from .loader import load_file
+from .plugin_api import PluginContext
+from .plugins import Plugin
+
+_LAUNCHES = itertools.count()
+
+
+class PluginError(EnvironmentProblem):
+    """A plugin could not be imported, constructed or started (exit 3)."""
+
+
+def plugin_error(plugin: Plugin, key: str, message: str) -> PluginError:
+    """A located error at the manifest's `entry.<key>` (or the manifest itself)."""
+    try:
+        where = load_file(plugin.manifest).locate(("entry", key) if key else ())
+    except EnvironmentProblem:  # the manifest went away since it was read: name the file
+        where = Location(str(plugin.manifest))
+    return PluginError(error(where, message, "plugins.load", plugin.feature))
+
+
+class PythonPlugins:
+    """The Python plugins of one robot: import, construct, reload."""
+
+    def __init__(self, robot: str, plugins: dict[str, Plugin]) -> None:
+        self.plugins = {f: p for f, p in plugins.items() if p.kind == "python"}
+        self.base = PluginBase(package="motivml.robot_plugins")
+        self.source: PluginSource = self.base.make_plugin_source(
+            searchpath=[str(p.folder) for p in self.plugins.values()],
+            identifier=f"motivml-{robot}-{next(_LAUNCHES)}",  # one namespace per launched robot
+        )
+        self.modules: dict[str, ModuleType] = {}
+
+    def problems(self) -> list[Diagnostic]:
+        """Two plugins whose entry modules share a name would import each other's code."""
+        seen: dict[str, Plugin] = {}
+        found = []
+        for plugin in self.plugins.values():
+            root = plugin.entry["module"].split(".")[0]
+            if root in seen:
+                other = seen[root].manifest
+                found += plugin_error(
+                    plugin,
+                    "module",
+                    f"module {root!r} is also the entry of {other}: entry modules need distinct names",
+                ).diagnostics
+            seen.setdefault(root, plugin)
+        return found
+
+    def _module(self, plugin: Plugin, fresh: bool) -> ModuleType:
+        name = plugin.entry["module"]
+        module = self.modules.get(plugin.feature)
+        try:
+            with self.source:
+                if module is None:
+                    module = __import__(f"{self.base.package}.{name}", fromlist=["__name__"])
+                elif fresh:
+                    module = importlib.reload(module)
+        except Exception as exc:  # a plugin's import may raise anything
+            raise plugin_error(
+                plugin,
+                "module",
+                f"cannot import {name!r} of plugin {plugin.feature}: {describe_exception(exc, plugin.folder)}",
+            ) from None
+        assert module is not None
+        self.modules[plugin.feature] = module
+        return module
+
+    def create(self, feature: str, context: PluginContext, fresh: bool = False) -> Any:
+        """An instance of the feature's plugin class (`fresh`: re-read its module first)."""
+        plugin = self.plugins[feature]
+        module = self._module(plugin, fresh)
+        name = plugin.entry["class"]
+        cls = getattr(module, name, None)
+        if not isinstance(cls, type):
+            classes = sorted(
+                k for k, v in vars(module).items() if isinstance(v, type) and v.__module__ == module.__name__
+            )
+            has = ", ".join(classes) or "none"
+            raise plugin_error(
+                plugin,
+                "class",
+                f"module {plugin.entry['module']!r} has no class {name!r} (its classes: {has})",
+            )
+        try:
+            return cls(context)
+        except Exception as exc:
+            raise plugin_error(
+                plugin,
+                "class",
+                f"constructing {name} of plugin {feature} failed: {describe_exception(exc, plugin.folder)}",
+            ) from None
+
+    def close(self) -> None:
+        self.modules.clear()
+        self.source.cleanup()

@@ -1,0 +1,233 @@
+"""Reconfiguration transactions of a running robot: check, prepare off the loop, commit between ticks.
+
+`Binder` owns the running robot's active set. A request (`load`, `unload`, `reload`,
+`swap`) goes through three steps, one request at a time:
+
+1. **check**: `Reconfigurer.plan` applies semantics.md section 4 on the SAT encoding. A
+   refused request changes nothing, and the refusal says why in `validate`'s words;
+2. **prepare**, on the caller's thread, never the control thread: the architecture of the
+   new active set is built (the elements that stay are the same objects, with their
+   state), and the plugins of the features that load are imported, constructed and started.
+   If any of that fails, the plugins already started are stopped, and nothing is committed;
+3. **commit**: the prepared change is queued for the control loop, which applies it at
+   once between two ticks: the new architecture, the plugins in, the plugins out. The
+   binder then stops the plugins that left, again off the control thread.
+
+A Dynamic plugin that raises in its step has already left the loop's stepping. The binder
+then unloads its feature with its subtree, or, if the model does not allow that, the
+nearest Dynamic ancestor whose unload it allows. If no unload is allowed, the run ends. A
+Static plugin's fault ends the run (`Runtime.failure`).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .architecture import Architecture
+from .builder import Assembly, build
+from .configure import Variant
+from .errors import Diagnostic, Location, MotivmlError, describe_exception, error
+from .model import Configuration
+from .plugin_api import PluginContext
+from .plugins import Plugin
+from .pyplugins import PluginError, PythonPlugins, plugin_error
+from .reconfigure import Plan, Reconfigurer, Refused, Request
+from .runtime import Change, Commit, Fault, Running, Runtime
+
+
+@dataclass
+class Outcome:
+    request: Request
+    accepted: bool
+    plan: Plan | None = None
+    change: Change | None = None  # when it took effect
+    latency: float = 0.0  # s, from the request to its commit
+    diagnostics: list[Diagnostic] = field(default_factory=list)  # why not
+
+    @property
+    def reason(self) -> str:
+        return "; ".join(d.message for d in self.diagnostics)
+
+
+class Binder:
+    def __init__(
+        self,
+        runtime: Runtime,
+        variant: Variant,
+        architecture: Architecture | None,
+        plugins: dict[str, Plugin],
+        active: list[str],
+        config: Configuration | None = None,
+        robot: str = "robot",
+    ) -> None:
+        self.runtime = runtime
+        self.variant = variant
+        self.architecture = architecture
+        self.plugins = plugins
+        self.active = frozenset(active)
+        self.reconfigurer = Reconfigurer(variant, config)
+        self.python = PythonPlugins(robot, plugins)
+        self.static = {d.feature.id: d.static for d in variant.decisions}
+        self._lock = threading.Lock()
+        self._staging: Assembly | None = None  # the architecture being prepared
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="motivml-binder")
+        runtime.on_fault = self._on_fault
+
+    # ---------------------------------------------------------------- plugins
+    def _context(self, feature: str) -> PluginContext:
+        runtime = self.runtime
+        return PluginContext(
+            feature,
+            self.plugins[feature].folder,
+            runtime.rate,
+            self._read,
+            self._write,
+            lambda text: runtime.note(f"{feature}: {text}"),
+        )
+
+    def _read(self, space: str) -> Any:
+        """Spaces as the plugin will see them: the prepared architecture's while it starts."""
+        staging = self._staging
+        return (staging if staging is not None else self.runtime.assembly).values[space]
+
+    def _write(self, space: str, value: Any) -> None:
+        staging = self._staging
+        if staging is None:
+            self.runtime.send(space, value)
+        elif space not in staging.values or staging.writers.get(space):
+            raise ValueError(f"{space} is not a space this plugin may write")
+        else:
+            staging.values[space] = np.asarray(value, dtype=float).reshape(staging.values[space].shape)
+
+    def _start(self, feature: str, fresh: bool = False) -> Running:
+        plugin = self.plugins[feature]
+        if plugin.kind != "python":
+            raise plugin_error(
+                plugin,
+                "library",
+                f"plugin {feature} is a C++ plugin: loading C++ plugins at run time is not available yet",
+            )
+        instance = self.python.create(feature, self._context(feature), fresh)
+        try:
+            instance.start()
+        except Exception as exc:  # plugin code may raise anything
+            raise plugin_error(
+                plugin,
+                "class",
+                f"start() of plugin {feature} failed: {describe_exception(exc, plugin.folder)}",
+            ) from None
+        return Running(feature, instance, self.static[feature], plugin.folder)
+
+    def _stop(self, running: Running) -> None:
+        try:
+            running.instance.stop()
+        except Exception as exc:
+            folder = self.plugins[running.feature].folder
+            self.runtime.note(f"stop() of plugin {running.feature} raised {describe_exception(exc, folder)}")
+
+    def start(self) -> None:
+        """Start the plugins of the start state (before the loop runs); all or none."""
+        problems = self.python.problems()
+        if problems:
+            raise PluginError(problems)
+        started: list[Running] = []
+        try:
+            for feature in sorted(self.active & set(self.plugins), key=self.variant.model.index.__getitem__):
+                started.append(self._start(feature))
+        except MotivmlError:
+            for running in started:
+                self._stop(running)
+            raise
+        for running in started:
+            self.runtime.plugins[running.feature] = running
+
+    # --------------------------------------------------------------- requests
+    def submit(self, request: Request, timeout: float | None = 5.0) -> Future[Outcome]:
+        """Run a request on the binder's worker thread."""
+        return self._executor.submit(self.request, request, timeout)
+
+    def request(self, request: Request, timeout: float | None = 5.0) -> Outcome:
+        """Check, prepare and commit one request; wait (up to `timeout`) for its commit."""
+        with self._lock:
+            began = time.perf_counter()
+            try:
+                plan = self.reconfigurer.plan(self.active, request)
+            except Refused as refused:
+                return Outcome(request, False, diagnostics=refused.diagnostics)
+            try:
+                commit = self._prepare(plan)
+            except MotivmlError as failed:
+                return Outcome(request, False, plan, diagnostics=failed.diagnostics)
+            self.runtime.submit(commit)
+            if not commit.done.wait(timeout) and self.runtime.withdraw(commit):
+                for running in commit.add.values():
+                    self._stop(running)
+                message = f"the control loop did not take the change within {timeout:g} s: nothing changed"
+                return Outcome(
+                    request, False, plan, diagnostics=[error(Location("run"), message, "reconfigure.timeout")]
+                )
+            commit.done.wait()
+            for running in commit.removed:
+                self._stop(running)
+            self.active = plan.after
+            change = commit.change
+            assert change is not None
+            return Outcome(request, True, plan, change, change.clock - began)
+
+    def _prepare(self, plan: Plan) -> Commit:
+        assembly = None
+        if self.architecture is not None and plan.after != plan.before:
+            assembly, _ = build(self.architecture, set(plan.after), self.runtime.rate, self.runtime.assembly)
+        reload = plan.request.action == "reload"
+        add: dict[str, Running] = {}
+        self._staging = assembly
+        try:
+            for feature in plan.loads:
+                if feature in self.plugins:
+                    add[feature] = self._start(feature, fresh=reload)
+        except MotivmlError:
+            for running in add.values():
+                self._stop(running)
+            raise
+        finally:
+            self._staging = None
+        remove = tuple(f for f in plan.unloads if f in self.runtime.plugins)
+        return Commit(str(plan.request), plan.loads, plan.unloads, assembly, add, remove)
+
+    # ----------------------------------------------------------------- faults
+    def _on_fault(self, fault: Fault) -> None:
+        """Called on the control thread: the unload happens on the binder's thread."""
+        self._executor.submit(self._unload_faulty, fault)
+
+    def _unload_faulty(self, fault: Fault) -> None:
+        model = self.variant.model
+        node: int | None = model.index[fault.feature]
+        reasons = []
+        while node is not None:
+            feature = model.features[node].id
+            if feature in self.active and not self.static[feature]:
+                outcome = self.request(Request("unload", (feature,)))
+                if outcome.accepted:
+                    self.runtime.note(f"unloaded {feature} after the fault of {fault.feature}")
+                    return
+                reasons.append(outcome.reason)
+            node = model.features[node].parent
+        self.runtime.note(
+            f"cannot unload {fault.feature} after its fault: {'; '.join(reasons) or 'it is Static'}"
+        )
+        self.runtime.failure = fault
+        self.runtime.stop()
+
+    def close(self) -> None:
+        self._executor.shutdown(wait=True)
+        for running in list(self.runtime.plugins.values()):
+            self._stop(running)
+        self.runtime.plugins.clear()
+        self.reconfigurer.close()
+        self.python.close()

@@ -1,0 +1,252 @@
+"""Dynamic binding in a running robot: plugins in and out as checked, atomic transactions."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from helpers import config, feature
+
+from motivml.cli import main
+from motivml.launch import Robot, launch
+from motivml.pyplugins import PluginError
+from motivml.reconfigure import Request
+from motivml.runtime import RealClock
+from motivml.transactions import Outcome
+
+ROOT = Path(__file__).resolve().parent.parent
+DL = ("Late", "Dynamic")
+ANY = {"time": "Any", "mode": "Any"}
+
+
+def ask(robot: Robot, text: str) -> Outcome:
+    """Submit a request and tick (simulated time) until the binder answers."""
+    action, *features = text.split()
+    future = robot.binder.submit(Request(action, tuple(features)))
+    for _ in range(10_000):
+        if future.done():
+            break
+        robot.runtime.tick()
+        time.sleep(0.0001)
+    return future.result(timeout=5)
+
+
+@pytest.fixture
+def simplebot() -> Iterator[Robot]:
+    robot = launch(ROOT / "feature_models" / "simplebot", "field")
+    yield robot
+    robot.close()
+
+
+def test_slam_alternatives_swap_while_the_robot_drives(simplebot: Robot) -> None:
+    runtime = simplebot.runtime
+    assert set(runtime.plugins) == {"hectorslam"}
+    runtime.run(2.0)
+    before = runtime.assembly.values["PoseEstimate"].copy()
+    outcome = ask(simplebot, "swap hectorslam kartoslam")
+    assert outcome.accepted, outcome.reason
+    assert set(runtime.plugins) == {"kartoslam"} and simplebot.binder.active >= {"slam", "kartoslam"}
+    change = runtime.changes[-1]
+    assert change.request == "swap hectorslam kartoslam" and change.loads == ("kartoslam",)
+    assert change.unloads == ("hectorslam",) and change.tick >= 2000
+    # Karto continues from Hector's pose and goes on estimating from the base's motion.
+    runtime.run(1.0)
+    after = runtime.assembly.values["PoseEstimate"]
+    assert np.linalg.norm(after[:2] - before[:2]) > 0.1
+    assert np.linalg.norm(after[:2] - before[:2]) < 1.0  # no jump back to the origin
+
+
+def test_a_refused_request_says_why_and_changes_nothing(simplebot: Robot) -> None:
+    outcome = ask(simplebot, "load kartoslam")
+    assert not outcome.accepted
+    assert outcome.reason.startswith("hectorslam and kartoslam are alternatives in slam's XOR group")
+    assert set(simplebot.runtime.plugins) == {"hectorslam"} and simplebot.runtime.changes == []
+    static = ask(simplebot, "unload grid_map")
+    assert "grid_map is bound Static Early: a Static feature never unloads" in static.reason
+
+
+def test_unloading_slam_unloads_its_subtree_and_its_space(simplebot: Robot) -> None:
+    outcome = ask(simplebot, "unload slam")
+    assert outcome.accepted and outcome.plan is not None
+    assert outcome.plan.unloads == ("hectorslam", "slam")
+    assert simplebot.runtime.plugins == {} and "PoseEstimate" not in simplebot.runtime.assembly.values
+    back = ask(simplebot, "load slam orbslam")
+    assert back.accepted and set(simplebot.runtime.plugins) == {"orbslam"}
+    assert "PoseEstimate" in simplebot.runtime.assembly.values
+
+
+# ------------------------------------------------------------- robots made in the test
+PLUGIN = """
+from motivml.plugin_api import FeaturePlugin
+
+class Plugin(FeaturePlugin):
+    VERSION = 1
+    def start(self):
+        {start}
+        self.steps = 0
+    def step(self, time):
+        {step}
+        self.steps += 1
+        self.context.write("Out", [self.VERSION])
+    def status(self):
+        return f"version {{self.VERSION}}, {{self.steps}} steps"
+"""
+
+
+def make_robot(tmp_path: Path, plugins: dict[str, dict[str, str]], static: tuple[str, ...] = ()) -> Path:
+    """Features a and b (XOR, under alt) and d, each with a plugin; `static` ones bound Static
+    Early (then b is left out: XOR members are both selected only as Dynamic alternatives)."""
+    model = feature(
+        "bot",
+        [
+            feature(
+                "alt",
+                [feature("a", group="XOR", **ANY), feature("b", group="XOR", **ANY)],
+                isMandatory=False,
+                **ANY,
+            ),
+            feature("d", isMandatory=False, **ANY),
+        ],
+    )
+    binding = {f: (("Early", "Static") if f in static else DL) for f in ("alt", "a", "b", "d")}
+    binding["alt"] = ("Early", "Static") if "alt" in static else ("Early", "Dynamic")
+    (tmp_path / "variants").mkdir(parents=True)
+    (tmp_path / "model.json").write_text(json.dumps(model, indent=1))
+    entries = [(f, False) if f == "b" and static else (f, *b) for f, b in binding.items()]
+    (tmp_path / "variants" / "v.json").write_text(json.dumps(config(*entries), indent=1))
+    (tmp_path / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
+    architecture = {"spaces": [{"id": "Out", "type": "Scalar", "dimension": 1, "feature": "bot"}]}
+    (tmp_path / "architecture.json").write_text(json.dumps(architecture))
+    for name, code in plugins.items():
+        folder = tmp_path / "plugins" / name
+        folder.mkdir(parents=True)
+        manifest = {"feature": name, "kind": "python", "entry": {"module": f"mod_{name}", "class": "Plugin"}}
+        (folder / "plugin.json").write_text(json.dumps(manifest, indent=1))
+        text = PLUGIN.format(start=code.get("start", "pass"), step=code.get("step", "pass"))
+        (folder / f"mod_{name}.py").write_text(text)
+    return tmp_path
+
+
+def test_a_failing_start_in_a_swap_leaves_the_previous_set_running(tmp_path: Path) -> None:
+    folder = make_robot(tmp_path, {"a": {}, "b": {"start": "raise RuntimeError('no camera')"}, "d": {}})
+    robot = launch(folder, "v")
+    try:
+        assert set(robot.runtime.plugins) == {"a"}
+        outcome = ask(robot, "swap a b")
+        assert not outcome.accepted
+        assert outcome.reason == "start() of plugin b failed: RuntimeError: no camera (at mod_b.py:7)"
+        assert outcome.diagnostics[0].location.path == "$.entry.class"
+        assert str(outcome.diagnostics[0].location).startswith(str(folder / "plugins" / "b" / "plugin.json"))
+        assert set(robot.runtime.plugins) == {"a"} and robot.binder.active >= {"alt", "a"}
+        steps = robot.runtime.plugins["a"].instance.steps
+        robot.runtime.run(0.01)
+        assert robot.runtime.plugins["a"].instance.steps == steps + 10 and robot.runtime.changes == []
+    finally:
+        robot.close()
+
+
+def test_a_dynamic_plugin_that_raises_is_unloaded_and_the_loop_goes_on(tmp_path: Path) -> None:
+    folder = make_robot(
+        tmp_path, {"a": {"step": "if self.steps == 5: raise ValueError('lost track')"}, "d": {}}
+    )
+    robot = launch(folder, "v")
+    try:
+        assert ask(robot, "load d").accepted
+        for _ in range(2000):
+            robot.runtime.tick()
+            if "alt" not in robot.binder.active:
+                break
+            time.sleep(0.0005)
+        fault = robot.runtime.faults[0]
+        assert (fault.feature, fault.static) == ("a", False)
+        assert fault.error == "ValueError: lost track (at mod_a.py:10)"
+        # a is the only active member of alt's XOR group, so alt goes with it
+        assert robot.binder.active == {"bot", "d"} and set(robot.runtime.plugins) == {"d"}
+        assert any("unloaded alt after the fault of a" in text for _, _, text in robot.runtime.notes)
+        assert robot.runtime.failure is None and robot.runtime.plugins["d"].instance.steps > 5
+    finally:
+        robot.close()
+
+
+def test_a_static_plugin_that_raises_stops_the_run_with_a_report(tmp_path: Path) -> None:
+    folder = make_robot(tmp_path, {"a": {"step": "raise KeyError('calibration')"}}, static=("alt", "a"))
+    result = CliRunner().invoke(
+        main, ["run", str(folder), "--variant", "v", "--duration", "1", "--clock", "simulated"]
+    )
+    assert result.exit_code == 1, result.output
+    assert (
+        "the run stopped: a raised in its step at 0.001 s (tick 1): KeyError: 'calibration' (at mod_a.py:10)"
+        in result.output
+    )
+    assert result.output.splitlines()[-2].startswith("1 ticks")
+
+
+def test_reload_picks_up_edited_code_without_a_restart(tmp_path: Path) -> None:
+    folder = make_robot(tmp_path, {"a": {}})
+    robot = launch(folder, "v")
+    try:
+        robot.runtime.run(0.01)
+        assert robot.runtime.assembly.values["Out"][0] == 1.0
+        module = folder / "plugins" / "a" / "mod_a.py"
+        module.write_text(module.read_text().replace("VERSION = 1", "VERSION = 2"))
+        outcome = ask(robot, "reload a")
+        assert outcome.accepted and outcome.plan is not None and outcome.plan.after == outcome.plan.before
+        robot.runtime.run(0.01)
+        assert robot.runtime.assembly.values["Out"][0] == 2.0
+        assert robot.runtime.plugins["a"].instance.status().startswith("version 2, ")
+    finally:
+        robot.close()
+
+
+def test_plugins_that_cannot_load_are_reported_with_their_manifest(tmp_path: Path) -> None:
+    folder = make_robot(tmp_path, {"a": {}})
+    (folder / "plugins" / "a" / "mod_a.py").write_text("import nonexistent_dependency\n")
+    with pytest.raises(PluginError) as caught:
+        launch(folder, "v")
+    [problem] = caught.value.diagnostics
+    assert problem.location.path == "$.entry.module"
+    assert problem.message == (
+        "cannot import 'mod_a' of plugin a: ModuleNotFoundError: No module named 'nonexistent_dependency' (at mod_a.py:1)"
+    )
+    (folder / "plugins" / "a" / "mod_a.py").write_text("class Other:\n    pass\n")
+    with pytest.raises(PluginError) as caught:
+        launch(folder, "v")
+    assert caught.value.diagnostics[0].message == "module 'mod_a' has no class 'Plugin' (its classes: Other)"
+    result = CliRunner().invoke(main, ["run", str(folder), "--variant", "v", "--clock", "simulated"])
+    assert result.exit_code == 3 and "has no class 'Plugin'" in result.output
+
+
+def test_two_plugins_with_one_module_name_are_refused(tmp_path: Path) -> None:
+    folder = make_robot(tmp_path, {"a": {}, "b": {}})
+    manifest = folder / "plugins" / "b" / "plugin.json"
+    manifest.write_text(manifest.read_text().replace("mod_b", "mod_a"))
+    shutil.copy(folder / "plugins" / "a" / "mod_a.py", folder / "plugins" / "b" / "mod_a.py")
+    with pytest.raises(PluginError) as caught:
+        launch(folder, "v")
+    assert "module 'mod_a' is also the entry of" in caught.value.diagnostics[0].message
+
+
+def test_the_loop_keeps_ticking_while_a_plugin_prepares(tmp_path: Path) -> None:
+    folder = make_robot(tmp_path, {"a": {}, "d": {"start": "import time; time.sleep(0.3)"}})
+    robot = launch(folder, "v")
+    try:
+        stats: list[Any] = []
+        loop = threading.Thread(target=lambda: stats.append(robot.runtime.run(1.5, RealClock())))
+        loop.start()
+        time.sleep(0.2)
+        before = robot.runtime.ticks
+        outcome = robot.binder.request(Request("load", ("d",)))
+        during = robot.runtime.ticks - before
+        loop.join()
+        assert outcome.accepted and outcome.latency >= 0.3
+        assert during >= 250  # about 300 ticks went by while d's start() slept
+    finally:
+        robot.close()
