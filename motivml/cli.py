@@ -29,6 +29,7 @@ from . import __version__, graph, impact
 from .check import Report, analyse_model, binding_states, validate
 from .codegen import late_or_dynamic, outputs, write_if_changed
 from .configure import PREFERENCES, resolve
+from .control import ControlServer, send
 from .errors import Diagnostic, MotivmlError, Severity
 from .launch import ARCHITECTURE_FILE, launch, load
 from .model import Configuration, FeatureModel
@@ -418,6 +419,14 @@ def _short(token: str) -> str:
     multiple=True,
     help="Resolve the variant as configure --prefer does.",
 )
+@click.option(
+    "--run-dir",
+    type=click.Path(file_okay=False),
+    help="Where the control socket goes (default build/<robot>/<variant>/run).",
+)
+@click.option(
+    "--control/--no-control", default=True, show_default=True, help="Open the control socket for motivml ctl."
+)
 def run_command(
     target: str,
     variant: str,
@@ -426,6 +435,8 @@ def run_command(
     clock: str,
     live: bool | None,
     prefer: tuple[str, ...],
+    run_dir: str | None,
+    control: bool,
 ) -> None:
     """Build the motion architecture of a variant's active features and run it at a fixed rate.
 
@@ -454,6 +465,16 @@ def run_command(
         f"{_plural(len(robot.assembly.components), 'component')} of {_plural(len(robot.active), 'active feature')} "
         f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, {duration:g} s"
     )
+    server = None
+    if control:
+        folder = Path(run_dir) if run_dir else Path("build") / robot.folder.name / variant / "run"
+        server = ControlServer(folder, runtime, robot.binder)
+        try:
+            server.open()
+        except MotivmlError as exc:
+            robot.close()
+            fail(exc)
+        out.print(f"control: {escape(str(server.path))} (motivml ctl)")
     chosen = RealClock() if clock == "real" else SimulatedClock()
     show = out.is_terminal if live is None else live
     result: list[RunStats] = []
@@ -477,15 +498,20 @@ def run_command(
     began = time.perf_counter()
     try:
         worker.start()
+        reported = 0
         if show:
             with Live(_live_view(runtime, began), console=out, refresh_per_second=4, transient=True) as view:
                 while not finished.wait(0.25):
+                    reported = _report_changes(runtime, reported, view.console)
                     view.update(_live_view(runtime, began))
         else:
-            finished.wait()
+            while not finished.wait(0.25):
+                reported = _report_changes(runtime, reported, out)
     finally:
         if on_main:
             signal.signal(signal.SIGINT, previous)
+        if server is not None:
+            server.close()
     if not result:
         out.print("[bold red]the run ended without a result[/]")
         sys.exit(3)
@@ -504,6 +530,15 @@ def run_command(
         )
     robot.close()
     sys.exit(130 if interrupted.is_set() else 1 if diverged or runtime.failure is not None else 0)
+
+
+def _report_changes(runtime: Runtime, reported: int, console: Console) -> int:
+    """Print the changes accepted since the last call, as they happen; the new count."""
+    changes = runtime.changes[reported:]
+    for change in changes:
+        stamp = time.strftime("%H:%M:%S", time.localtime(change.wall)) + f".{int(change.wall % 1 * 1000):03d}"
+        console.print(escape(f"{stamp} tick {change.tick}: {change.request}"))
+    return reported + len(changes)
 
 
 STATUS_COLOURS = {"converged": "green", "tracking": "green", "ongoing": "yellow", "learning": "cyan"}
@@ -551,7 +586,7 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
     for feature, status in snapshot.plugins:
         out.print(escape(f"plugin {feature}: {status}"))
     for change in runtime.changes:
-        out.print(escape(f"at {change.time:.3f} s (tick {change.tick}): {change.request}"))
+        out.print(escape(f"changed at {change.time:.3f} s (tick {change.tick}): {change.request}"))
     for at, tick, text in runtime.notes:
         out.print(escape(f"at {at:.3f} s (tick {tick}): {text}"))
     for space, value in runtime.assembly.values.items():
@@ -618,6 +653,86 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
         out.print(
             "Graphviz's dot is not installed: no SVG (install graphviz, or render the .dot files elsewhere)"
         )
+
+
+@main.command("ctl")
+@click.argument("target", type=click.Path())
+@click.option("--variant", required=True, help="The variant that runs (to find its run directory).")
+@click.option(
+    "--run-dir", type=click.Path(file_okay=False), help="The run's directory, if run was given one."
+)
+@click.argument("op", type=click.Choice(["load", "unload", "reload", "swap", "status", "dump"]))
+@click.argument("features", nargs=-1)
+def ctl_command(target: str, variant: str, run_dir: str | None, op: str, features: tuple[str, ...]) -> None:
+    """Talk to a running robot: load, unload, reload or swap features, or ask its status.
+
+    TARGET and --variant name the run (its control socket is in build/<robot>/<variant>/run
+    unless run was given --run-dir). A change is checked against the model and the variant
+    first; a refused one changes nothing and says why (exit 1). status prints the active set,
+    components and plugins; dump prints everything as JSON.
+    """
+    if op in ("status", "dump") and features:
+        raise click.UsageError(f"{op} takes no features")
+    if op not in ("status", "dump") and not features:
+        raise click.UsageError(f"{op} needs at least one feature")
+    if op == "swap" and len(features) != 2:
+        raise click.UsageError("swap needs two features: the one to unload, then the one to load")
+    folder = Path(run_dir) if run_dir else Path("build") / Path(target).resolve().name / variant / "run"
+    try:
+        answer = send(folder, {"op": op, "features": list(features)} if features else {"op": op})
+    except MotivmlError as exc:
+        fail(exc)
+    if not answer.get("ok"):
+        err.print(f"[bold red]error[/]: {escape(str(answer.get('error')))}")
+        sys.exit(2)
+    if op == "dump":
+        click.echo(json.dumps(answer, indent=2))
+        return
+    if op == "status":
+        _print_status(answer)
+        return
+    if answer["accepted"]:
+        moved = [
+            f"loaded {', '.join(answer['loads'])}" if answer["loads"] else "",
+            f"unloaded {', '.join(answer['unloads'])}" if answer["unloads"] else "",
+        ]
+        detail = "; ".join(m for m in moved if m) or "reloaded in place"
+        out.print(
+            f"[green]accepted[/]: {escape(op + ' ' + ' '.join(features))} took effect at tick {answer['tick']} "
+            f"({answer['time']:.3f} s), {answer['latency_ms']:.1f} ms after the request; {escape(detail)}"
+        )
+        return
+    for d in answer["diagnostics"]:
+        where = f"{d['file']}:{d['line']}:{d['column']}" if d.get("line") else str(d["file"])
+        out.print(
+            f"[bold]{escape(where)}[/]: {escape(str(d['path']))}: [red]refused[/]: {escape(d['message'])}"
+        )
+        for fact in d["facts"]:
+            place = (
+                f"{fact['file']}:{fact['line']}:{fact['column']}" if fact.get("line") else str(fact["file"])
+            )
+            out.print(f"    [dim]{escape(place)}: {escape(fact['text'])}[/]")
+    out.print(f"[bold red]refused[/]: {escape(op + ' ' + ' '.join(features))}: nothing changed")
+    sys.exit(1)
+
+
+def _print_status(answer: dict[str, object]) -> None:
+    out.print(
+        f"tick {answer['tick']}, t = {answer['time']:.3f} s" if isinstance(answer["time"], float) else ""
+    )
+    active = answer["active"]
+    assert isinstance(active, list)
+    out.print(escape("active: " + ", ".join(active)))
+    components = answer["components"]
+    assert isinstance(components, list)
+    for c in components:
+        out.print(
+            escape(f"component {c['id']} ({c['kind']}, {c['feature']}): {c['status']}, {c['learning']}")
+        )
+    plugins = answer["plugins"]
+    assert isinstance(plugins, list)
+    for plugin in plugins:
+        out.print(escape(f"plugin {plugin['feature']}: {plugin['status']}"))
 
 
 if __name__ == "__main__":

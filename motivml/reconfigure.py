@@ -92,11 +92,24 @@ class Reconfigurer:
     # --------------------------------------------------------------------- plan
     def plan(self, active: Collection[str], request: Request) -> Plan:
         """The new active set of an accepted request; `Refused` says why not."""
+        root = self.explainer.model_location(0)
         if request.action not in ACTIONS:
-            raise ValueError(f"unknown action {request.action!r} (actions: {', '.join(ACTIONS)})")
+            raise Refused(
+                error(
+                    root,
+                    f"unknown action {request.action!r} (actions: {', '.join(ACTIONS)})",
+                    "reconfigure.usage",
+                )
+            )
         wanted = 2 if request.action == "swap" else None
         if not request.features or (wanted is not None and len(request.features) != wanted):
-            raise ValueError("swap takes two features, the others one or more")
+            raise Refused(
+                error(
+                    root,
+                    "swap takes two features (out, then in); the others one or more",
+                    "reconfigure.usage",
+                )
+            )
         for feature in request.features:
             if feature not in self.model.index:
                 close = difflib.get_close_matches(feature, list(self.model.index), n=1, cutoff=0.75)

@@ -1,0 +1,222 @@
+"""The run's control endpoint: a Unix domain socket speaking JSON lines.
+
+`motivml run` opens `<run dir>/control.sock`. The run directory is created with mode 0700
+and the socket with mode 0600, so only the owner can connect. Each request is one JSON
+object on one line, and each answer is one line:
+
+    {"op": "swap", "features": ["hectorslam", "kartoslam"]}
+    {"ok": true, "accepted": true, "op": "swap", "tick": 2417, "time": 2.417, "latency_ms": 1.9,
+     "loads": ["kartoslam"], "unloads": ["hectorslam"]}
+
+Operations: `load`, `unload`, `reload` and `swap` (with `features`) go through the
+binder's transaction; `status` gives the active set, the components and the plugins;
+`dump` adds the log of changes, faults and notes, and the spaces' values. A refused or
+failed request answers `"accepted": false` with the diagnostics. Malformed input answers
+`"ok": false` with the reason, and never ends the run.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import stat
+import threading
+from pathlib import Path
+from typing import Any
+
+from .errors import EnvironmentProblem, Location, error
+from .reconfigure import ACTIONS, Request
+from .runtime import Runtime
+from .transactions import Binder
+
+SOCKET = "control.sock"
+LINE_LIMIT = 1 << 16  # bytes per request line
+
+
+def _problem(path: Path, message: str) -> EnvironmentProblem:
+    return EnvironmentProblem(error(Location(str(path)), message, "control"))
+
+
+class ControlServer:
+    """Serves one run's control socket on background threads."""
+
+    def __init__(self, run_dir: Path, runtime: Runtime, binder: Binder) -> None:
+        self.run_dir = run_dir
+        self.path = run_dir / SOCKET
+        self.runtime = runtime
+        self.binder = binder
+        self._socket: socket.socket | None = None
+        self._threads: list[threading.Thread] = []
+        self._closing = threading.Event()
+
+    def open(self) -> None:
+        """Create the run directory (0700) and listen on its socket (0600)."""
+        if len(os.fsencode(self.path)) >= 104:  # sun_path holds 104 to 108 bytes
+            raise _problem(
+                self.path, "the socket path is too long for a Unix socket: choose a shorter --run-dir"
+            )
+        try:
+            self.run_dir.mkdir(parents=True, exist_ok=True, mode=0o700)
+            os.chmod(self.run_dir, 0o700)
+            if self.path.exists() or self.path.is_symlink():
+                if not stat.S_ISSOCK(self.path.lstat().st_mode):
+                    raise _problem(self.path, "exists and is not a socket: not replacing it")
+                if _alive(self.path):
+                    raise _problem(
+                        self.path, "another run is listening here (stop it, or choose another --run-dir)"
+                    )
+                self.path.unlink()  # left over from a run that ended without cleaning up
+            server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+            old = os.umask(0o177)
+            try:
+                server.bind(str(self.path))
+            finally:
+                os.umask(old)
+            os.chmod(self.path, 0o600)
+            server.listen(8)
+        except OSError as exc:
+            raise _problem(self.path, f"cannot open the control socket: {exc.strerror}") from None
+        self._socket = server
+        thread = threading.Thread(target=self._accept, name="motivml-control-accept", daemon=True)
+        thread.start()
+        self._threads.append(thread)
+
+    def _accept(self) -> None:
+        assert self._socket is not None
+        while not self._closing.is_set():
+            try:
+                connection, _ = self._socket.accept()
+            except OSError:
+                return  # closed
+            thread = threading.Thread(
+                target=self._serve, args=(connection,), name="motivml-control", daemon=True
+            )
+            thread.start()
+
+    def _serve(self, connection: socket.socket) -> None:
+        with connection, connection.makefile("rwb") as stream:
+            while not self._closing.is_set():
+                line = stream.readline(LINE_LIMIT + 1)
+                if not line:
+                    return
+                if len(line) > LINE_LIMIT:
+                    answer: dict[str, Any] = {
+                        "ok": False,
+                        "error": f"a request line is at most {LINE_LIMIT} bytes",
+                    }
+                    stream.write((json.dumps(answer) + "\n").encode())
+                    stream.flush()
+                    return
+                stream.write((json.dumps(self.handle(line)) + "\n").encode())
+                stream.flush()
+
+    def handle(self, line: bytes) -> dict[str, Any]:
+        """One request line to one answer (never raises)."""
+        try:
+            request = json.loads(line)
+        except (ValueError, UnicodeDecodeError) as exc:
+            return {"ok": False, "error": f"not a JSON line: {exc}"}
+        if not isinstance(request, dict) or not isinstance(request.get("op"), str):
+            return {"ok": False, "error": 'a request is an object with "op"'}
+        op = request["op"]
+        if op == "status":
+            return {"ok": True, "op": op, **self.status()}
+        if op == "dump":
+            return {"ok": True, "op": op, **self.status(), **self.dump()}
+        if op not in ACTIONS:
+            return {
+                "ok": False,
+                "error": f"unknown op {op!r} (ops: {', '.join((*ACTIONS, 'status', 'dump'))})",
+            }
+        features = request.get("features")
+        if not isinstance(features, list) or not features or not all(isinstance(f, str) for f in features):
+            return {"ok": False, "error": f'{op} needs "features": a non-empty list of feature ids'}
+        if op == "swap" and len(features) != 2:
+            return {"ok": False, "error": "swap needs two features: the one to unload, then the one to load"}
+        outcome = self.binder.request(Request(op, tuple(features)))
+        answer: dict[str, Any] = {"ok": True, "op": op, "features": features, "accepted": outcome.accepted}
+        if outcome.accepted and outcome.change is not None:
+            change = outcome.change
+            answer |= {
+                "tick": change.tick,
+                "time": round(change.time, 6),
+                "latency_ms": round(outcome.latency * 1e3, 3),
+                "loads": list(change.loads),
+                "unloads": list(change.unloads),
+            }
+        else:
+            answer["diagnostics"] = [d.as_dict() for d in outcome.diagnostics]
+        return answer
+
+    def status(self) -> dict[str, Any]:
+        snapshot = self.runtime.status()
+        return {
+            "tick": snapshot.tick,
+            "time": round(snapshot.time, 6),
+            "active": sorted(self.binder.active, key=self.binder.variant.model.index.__getitem__),
+            "components": [
+                {"id": c.id, "kind": c.kind, "feature": c.feature, "status": c.status, "learning": c.learning}
+                for c in snapshot.components
+            ],
+            "plugins": [{"feature": f, "status": s} for f, s in snapshot.plugins],
+        }
+
+    def dump(self) -> dict[str, Any]:
+        runtime = self.runtime
+        return {
+            "changes": [
+                {"tick": c.tick, "time": round(c.time, 6), "wall": c.wall, "request": c.request}
+                for c in runtime.changes
+            ],
+            "faults": [
+                {"tick": f.tick, "time": round(f.time, 6), "feature": f.feature, "error": f.error}
+                for f in runtime.faults
+            ],
+            "notes": [{"time": round(t, 6), "tick": k, "text": text} for t, k, text in runtime.notes],
+            "spaces": {k: [float(x) for x in v] for k, v in list(runtime.assembly.values.items())},
+        }
+
+    def close(self) -> None:
+        self._closing.set()
+        if self._socket is not None:
+            self._socket.close()
+            self._socket = None
+        try:
+            self.path.unlink()
+        except OSError:
+            pass
+
+
+def _alive(path: Path) -> bool:
+    probe = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        probe.connect(str(path))
+        return True
+    except OSError:
+        return False
+    finally:
+        probe.close()
+
+
+def send(run_dir: Path, request: dict[str, Any], timeout: float = 30.0) -> dict[str, Any]:
+    """One request to a run's control socket; its answer."""
+    path = run_dir / SOCKET
+    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    client.settimeout(timeout)
+    try:
+        client.connect(str(path))
+        with client.makefile("rwb") as stream:
+            stream.write((json.dumps(request) + "\n").encode())
+            stream.flush()
+            line = stream.readline()
+    except FileNotFoundError:
+        raise _problem(path, "no run is listening here (start one with motivml run)") from None
+    except OSError as exc:
+        raise _problem(path, f"cannot talk to the run: {exc.strerror or exc}") from None
+    finally:
+        client.close()
+    if not line:
+        raise _problem(path, "the run closed the connection without an answer")
+    answer: dict[str, Any] = json.loads(line)
+    return answer

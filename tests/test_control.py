@@ -1,0 +1,123 @@
+"""The run's control socket and motivml ctl: permissions, protocol, and a session."""
+
+from __future__ import annotations
+
+import json
+import socket
+import stat
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from motivml.cli import main
+from motivml.control import ControlServer, send
+from motivml.errors import EnvironmentProblem
+from motivml.launch import Robot, launch
+from motivml.runtime import RealClock
+
+SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
+
+
+@pytest.fixture
+def running(tmp_path: Path) -> Iterator[tuple[Robot, ControlServer]]:
+    """SimpleBot field on the real clock in a background thread, its socket open."""
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    server.open()
+    loop = threading.Thread(target=robot.runtime.run, args=(60.0, RealClock()), daemon=True)
+    loop.start()
+    yield robot, server
+    robot.runtime.stop()
+    loop.join()
+    server.close()
+    robot.close()
+
+
+def test_only_the_owner_can_reach_the_socket(running: tuple[Robot, ControlServer]) -> None:
+    _, server = running
+    assert stat.S_IMODE(server.run_dir.stat().st_mode) == 0o700
+    assert stat.S_IMODE(server.path.lstat().st_mode) == 0o600
+    assert stat.S_ISSOCK(server.path.lstat().st_mode)
+
+
+def test_status_swap_refusal_and_dump(running: tuple[Robot, ControlServer]) -> None:
+    robot, server = running
+    status = send(server.run_dir, {"op": "status"})
+    assert status["ok"] and "hectorslam" in status["active"]
+    assert [p["feature"] for p in status["plugins"]] == ["hectorslam"]
+    refused = send(server.run_dir, {"op": "load", "features": ["kartoslam"]})
+    assert refused["ok"] and not refused["accepted"]
+    assert refused["diagnostics"][0]["message"].startswith("hectorslam and kartoslam are alternatives")
+    accepted = send(server.run_dir, {"op": "swap", "features": ["hectorslam", "kartoslam"]})
+    assert (
+        accepted["accepted"] and accepted["loads"] == ["kartoslam"] and accepted["unloads"] == ["hectorslam"]
+    )
+    assert accepted["tick"] > 0 and accepted["latency_ms"] >= 0
+    dump = send(server.run_dir, {"op": "dump"})
+    assert [c["request"] for c in dump["changes"]] == ["swap hectorslam kartoslam"]
+    assert dump["changes"][0]["tick"] == accepted["tick"] and "PoseEstimate" in dump["spaces"]
+    assert set(robot.runtime.plugins) == {"kartoslam"}
+
+
+@pytest.mark.parametrize(
+    ("line", "error"),
+    [
+        (b"{not json\n", "not a JSON line"),
+        (b"[1, 2]\n", 'a request is an object with "op"'),
+        (b'{"op": "explode"}\n', "unknown op 'explode'"),
+        (b'{"op": "load"}\n', 'load needs "features"'),
+        (b'{"op": "swap", "features": ["a"]}\n', "swap needs two features"),
+        (b"\xff\xfe\n", "not a JSON line"),
+    ],
+)
+def test_bad_requests_get_an_answer_and_the_run_goes_on(
+    running: tuple[Robot, ControlServer], line: bytes, error: str
+) -> None:
+    robot, server = running
+    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    client.settimeout(10)
+    client.connect(str(server.path))
+    with client, client.makefile("rwb") as stream:
+        stream.write(line)
+        stream.flush()
+        answer = json.loads(stream.readline())
+        assert answer["ok"] is False and error in answer["error"]
+        stream.write(b'{"op": "status"}\n')  # the same connection still works
+        stream.flush()
+        assert json.loads(stream.readline())["ok"] is True
+    assert not robot.runtime.stop_requested.is_set()
+
+
+def test_a_second_run_cannot_take_a_live_socket(running: tuple[Robot, ControlServer]) -> None:
+    robot, server = running
+    with pytest.raises(EnvironmentProblem, match="another run is listening here"):
+        ControlServer(server.run_dir, robot.runtime, robot.binder).open()
+
+
+def test_ctl_prints_results_and_exit_codes(running: tuple[Robot, ControlServer]) -> None:
+    _, server = running
+    runner = CliRunner()
+    base = ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(server.run_dir)]
+    refused = runner.invoke(main, [*base, "load", "orbslam"])
+    assert refused.exit_code == 1
+    assert "refused: hectorslam and orbslam are alternatives in slam's XOR group" in refused.output
+    assert refused.output.splitlines()[-1] == "refused: load orbslam: nothing changed"
+    accepted = runner.invoke(main, [*base, "swap", "hectorslam", "orbslam"])
+    assert accepted.exit_code == 0, accepted.output
+    assert accepted.output.startswith("accepted: swap hectorslam orbslam took effect at tick ")
+    assert accepted.output.rstrip().endswith("loaded orbslam; unloaded hectorslam")
+    status = runner.invoke(main, [*base, "status"])
+    assert status.exit_code == 0 and "plugin orbslam: pose" in status.output
+    assert runner.invoke(main, [*base, "swap", "orbslam"]).exit_code == 2
+    dump = runner.invoke(main, [*base, "dump"])
+    assert json.loads(dump.output)["changes"][0]["request"] == "swap hectorslam orbslam"
+
+
+def test_ctl_without_a_run_says_so(tmp_path: Path) -> None:
+    result = CliRunner().invoke(
+        main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(tmp_path), "status"]
+    )
+    assert result.exit_code == 3 and "no run is listening here" in result.output
