@@ -26,3 +26,4 @@ bench: setup
 	$(BIN)/python bench/validate_bench.py
 	$(BIN)/python bench/configure_bench.py
 	$(BIN)/python bench/run_bench.py
+	$(BIN)/python bench/swap_bench.py

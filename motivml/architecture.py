@@ -66,6 +66,9 @@ class Architecture:
             keep(self.spaces), keep(self.mappings), keep(self.modules), keep(self.components), self.source
         )
 
+    def sections(self) -> tuple[dict[str, dict[str, Any]], ...]:
+        return self.spaces, self.mappings, self.modules, self.components
+
     def locate(self, section: str, element: str, *keys: str) -> Location:
         index = next(i for i, item in enumerate(self.source.root.get(section, [])) if item["id"] == element)
         return self.source.locate((section, index, *keys))

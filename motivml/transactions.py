@@ -76,6 +76,11 @@ class Binder:
         self.static = {d.feature.id: d.static for d in variant.decisions}
         self._lock = threading.Lock()
         self._staging: Assembly | None = None  # the architecture being prepared
+        self._bring_elements = (
+            {e["feature"] for section in architecture.sections() for e in section.values()}
+            if architecture is not None
+            else set()
+        )  # features whose coming or going changes the architecture
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="motivml-binder")
         runtime.on_fault = self._on_fault
 
@@ -182,7 +187,8 @@ class Binder:
 
     def _prepare(self, plan: Plan) -> Commit:
         assembly = None
-        if self.architecture is not None and plan.after != plan.before:
+        moved = set(plan.loads) | set(plan.unloads)
+        if self.architecture is not None and moved & self._bring_elements:
             assembly, _ = build(self.architecture, set(plan.after), self.runtime.rate, self.runtime.assembly)
         reload = plan.request.action == "reload"
         add: dict[str, Running] = {}
