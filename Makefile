@@ -11,13 +11,19 @@ $(BIN)/motivml: pyproject.toml
 	$(BIN)/pip install --quiet -e '.[dev]'
 	touch $@
 
-.PHONY: setup example test bench
+.PHONY: setup example test bench cpp-plugins
 setup: $(BIN)/motivml
 
 example: setup
 	$(BIN)/motivml validate feature_models/simplebot --variant lab
 
-test: setup
+# C++ plugins (needs cmake, g++, libclass-loader-dev): the motivml._cpp_plugins extension
+# and the example plugin libraries in plugins/cpp.
+cpp-plugins: setup
+	cmake -S cpp_plugins -B build/cpp_plugins -DPython_EXECUTABLE=$(abspath $(BIN)/python) >/dev/null
+	cmake --build build/cpp_plugins -j 2 >/dev/null
+
+test: setup cpp-plugins
 	$(BIN)/ruff check motivml tests bench
 	$(BIN)/mypy
 	$(BIN)/pytest -q

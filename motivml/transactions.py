@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from . import cppplugins
 from .architecture import Architecture
 from .builder import Assembly, build
 from .configure import Variant
@@ -112,16 +113,15 @@ class Binder:
 
     def _start(self, feature: str, fresh: bool = False) -> Running:
         plugin = self.plugins[feature]
-        if plugin.kind != "python":
-            raise plugin_error(
-                plugin,
-                "library",
-                f"plugin {feature} is a C++ plugin: loading C++ plugins at run time is not available yet",
-            )
-        instance = self.python.create(feature, self._context(feature), fresh)
+        if plugin.kind == "cpp":
+            instance: Any = cppplugins.create(plugin, self._context(feature))
+        else:
+            instance = self.python.create(feature, self._context(feature), fresh)
         try:
             instance.start()
         except Exception as exc:  # plugin code may raise anything
+            if plugin.kind == "cpp":  # release the C++ object and its library
+                self._stop(Running(feature, instance, self.static[feature], plugin.folder))
             raise plugin_error(
                 plugin,
                 "class",

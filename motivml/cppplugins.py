@@ -1,0 +1,97 @@
+"""C++ feature plugins: shared libraries loaded through ROS class_loader.
+
+The extension `motivml._cpp_plugins` (cpp_plugins/, built by `make cpp-plugins`) wraps
+class_loader. Each `Library` counts its loads and its live instances, refuses to unload
+while an instance lives, and really unmaps the library (dlclose) once the last one is
+released. `CppPlugin` adapts a C++ instance to the runtime's plugin interface (start, step,
+stop, status): its stop() also releases the C++ object and unloads the library.
+Every failure is a `PluginError` at the manifest's `entry.library` or `entry.class`:
+- the extension is not built;
+- the library file is missing;
+- dlopen fails (an undefined symbol, say);
+- the library does not declare the class (the message lists the classes it does).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from .plugin_api import PluginContext
+from .plugins import Plugin
+from .pyplugins import plugin_error
+
+
+def _extension() -> ModuleType | None:
+    try:
+        from . import _cpp_plugins  # type: ignore[attr-defined]
+    except ImportError:
+        return None
+    module: ModuleType = _cpp_plugins
+    return module
+
+
+class CppPlugin:
+    """A C++ plugin instance, seen by the runtime as a Python plugin."""
+
+    def __init__(self, library: Any, instance: Any, context: PluginContext, spaces_type: type) -> None:
+        self.library = library
+        self.instance = instance
+        self.context = context
+        outer = context
+
+        class Spaces(spaces_type):  # type: ignore[misc]
+            def read(self, space: str) -> list[float]:
+                return [float(v) for v in outer.read(space)]
+
+            def write(self, space: str, value: list[float]) -> None:
+                outer.write(space, value)
+
+        self.spaces = Spaces()
+
+    def start(self) -> None:
+        self.instance.start()
+
+    def step(self, time: float) -> None:
+        self.instance.step(time, self.spaces)
+
+    def stop(self) -> None:
+        try:
+            self.instance.stop()
+        finally:
+            self.instance.release()
+            if self.library.live == 0 and self.library.loaded:
+                self.library.unload()
+
+    def status(self) -> str:
+        return str(self.instance.status())
+
+
+def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
+    """Load the plugin's library and construct its class (not started)."""
+    extension = _extension()
+    if extension is None:
+        raise plugin_error(
+            plugin,
+            "library",
+            "C++ plugin support is not built: run make cpp-plugins (needs cmake, g++, libclass-loader-dev)",
+        )
+    path = Path(plugin.folder) / plugin.entry["library"]
+    if not path.is_file():
+        raise plugin_error(plugin, "library", f"library {path} does not exist (build it: make cpp-plugins)")
+    try:
+        library = extension.Library(str(path))
+    except RuntimeError as exc:  # LoadError: dlopen failed
+        raise plugin_error(plugin, "library", f"cannot load {path.name}: {_first_line(exc)}") from None
+    try:
+        instance = library.create(plugin.entry["class"])
+    except RuntimeError as exc:
+        library.unload()
+        raise plugin_error(plugin, "class", _first_line(exc)) from None
+    return CppPlugin(library, instance, context, extension.Spaces)
+
+
+def _first_line(exc: BaseException) -> str:
+    lines = str(exc).strip().splitlines()
+    return lines[0] if lines else type(exc).__name__

@@ -1,0 +1,32 @@
+// GestureRecognition's Hands plugin (stand-in): counts hand gestures in a synthetic stream,
+// one every half second, and reports the last one.
+#include <cmath>
+#include <string>
+
+#include "motivml/feature_plugin.hpp"
+
+namespace gestures {
+
+class Hands : public motivml::FeaturePlugin {
+ public:
+  void start() override { seen_ = 0; }
+  void step(double time, motivml::Spaces&) override {
+    const int due = static_cast<int>(std::floor(time * 2.0));
+    if (due > seen_) {
+      seen_ = due;
+      last_ = kGestures[seen_ % 3];
+    }
+  }
+  std::string status() const override {
+    return std::to_string(seen_) + " hand gestures" + (seen_ ? ", last: " + last_ : std::string());
+  }
+
+ private:
+  static constexpr const char* kGestures[3] = {"wave", "stop", "point"};
+  int seen_ = 0;
+  std::string last_;
+};
+
+}  // namespace gestures
+
+MOTIVML_PLUGIN(gestures::Hands)
