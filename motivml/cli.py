@@ -14,6 +14,7 @@ import signal
 import sys
 import threading
 import time
+from concurrent.futures import Future
 from pathlib import Path
 from typing import NoReturn
 
@@ -35,8 +36,10 @@ from .launch import ARCHITECTURE_FILE, launch, load
 from .model import Configuration, FeatureModel
 from .plugins import discover
 from .plugins import missing as missing_plugins
+from .reconfigure import ACTIONS, Request
 from .robot import RobotFolder
 from .runtime import RealClock, RunStats, Runtime, SimulatedClock, Snapshot
+from .transactions import Outcome
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
 err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
@@ -427,6 +430,14 @@ def _short(token: str) -> str:
 @click.option(
     "--control/--no-control", default=True, show_default=True, help="Open the control socket for motivml ctl."
 )
+@click.option(
+    "--at",
+    "scheduled",
+    type=(click.FloatRange(min=0), str),
+    multiple=True,
+    metavar="SECONDS REQUEST",
+    help='Make a request at a control time, e.g. --at 2 "swap hectorslam kartoslam" (repeatable).',
+)
 def run_command(
     target: str,
     variant: str,
@@ -437,6 +448,7 @@ def run_command(
     prefer: tuple[str, ...],
     run_dir: str | None,
     control: bool,
+    scheduled: tuple[tuple[float, str], ...],
 ) -> None:
     """Build the motion architecture of a variant's active features and run it at a fixed rate.
 
@@ -445,6 +457,15 @@ def run_command(
     run. Ends with a summary: each component's status and when its criterion fired, each
     module's learning state, the final space values and the loop's timing.
     """
+    plan: list[tuple[float, Request]] = []
+    for at, text in scheduled:
+        action, *features = text.split()
+        if action not in ACTIONS or not features or (action == "swap" and len(features) != 2):
+            raise click.BadParameter(
+                f"{text!r}: a request is load|unload|reload FEATURE..., or swap OUT IN", param_hint="--at"
+            )
+        plan.append((at, Request(action, tuple(features))))
+    plan.sort(key=lambda item: item[0])
     try:
         robot = launch(target, variant, rate, prefer)
     except MotivmlError as exc:
@@ -479,10 +500,21 @@ def run_command(
     show = out.is_terminal if live is None else live
     result: list[RunStats] = []
     finished = threading.Event()
+    answers: list[tuple[float, int, Request, Outcome | Future[Outcome]]] = []
+
+    def scheduler(rt: Runtime) -> bool:
+        """Each tick, on the control thread: make the requests that are due."""
+        while plan and rt.time >= plan[0][0] - 1e-12:
+            _, request = plan.pop(0)
+            if clock == "simulated":  # deterministic: committed right here, between two ticks
+                answers.append((rt.time, rt.ticks, request, robot.binder.request_between_ticks(request)))
+            else:
+                answers.append((rt.time, rt.ticks, request, robot.binder.submit(request)))
+        return False
 
     def work() -> None:
         try:
-            result.append(runtime.run(duration, chosen))
+            result.append(runtime.run(duration, chosen, until=scheduler))
         finally:
             finished.set()
 
@@ -515,6 +547,12 @@ def run_command(
     if not result:
         out.print("[bold red]the run ended without a result[/]")
         sys.exit(3)
+    for at, tick, request, answer in answers:
+        outcome = answer if isinstance(answer, Outcome) else answer.result()
+        verdict = "accepted" if outcome.accepted else "refused, nothing changed"
+        out.print(escape(f"request at {at:.3f} s (tick {tick}): {request}: {verdict}"))
+        for d in outcome.diagnostics:
+            print_diagnostic(d)
     _summary(runtime, result[0])
     if runtime.failure is not None:
         fault = runtime.failure
@@ -579,7 +617,8 @@ def _live_view(runtime: Runtime, began: float) -> Group:
 
 def _summary(runtime: Runtime, stats: RunStats) -> None:
     snapshot = runtime.status()
-    out.print(_components_table(snapshot, runtime))
+    if snapshot.components:
+        out.print(_components_table(snapshot, runtime))
     for module, state, learned in snapshot.modules:
         extra = f", learned {learned} time{'s' if learned != 1 else ''}" if learned else ""
         out.print(f"module {escape(module)}: {state}{extra}")

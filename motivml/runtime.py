@@ -229,6 +229,10 @@ class Runtime:
             commit.withdrawn = True
             return True
 
+    def commit_now(self) -> None:
+        """Apply queued reconfigurations now (only between ticks, on the control thread)."""
+        self._apply_commits()
+
     def _apply_commits(self) -> None:
         while not self._commits.empty():
             commit = self._commits.get()

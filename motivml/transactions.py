@@ -185,6 +185,31 @@ class Binder:
             assert change is not None
             return Outcome(request, True, plan, change, change.clock - began)
 
+    def request_between_ticks(self, request: Request) -> Outcome:
+        """A request made by the control thread itself, between two ticks: committed at once.
+
+        For scheduled requests on the simulated clock (`motivml run --at`): the same check
+        and preparation, then the commit applied here instead of by the next tick.
+        """
+        with self._lock:
+            began = time.perf_counter()
+            try:
+                plan = self.reconfigurer.plan(self.active, request)
+            except Refused as refused:
+                return Outcome(request, False, diagnostics=refused.diagnostics)
+            try:
+                commit = self._prepare(plan)
+            except MotivmlError as failed:
+                return Outcome(request, False, plan, diagnostics=failed.diagnostics)
+            self.runtime.submit(commit)
+            self.runtime.commit_now()
+            for running in commit.removed:
+                self._stop(running)
+            self.active = plan.after
+            change = commit.change
+            assert change is not None
+            return Outcome(request, True, plan, change, change.clock - began)
+
     def _prepare(self, plan: Plan) -> Commit:
         assembly = None
         moved = set(plan.loads) | set(plan.unloads)

@@ -250,3 +250,28 @@ def test_the_loop_keeps_ticking_while_a_plugin_prepares(tmp_path: Path) -> None:
         assert during >= 250  # about 300 ticks went by while d's start() slept
     finally:
         robot.close()
+
+
+def test_scheduled_requests_make_a_deterministic_session() -> None:
+    args = ["run", str(ROOT / "feature_models" / "simplebot"), "--variant", "field", "--duration", "3"]
+    args += [
+        "--clock",
+        "simulated",
+        "--no-control",
+        "--at",
+        "1",
+        "load kartoslam",
+        "--at",
+        "2",
+        "swap hectorslam kartoslam",
+    ]
+    first, second = (CliRunner().invoke(main, args) for _ in range(2))
+    assert first.exit_code == 0, first.output
+    assert first.output == second.output
+    lines = first.output.splitlines()
+    assert lines[1] == "request at 1.000 s (tick 1000): load kartoslam: refused, nothing changed"
+    assert "error: hectorslam and kartoslam are alternatives in slam's XOR group" in lines[2]
+    assert "request at 2.000 s (tick 2000): swap hectorslam kartoslam: accepted" in lines
+    assert "changed at 2.000 s (tick 2000): swap hectorslam kartoslam" in lines
+    bad = CliRunner().invoke(main, [*args[:8], "--at", "1", "explode kartoslam"])
+    assert bad.exit_code == 2 and "a request is load|unload|reload FEATURE..., or swap OUT IN" in bad.output

@@ -1,5 +1,5 @@
 // GestureRecognition's Hands plugin (stand-in): counts hand gestures in a synthetic stream,
-// one every half second, and reports the last one.
+// one every half second from the moment it is loaded, and reports the last one.
 #include <cmath>
 #include <string>
 
@@ -11,18 +11,21 @@ class Hands : public motivml::FeaturePlugin {
  public:
   void start() override { seen_ = 0; }
   void step(double time, motivml::Spaces&) override {
-    const int due = static_cast<int>(std::floor(time * 2.0));
+    if (since_ < 0) since_ = time;
+    const int due = static_cast<int>(std::floor((time - since_) * 2.0));
     if (due > seen_) {
       seen_ = due;
       last_ = kGestures[seen_ % 3];
     }
   }
   std::string status() const override {
-    return std::to_string(seen_) + " hand gestures" + (seen_ ? ", last: " + last_ : std::string());
+    return std::to_string(seen_) + (seen_ == 1 ? " hand gesture" : " hand gestures") +
+           (seen_ ? ", last: " + last_ : std::string());
   }
 
  private:
   static constexpr const char* kGestures[3] = {"wave", "stop", "point"};
+  double since_ = -1.0;
   int seen_ = 0;
   std::string last_;
 };
