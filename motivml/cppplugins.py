@@ -78,6 +78,10 @@ def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
             "C++ plugin support is not built: run make cpp-plugins (needs cmake, g++, libclass-loader-dev)",
         )
     path = Path(plugin.folder) / plugin.entry["library"]
+    if not path.resolve().is_relative_to(Path(plugin.folder).resolve()):
+        raise plugin_error(
+            plugin, "library", f"library {plugin.entry['library']} leaves the plugin folder (a link)"
+        )
     if not path.is_file():
         raise plugin_error(plugin, "library", f"library {path} does not exist (build it: make cpp-plugins)")
     try:

@@ -127,3 +127,21 @@ def test_gesture_plugins_load_step_and_unload_in_the_running_robot(field: Robot)
     assert ask(field, "unload gesture_recognition")
     assert set(field.runtime.plugins) == {"hectorslam"}
     assert not mapped("libhands.so") and not mapped("libpointscloud.so")  # stopped, released, unloaded
+
+
+def test_a_library_link_that_leaves_the_plugin_folder_is_refused(
+    extension: ModuleType, tmp_path: Path
+) -> None:
+    from motivml import cppplugins
+
+    folder = tmp_path / "sneaky"
+    folder.mkdir()
+    (folder / "libhands.so").symlink_to(GESTURES / "hands" / "build" / "libhands.so")
+    plugin = Plugin(
+        "hands", "cpp", {"library": "libhands.so", "class": "gestures::Hands"}, folder, folder / "plugin.json"
+    )
+    (folder / "plugin.json").write_text(
+        json.dumps({"feature": "hands", "kind": "cpp", "entry": plugin.entry})
+    )
+    with pytest.raises(PluginError, match="library libhands.so leaves the plugin folder"):
+        cppplugins.create(plugin, context())

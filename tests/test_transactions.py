@@ -275,3 +275,25 @@ def test_scheduled_requests_make_a_deterministic_session() -> None:
     assert "changed at 2.000 s (tick 2000): swap hectorslam kartoslam" in lines
     bad = CliRunner().invoke(main, [*args[:8], "--at", "1", "explode kartoslam"])
     assert bad.exit_code == 2 and "a request is load|unload|reload FEATURE..., or swap OUT IN" in bad.output
+
+
+def test_the_arms_motion_primitive_is_swapped_while_the_arm_moves() -> None:
+    robot = launch(ROOT / "feature_models" / "reaching_arm", "swappable")
+    try:
+        assert [c.id for c in robot.assembly.components] == ["DMPReacher"]
+        path = []
+        for _ in range(600):
+            robot.runtime.tick()
+            path.append(robot.assembly.values["ArmCommand"].copy())
+        moving = np.linalg.norm(path[-1] - path[-11]) * robot.runtime.rate / 10  # rad/s (it steps at 500 Hz)
+        assert moving > 0.1  # mid-reach
+        outcome = ask(robot, "swap dmp_reach attractor_reach")
+        assert outcome.accepted and [c.id for c in robot.assembly.components] == ["AttractorReacher"]
+        robot.runtime.tick()
+        step = np.linalg.norm(robot.assembly.values["ArmCommand"] - path[-1])
+        assert step < 0.01  # the new primitive starts where the arm is: no jump
+        robot.runtime.run(2.0)
+        assert np.allclose(robot.assembly.values["ArmCommand"], robot.assembly.values["ArmGoal"], atol=0.01)
+        assert robot.runtime.first("AttractorReacher", "converged") is not None
+    finally:
+        robot.close()
