@@ -19,6 +19,7 @@ from pathlib import Path
 
 from . import encoding as enc
 from .architecture import Architecture, read_architecture, references
+from .coordination import VariantBindings, read_coordination
 from .errors import Diagnostic, Location, Severity, error, warning
 from .explain import Explainer
 from .loader import no_gc
@@ -161,18 +162,54 @@ def validate(
     partial: bool = False,
     analyse: bool = True,
     architecture_path: str | Path | None = None,
+    coordination_path: str | Path | None = None,
 ) -> list[Report]:
-    """The model's report, then one per configuration, then the architecture's, if given.
+    """The model's report, one per configuration, the architecture's and the coordination's.
 
     The model is read once; the other documents are checked only against a sound model.
     """
     model_report = validate_model(model_path, analyse)
     reports = [model_report]
     if model_report.model is not None:
-        reports += [validate_configuration(model_report.model, c, partial) for c in config_paths]
+        model = model_report.model
+        reports += [validate_configuration(model, c, partial) for c in config_paths]
+        architecture = None
         if architecture_path is not None:
-            reports.append(validate_architecture(model_report.model, architecture_path))
+            reports.append(validate_architecture(model, architecture_path))
+            if reports[-1].valid:
+                doc, _ = read_checked(architecture_path, lambda d: [])
+                architecture = read_architecture(doc, model)[0] if doc is not None else None
+        if coordination_path is not None:
+            variants = [
+                r.config for r in reports[1 : 1 + len(config_paths)] if r.valid and r.config is not None
+            ]
+            reports.append(validate_coordination(model, coordination_path, architecture, variants))
     return reports
+
+
+def validate_coordination(
+    model: FeatureModel, path: str | Path, architecture: Architecture | None, configs: Sequence[Configuration]
+) -> Report:
+    """Check coordination.json against the model and architecture, and each valid variant's features."""
+    report = Report(str(path), "coordination", model=model)
+    doc, problems = read_checked(path, lambda d: [])
+    report.diagnostics += problems
+    if doc is None:
+        return report
+    coordination, found = read_coordination(doc, model, architecture)
+    report.diagnostics += found
+    if coordination is not None:
+        from .configure import resolve  # configure builds on check: resolve only here, at need
+
+        seen = {(d.location.path, d.message) for d in report.diagnostics}
+        for config in configs:
+            variant = resolve(model, config)
+            bindings = VariantBindings(config.name, {d.feature.id: d.binding for d in variant.selected()})
+            for d in read_coordination(doc, model, architecture, bindings)[1]:
+                if (d.location.path, d.message) not in seen:
+                    seen.add((d.location.path, d.message))
+                    report.diagnostics.append(d)
+    return _sorted(report)
 
 
 def _sorted(report: Report) -> Report:

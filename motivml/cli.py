@@ -31,14 +31,16 @@ from .check import Report, analyse_model, binding_states, validate
 from .codegen import late_or_dynamic, outputs, write_if_changed
 from .configure import PREFERENCES, resolve
 from .control import ControlServer, send
+from .coordinator import Coordinator
 from .errors import Diagnostic, MotivmlError, Severity
-from .launch import ARCHITECTURE_FILE, launch, load
+from .launch import ARCHITECTURE_FILE, COORDINATION_FILE, launch, load, read_robot_coordination
 from .model import Configuration, FeatureModel
 from .plugins import discover
 from .plugins import missing as missing_plugins
 from .reconfigure import ACTIONS, Request
 from .robot import RobotFolder
 from .runtime import RealClock, RunStats, Runtime, SimulatedClock, Snapshot
+from .scxml import to_scxml
 from .transactions import Outcome
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
@@ -112,13 +114,17 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
         architecture = model_path.parent / "architecture.json" if Path(target).is_dir() else None
         if architecture is not None and not architecture.is_file():
             architecture = None
-        reports = validate(model_path, configs, partial, analyse, architecture)
+        coordination = model_path.parent / COORDINATION_FILE if Path(target).is_dir() else None
+        if coordination is not None and not coordination.is_file():
+            coordination = None
+        reports = validate(model_path, configs, partial, analyse, architecture, coordination)
     except MotivmlError as exc:
         if fmt == "json":
             _print_json(False, exc.diagnostics, [], [])
             sys.exit(exc.exit_code)
         fail(exc)
-    valid = all(r.valid for r in reports) and len(reports) == 1 + len(configs) + (architecture is not None)
+    expected = 1 + len(configs) + (architecture is not None) + (coordination is not None)
+    valid = all(r.valid for r in reports) and len(reports) == expected
     if fmt == "json":
         _print_json(
             valid,
@@ -459,10 +465,14 @@ def run_command(
     """
     plan: list[tuple[float, Request]] = []
     for at, text in scheduled:
-        action, *features = text.split()
+        action, *features = text.split() or [""]
+        if action == "event" and len(features) == 1:
+            plan.append((at, Request("event", (features[0],))))
+            continue
         if action not in ACTIONS or not features or (action == "swap" and len(features) != 2):
             raise click.BadParameter(
-                f"{text!r}: a request is load|unload|reload FEATURE..., or swap OUT IN", param_hint="--at"
+                f"{text!r}: a request is load|unload|reload FEATURE..., swap OUT IN, or event NAME",
+                param_hint="--at",
             )
         plan.append((at, Request(action, tuple(features))))
     plan.sort(key=lambda item: item[0])
@@ -497,6 +507,14 @@ def run_command(
             fail(exc)
         out.print(f"control: {escape(str(server.path))} (motivml ctl)")
     chosen = RealClock() if clock == "real" else SimulatedClock()
+    coordinator = robot.coordinate(simulated=clock == "simulated")
+    if coordinator is None and any(request.action == "event" for _, request in plan):
+        robot.close()
+        raise click.BadParameter(
+            "events go to a coordination statechart, and this robot has none", param_hint="--at"
+        )
+    if server is not None:
+        server.coordinator = coordinator
     show = out.is_terminal if live is None else live
     result: list[RunStats] = []
     finished = threading.Event()
@@ -506,11 +524,15 @@ def run_command(
         """Each tick, on the control thread: make the requests that are due."""
         while plan and rt.time >= plan[0][0] - 1e-12:
             _, request = plan.pop(0)
-            if clock == "simulated":  # deterministic: committed right here, between two ticks
+            if request.action == "event":
+                assert coordinator is not None
+                coordinator.event(request.features[0])
+                rt.note(f"event {request.features[0]}")
+            elif clock == "simulated":  # deterministic: committed right here, between two ticks
                 answers.append((rt.time, rt.ticks, request, robot.binder.request_between_ticks(request)))
             else:
                 answers.append((rt.time, rt.ticks, request, robot.binder.submit(request)))
-        return False
+        return coordinator is not None and coordinator.finished is not None
 
     def work() -> None:
         try:
@@ -532,10 +554,12 @@ def run_command(
         worker.start()
         reported = 0
         if show:
-            with Live(_live_view(runtime, began), console=out, refresh_per_second=4, transient=True) as view:
+            with Live(
+                _live_view(runtime, began, coordinator), console=out, refresh_per_second=4, transient=True
+            ) as view:
                 while not finished.wait(0.25):
                     reported = _report_changes(runtime, reported, view.console)
-                    view.update(_live_view(runtime, began))
+                    view.update(_live_view(runtime, began, coordinator))
         else:
             while not finished.wait(0.25):
                 reported = _report_changes(runtime, reported, out)
@@ -554,6 +578,12 @@ def run_command(
         for d in outcome.diagnostics:
             print_diagnostic(d)
     _summary(runtime, result[0])
+    if coordinator is not None:
+        if coordinator.finished is not None:
+            at, tick, state = coordinator.finished
+            out.print(escape(f"coordination reached its final state {state} at {at:.3f} s (tick {tick})"))
+        else:
+            out.print(escape(f"coordination in: {', '.join(coordinator.configuration())}"))
     if runtime.failure is not None:
         fault = runtime.failure
         out.print(
@@ -607,11 +637,13 @@ def _components_table(snapshot: Snapshot, runtime: Runtime | None = None) -> Tab
     return table
 
 
-def _live_view(runtime: Runtime, began: float) -> Group:
+def _live_view(runtime: Runtime, began: float, coordinator: Coordinator | None = None) -> Group:
     snapshot = runtime.status()
     wall = time.perf_counter() - began
     achieved = snapshot.tick / wall if wall > 0 else 0.0
     head = f"tick {snapshot.tick}  t = {snapshot.time:.3f} s  achieved {achieved:,.0f} Hz (asked {runtime.rate:g} Hz)"
+    if coordinator is not None:
+        head += f"\ncoordination: {', '.join(coordinator.configuration())}"
     return Group(head, _components_table(snapshot))
 
 
@@ -700,7 +732,7 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
 @click.option(
     "--run-dir", type=click.Path(file_okay=False), help="The run's directory, if run was given one."
 )
-@click.argument("op", type=click.Choice(["load", "unload", "reload", "swap", "status", "dump"]))
+@click.argument("op", type=click.Choice(["load", "unload", "reload", "swap", "event", "status", "dump"]))
 @click.argument("features", nargs=-1)
 def ctl_command(target: str, variant: str, run_dir: str | None, op: str, features: tuple[str, ...]) -> None:
     """Talk to a running robot: load, unload, reload or swap features, or ask its status.
@@ -716,6 +748,8 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
         raise click.UsageError(f"{op} needs at least one feature")
     if op == "swap" and len(features) != 2:
         raise click.UsageError("swap needs two features: the one to unload, then the one to load")
+    if op == "event" and len(features) != 1:
+        raise click.UsageError("event needs one name")
     folder = Path(run_dir) if run_dir else Path("build") / Path(target).resolve().name / variant / "run"
     try:
         answer = send(folder, {"op": op, "features": list(features)} if features else {"op": op})
@@ -729,6 +763,9 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
         return
     if op == "status":
         _print_status(answer)
+        return
+    if op == "event":
+        out.print(f"event {escape(features[0])} queued for the coordination")
         return
     if answer["accepted"]:
         moved = [
@@ -772,6 +809,39 @@ def _print_status(answer: dict[str, object]) -> None:
     assert isinstance(plugins, list)
     for plugin in plugins:
         out.print(escape(f"plugin {plugin['feature']}: {plugin['status']}"))
+
+
+@main.command("export")
+@click.argument("what", type=click.Choice(["scxml"]))
+@click.argument("target", default=".", type=click.Path())
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(dir_okay=False),
+    help="Output file (default build/<robot>/coordination.scxml).",
+)
+def export_command(what: str, target: str, output: str | None) -> None:
+    """Export the robot's coordination statechart as W3C SCXML.
+
+    Domain conditions and actions are kept in the namespace urn:motivml:coordination:1
+    (see guidelines/coordinating-behaviour.md); the file is rewritten only when it changes.
+    """
+    try:
+        loaded = load(target, None)
+        coordination = read_robot_coordination(loaded.folder, loaded.model, loaded.architecture, None)
+        if coordination is None:
+            out.print(
+                f"[bold red]nothing to export[/]: {escape(str(loaded.folder.path / COORDINATION_FILE))} does not exist"
+            )
+            sys.exit(3)
+        path = Path(output) if output else Path("build") / loaded.folder.name / "coordination.scxml"
+        written = write_if_changed(path.parent, {path.name: to_scxml(coordination, loaded.folder.name)})
+    except MotivmlError as exc:
+        for d in exc.diagnostics:
+            print_diagnostic(d)
+        out.print(f"[bold red]nothing exported[/]: {escape(target)}")
+        sys.exit(exc.exit_code)
+    out.print(f"  {'wrote' if written[path.name] else 'unchanged'} {escape(str(path))}")
 
 
 if __name__ == "__main__":

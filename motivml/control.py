@@ -49,6 +49,7 @@ class ControlServer:
         self._socket: socket.socket | None = None
         self._threads: list[threading.Thread] = []
         self._closing = threading.Event()
+        self.coordinator: Any = None  # the run's Coordinator, for events
 
     def open(self) -> None:
         """Create the run directory (0700) and listen on its socket (0600)."""
@@ -124,6 +125,14 @@ class ControlServer:
             return {"ok": True, "op": op, **self.status()}
         if op == "dump":
             return {"ok": True, "op": op, **self.status(), **self.dump()}
+        if op == "event":
+            name = request.get("name") or (request.get("features") or [None])[0]
+            if not isinstance(name, str) or not name:
+                return {"ok": False, "error": 'event needs "name"'}
+            if self.coordinator is None:
+                return {"ok": False, "error": "this robot has no coordination statechart to send events to"}
+            self.coordinator.event(name)
+            return {"ok": True, "op": op, "name": name}
         if op not in ACTIONS:
             return {
                 "ok": False,

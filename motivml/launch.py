@@ -18,6 +18,8 @@ from .architecture import Architecture, read_architecture
 from .builder import Assembly, build, empty_assembly
 from .check import load_configuration, load_model
 from .configure import Variant, resolve, start_state
+from .coordination import Coordination, VariantBindings, read_coordination
+from .coordinator import Coordinator
 from .errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
 from .model import Configuration, FeatureModel
 from .plugins import discover
@@ -27,6 +29,7 @@ from .schema import read_checked
 from .transactions import Binder
 
 ARCHITECTURE_FILE = "architecture.json"
+COORDINATION_FILE = "coordination.json"
 
 
 @dataclass
@@ -38,6 +41,16 @@ class Robot:
     runtime: Runtime
     binder: Binder
     warnings: list[Diagnostic]
+    coordination: Coordination | None = None
+    coordinator: Coordinator | None = None
+
+    def coordinate(self, simulated: bool) -> Coordinator | None:
+        """Start the coordination statechart beside the loop (None without coordination.json)."""
+        if self.coordination is None:
+            return None
+        self.coordinator = Coordinator(self.coordination, self.runtime, self.binder, simulated)
+        self.runtime.hooks.append(self.coordinator.step)
+        return self.coordinator
 
     @property
     def assembly(self) -> Assembly:
@@ -145,5 +158,34 @@ def launch(
         loaded.config,
         loaded.folder.name,
     )
+    coordination = read_robot_coordination(loaded.folder, loaded.model, loaded.architecture, loaded.variant)
     binder.start()
-    return Robot(loaded.folder, loaded.variant, loaded.active, loaded.architecture, runtime, binder, warnings)
+    return Robot(
+        loaded.folder,
+        loaded.variant,
+        loaded.active,
+        loaded.architecture,
+        runtime,
+        binder,
+        warnings,
+        coordination,
+    )
+
+
+def read_robot_coordination(
+    folder: RobotFolder, model: FeatureModel, architecture: Architecture | None, variant: Variant | None
+) -> Coordination | None:
+    """The robot's coordination.json, checked against the model, architecture and variant."""
+    path = folder.path / COORDINATION_FILE
+    if not path.is_file():
+        return None
+    doc, problems = read_checked(path, lambda d: [])
+    if doc is None:
+        raise DocumentError(problems)
+    bindings = None
+    if variant is not None:
+        bindings = VariantBindings(variant.name, {d.feature.id: d.binding for d in variant.selected()})
+    coordination, problems = read_coordination(doc, model, architecture, bindings)
+    if coordination is None:
+        raise DocumentError(_errors(problems))
+    return coordination

@@ -187,6 +187,7 @@ class Runtime:
         self.faults: list[Fault] = []
         self.notes: list[tuple[float, int, str]] = []  # (control time, tick, text): the run's log
         self.on_fault: Callable[[Fault], None] | None = None  # Dynamic plugin faults go here
+        self.hooks: list[Callable[[], None]] = []  # after every tick, on the control thread
         self.failure: Fault | None = None  # a Static plugin's fault, which ends the run
         self._commits: queue.SimpleQueue[Commit] = queue.SimpleQueue()
         self._lock = threading.Lock()  # commit versus withdraw
@@ -215,6 +216,8 @@ class Runtime:
                     running.instance.step(now)
                 except Exception as exc:  # a plugin may raise anything; the loop goes on
                     self._fault(running, exc)
+        for hook in self.hooks:
+            hook()
 
     # ------------------------------------------------------------ reconfiguration
     def submit(self, commit: Commit) -> None:

@@ -35,6 +35,11 @@ EXPECTED_ERRORS = {
         "but dmp_reach is configured Static and attractor_reach is selected: two members of an XOR group can both "
         "be selected only as Dynamic alternatives, at most one of them Early (rules 2.2 and 3.3)"
     ],
+    ("coordinated_arm", "broken_both_static"): [
+        "25:17: $.properties[2].props.mode: dmp_reach and attractor_reach are alternatives in reaching's XOR group, "
+        "but dmp_reach is configured Static and attractor_reach is selected: two members of an XOR group can both "
+        "be selected only as Dynamic alternatives, at most one of them Early (rules 2.2 and 3.3)"
+    ],
     ("quadruped", "broken_two_gaits"): [
         "17:17: $.properties[1].props.mode: trot and pace are alternatives in locomotion's XOR group, but trot is "
         "configured Static and pace is selected: two members of an XOR group can both be selected only as Dynamic "
@@ -48,8 +53,9 @@ EXPECTED_ERRORS = {
 }
 
 
-def test_six_robots_ship() -> None:
+def test_seven_robots_ship() -> None:
     assert ROBOTS == [
+        "coordinated_arm",  # the reaching arm's files (links) with a coordination.json
         "mixture_arm",
         "quadruped",
         "reaching_arm",

@@ -274,7 +274,7 @@ def test_scheduled_requests_make_a_deterministic_session() -> None:
     assert "request at 2.000 s (tick 2000): swap hectorslam kartoslam: accepted" in lines
     assert "changed at 2.000 s (tick 2000): swap hectorslam kartoslam" in lines
     bad = CliRunner().invoke(main, [*args[:8], "--at", "1", "explode kartoslam"])
-    assert bad.exit_code == 2 and "a request is load|unload|reload FEATURE..., or swap OUT IN" in bad.output
+    assert bad.exit_code == 2 and "a request is load|unload|reload FEATURE..., swap OUT IN, or event NAME" in bad.output
 
 
 def test_the_arms_motion_primitive_is_swapped_while_the_arm_moves() -> None:

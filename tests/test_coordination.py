@@ -1,0 +1,258 @@
+"""Coordination statecharts: validation, semantics in simulated time, SCXML, the CLI."""
+
+from __future__ import annotations
+
+import copy
+import json
+import shutil
+import subprocess
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import pytest
+from click.testing import CliRunner
+
+from motivml.cli import main
+from motivml.launch import launch
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM = ROOT / "feature_models" / "coordinated_arm"  # the reaching arm (links) with a coordination.json
+QSCXMLC = Path("/usr/lib/qt6/libexec/qscxmlc")
+COORDINATION: dict[str, Any] = json.loads((ARM / "coordination.json").read_text())
+
+
+def robot_with(tmp_path: Path, coordination: dict[str, Any]) -> Path:
+    """The reaching arm with another coordination.json."""
+    folder = tmp_path / "arm"
+    shutil.copytree(ARM, folder)
+    (folder / "coordination.json").write_text(json.dumps(coordination, indent=1))
+    return folder
+
+
+def messages(tmp_path: Path, coordination: dict[str, Any], variant: str = "dmp") -> list[str]:
+    result = CliRunner().invoke(
+        main, ["validate", str(robot_with(tmp_path, coordination)), "--variant", variant]
+    )
+    return [
+        line.split(": ", 1)[1]
+        for line in result.output.splitlines()
+        if "coordination.json:" in line and ": $" in line
+    ]
+
+
+def changed(edit: Any) -> dict[str, Any]:
+    document = copy.deepcopy(COORDINATION)
+    edit(document)
+    return document
+
+
+def working(document: dict[str, Any]) -> dict[str, Any]:
+    state: dict[str, Any] = document["states"][0]
+    return state
+
+
+CASES = {
+    "unknown state": (
+        lambda d: working(d)["transitions"][0].update(target="Gone"),
+        "$.states[0].transitions[0].target: error: Working has a transition to unknown state 'Gone'",
+    ),
+    "duplicate state": (
+        lambda d: working(d)["states"][2].update(id="ComeBack"),
+        "$.states[0].states[2].id: error: state 'ComeBack' is defined twice",
+    ),
+    "compound state without initial": (
+        lambda d: working(d).pop("initial"),
+        "$.states[0].id: error: compound state Working needs an initial sub-state (ReachOut, ComeBack, Rest)",
+    ),
+    "condition on a component without that criterion": (
+        lambda d: working(d)["states"][0]["transitions"][0]["when"][0].update(**{"is": "tracking"}),
+        "$.states[0].states[0].transitions[0].when[0].is: error: DMPReacher has a convergence criterion, so it is never "
+        "tracking (a condition on a component needs its tracking criterion)",
+    ),
+    "data of the wrong dimension": (
+        lambda d: working(d)["states"][1]["entry"][0]["send"].update(value=[0.0, 0.0]),
+        "$.states[0].states[1].entry[0].send.value: error: ArmGoal holds JointAngles(3), not 2 numbers",
+    ),
+    "data of the wrong type": (
+        lambda d: working(d)["states"][0]["entry"][0]["send"].update(type="Pose"),
+        "$.states[0].states[0].entry[0].send.type: error: ArmGoal holds JointAngles, not Pose",
+    ),
+    "data in another unit": (
+        lambda d: working(d)["states"][0]["entry"][0]["send"].update(unit="deg"),
+        "$.states[0].states[0].entry[0].send.unit: warning: ArmGoal is in rad, not deg",
+    ),
+    "unknown space": (
+        lambda d: working(d)["states"][1]["entry"][0]["send"].update(space="ArmGaol"),
+        "$.states[0].states[1].entry[0].send.space: error: unknown space 'ArmGaol'",
+    ),
+    "unreachable state": (
+        lambda d: d["states"].insert(1, {"id": "Limbo", "transitions": [{"target": "Done", "event": "go"}]}),
+        "$.states[1].id: warning: state Limbo can never be entered",
+    ),
+    "no way out": (
+        lambda d: working(d)["states"][2].pop("transitions") and working(d).pop("transitions"),
+        "$.states[0].states[2].id: warning: state Rest has no way out and is not final",
+    ),
+    "feature not in the variant": (
+        lambda d: working(d)["states"][2]["transitions"][0].update(actions=[{"load": ["attractor_reach"]}]),
+        "$.states[0].states[2].transitions[0].actions[0].load[0]: error: load attractor_reach: attractor_reach is not "
+        "in variant dmp",
+    ),
+    "final state with transitions": (
+        lambda d: d["states"][1].update(transitions=[{"target": "Working", "event": "again"}]),
+        "$.states[1].final: error: final state Done has sub-states or transitions",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_validation(tmp_path: Path, case: str) -> None:
+    edit, expected = CASES[case]
+    assert expected in messages(tmp_path, changed(edit))
+
+
+def test_the_shipped_coordination_is_valid_for_every_variant() -> None:
+    result = CliRunner().invoke(main, ["validate", str(ARM)])
+    assert "valid: " + str(ARM / "coordination.json") + ", 0 errors, 0 warnings" in result.output
+
+
+def test_deep_nesting_is_refused_without_a_traceback(tmp_path: Path) -> None:
+    state: dict[str, Any] = {"id": "S0", "final": True}
+    for i in range(1, 200):
+        state = {"id": f"S{i}", "initial": f"S{i - 1}", "states": [state]}
+    result = CliRunner().invoke(
+        main, ["validate", str(robot_with(tmp_path, {"initial": "S199", "states": [state]}))]
+    )
+    assert result.exit_code == 1 and "states nest deeper than 64 levels" in result.output
+
+
+# ------------------------------------------------------------------------- semantics
+SEMANTICS = {
+    "initial": "Outer",
+    "states": [
+        {
+            "id": "Outer",
+            "initial": "Inner",
+            "entry": [{"log": "enter Outer"}],
+            "exit": [{"log": "exit Outer"}],
+            "transitions": [{"target": "Other", "event": "go", "actions": [{"log": "outer transition"}]}],
+            "states": [
+                {
+                    "id": "Inner",
+                    "entry": [{"log": "enter Inner"}],
+                    "exit": [{"log": "exit Inner"}],
+                    "transitions": [
+                        {"target": "Final", "event": "go", "actions": [{"log": "first inner transition"}]},
+                        {"target": "Other", "event": "go", "actions": [{"log": "second inner transition"}]},
+                    ],
+                }
+            ],
+        },
+        {"id": "Other", "transitions": [{"target": "Final", "after": 0.25}]},
+        {"id": "Final", "final": True, "entry": [{"log": "enter Final"}]},
+    ],
+}
+
+
+def test_entry_exit_order_priority_and_final_states(tmp_path: Path) -> None:
+    robot = launch(robot_with(tmp_path, SEMANTICS), "dmp")
+    try:
+        coordinator = robot.coordinate(simulated=True)
+        assert coordinator is not None
+        robot.runtime.run(0.1)
+        assert coordinator.configuration() == ["Outer", "Inner"]
+        coordinator.event("go")
+        robot.runtime.run(0.1)
+        log = [text.removeprefix("coordination: ") for _, _, text in robot.runtime.notes]
+        assert log == [
+            "enter Outer",  # outermost first
+            "enter Inner",
+            "entered Outer",  # (the log of a step's states follows its actions)
+            "entered Inner",
+            "exit Inner",  # innermost first
+            "exit Outer",
+            "first inner transition",  # inner beats outer, and the first in document order wins
+            "enter Final",
+            "entered Final",
+        ]
+        assert coordinator.finished is not None and coordinator.finished[2] == "Final"
+    finally:
+        robot.close()
+
+
+def test_time_conditions_use_control_time(tmp_path: Path) -> None:
+    document = copy.deepcopy(SEMANTICS)
+    document["states"][0]["states"][0]["transitions"] = []
+    robot = launch(robot_with(tmp_path, document), "dmp")
+    try:
+        coordinator = robot.coordinate(simulated=True)
+        assert coordinator is not None
+        robot.runtime.run(0.05)
+        coordinator.event("go")  # the outer transition now
+        robot.runtime.run(1.0)
+        entered = [(round(t, 3), s) for t, _, kind, s in coordinator.history if kind == "entered"]
+        assert entered == [(0.001, "Outer"), (0.001, "Inner"), (0.051, "Other"), (0.301, "Final")]
+    finally:
+        robot.close()
+
+
+def test_the_arm_runs_its_coordination_to_the_final_state() -> None:
+    result = CliRunner().invoke(
+        main,
+        ["run", str(ARM), "--variant", "dmp", "--duration", "20", "--clock", "simulated", "--no-control"],
+    )
+    assert result.exit_code == 0, result.output
+    entered = [
+        line.split("entered ")[1] for line in result.output.splitlines() if "coordination: entered" in line
+    ]
+    assert entered == ["Working", "ReachOut", "ComeBack", "Rest", "Done"]
+    assert result.output.splitlines()[-1].startswith("coordination reached its final state Done at 3.2")
+    stopped = CliRunner().invoke(
+        main,
+        [
+            "run",
+            str(ARM),
+            "--variant",
+            "attractor",
+            "--clock",
+            "simulated",
+            "--no-control",
+            "--at",
+            "0.5",
+            "event stop",
+        ],
+    )
+    assert "coordination: stopped by the operator" in stopped.output
+    assert (
+        stopped.output.splitlines()[-1] == "coordination reached its final state Done at 0.501 s (tick 501)"
+    )
+
+
+# ------------------------------------------------------------------------------ SCXML
+def test_the_scxml_export_is_accepted_by_qt_and_says_what_the_document_says(tmp_path: Path) -> None:
+    target = tmp_path / "arm.scxml"
+    result = CliRunner().invoke(main, ["export", "scxml", str(ARM), "-o", str(target)])
+    assert result.exit_code == 0, result.output
+    root = ET.parse(target).getroot()
+    ns = {"s": "http://www.w3.org/2005/07/scxml", "m": "urn:motivml:coordination:1"}
+    assert root.get("initial") == "Working" and [f.get("id") for f in root.findall("s:final", ns)] == ["Done"]
+    when = [
+        t.get("{urn:motivml:coordination:1}when")
+        for t in root.iterfind(".//s:state[@id='ReachOut']/s:transition", ns)
+    ]
+    assert when == ["component DMPReacher is converged", "component AttractorReacher is converged"]
+    assert root.find(".//s:state[@id='Rest']/s:onentry/s:send", ns).get("delay") == "500ms"  # type: ignore[union-attr]
+    if not QSCXMLC.exists():
+        pytest.fail("Qt's qscxmlc is missing: .ci/run installs libqt6scxml6-bin")
+    accepted = subprocess.run(
+        [str(QSCXMLC), str(target), "-o", str(tmp_path / "chart")], capture_output=True, text=True
+    )
+    assert accepted.returncode == 0, accepted.stderr
+    assert (tmp_path / "chart.h").exists() and (tmp_path / "chart.cpp").exists()
+    broken = tmp_path / "broken.scxml"
+    broken.write_text(target.read_text().replace('target="Rest"', 'target="Nowhere"'))
+    refused = subprocess.run(
+        [str(QSCXMLC), str(broken), "-o", str(tmp_path / "no")], capture_output=True, text=True
+    )
+    assert refused.returncode != 0 and "Nowhere" in refused.stderr  # the engine really checks
