@@ -8,6 +8,7 @@ into exit codes.
 from __future__ import annotations
 
 import json
+import math
 import re
 import shutil
 import signal
@@ -475,6 +476,12 @@ def run_command(
                 param_hint="--at",
             )
         plan.append((at, Request(action, tuple(features))))
+    for at, request in plan:
+        if not math.isfinite(at) or at >= duration:
+            raise click.BadParameter(
+                f"{at:g} s for {request}: requests are made during the run, before {duration:g} s",
+                param_hint="--at",
+            )
     plan.sort(key=lambda item: item[0])
     try:
         robot = launch(target, variant, rate, prefer)
@@ -507,6 +514,8 @@ def run_command(
             fail(exc)
         out.print(f"control: {escape(str(server.path))} (motivml ctl)")
     chosen = RealClock() if clock == "real" else SimulatedClock()
+    if clock == "simulated":
+        robot.binder.make_changes_between_ticks()
     coordinator = robot.coordinate(simulated=clock == "simulated")
     if coordinator is None and any(request.action == "event" for _, request in plan):
         robot.close()

@@ -32,6 +32,7 @@ from .transactions import Binder
 
 SOCKET = "control.sock"
 LINE_LIMIT = 1 << 16  # bytes per request line
+IDLE = 600.0  # seconds a connection may stay silent
 
 
 def _problem(path: Path, message: str) -> EnvironmentProblem:
@@ -96,6 +97,13 @@ class ControlServer:
             thread.start()
 
     def _serve(self, connection: socket.socket) -> None:
+        connection.settimeout(IDLE)  # a client that never sends does not hold a thread forever
+        try:
+            self._converse(connection)
+        except OSError:
+            return  # timed out, or the client went away
+
+    def _converse(self, connection: socket.socket) -> None:
         with connection, connection.makefile("rwb") as stream:
             while not self._closing.is_set():
                 line = stream.readline(LINE_LIMIT + 1)
@@ -115,9 +123,15 @@ class ControlServer:
     def handle(self, line: bytes) -> dict[str, Any]:
         """One request line to one answer (never raises)."""
         try:
+            return self._handle(line)
+        except Exception as exc:  # an answer, whatever happened; the run goes on
+            return {"ok": False, "error": f"the request failed: {type(exc).__name__}: {exc}"}
+
+    def _handle(self, line: bytes) -> dict[str, Any]:
+        try:
             request = json.loads(line)
-        except (ValueError, UnicodeDecodeError) as exc:
-            return {"ok": False, "error": f"not a JSON line: {exc}"}
+        except (ValueError, UnicodeDecodeError, RecursionError) as exc:
+            return {"ok": False, "error": f"not a JSON line: {type(exc).__name__}: {str(exc)[:200]}"}
         if not isinstance(request, dict) or not isinstance(request.get("op"), str):
             return {"ok": False, "error": 'a request is an object with "op"'}
         op = request["op"]

@@ -62,7 +62,7 @@ class CppPlugin:
         finally:
             self.instance.release()
             if self.library.live == 0 and self.library.loaded:
-                self.library.unload()
+                self.library.unload()  # closed for real unless another loader holds it
 
     def status(self) -> str:
         return str(self.instance.status())

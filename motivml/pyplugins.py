@@ -74,8 +74,14 @@ class PythonPlugins:
             with self.source:
                 if module is None:
                     module = __import__(f"{self.base.package}.{name}", fromlist=["__name__"])
-                elif fresh:
-                    module = importlib.reload(module)
+                elif fresh:  # a failed reload leaves the module as it was
+                    saved = dict(module.__dict__)
+                    try:
+                        module = importlib.reload(module)
+                    except BaseException:
+                        module.__dict__.clear()
+                        module.__dict__.update(saved)
+                        raise
         except Exception as exc:  # a plugin's import may raise anything
             raise plugin_error(
                 plugin,

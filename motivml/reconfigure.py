@@ -121,6 +121,12 @@ class Reconfigurer:
                         "reconfigure.unknown",
                     )
                 )
+        features = tuple(dict.fromkeys(request.features))  # a feature named twice counts once
+        if request.action == "swap" and len(features) != 2:
+            raise Refused(
+                error(root, "swap takes two different features (out, then in)", "reconfigure.usage")
+            )
+        request = Request(request.action, features)
         before = frozenset(active)
         if request.action == "reload":
             for feature in request.features:
@@ -163,7 +169,7 @@ class Reconfigurer:
             request,
             before,
             frozenset(after),
-            self._ordered(to_load - before),
+            self._ordered(to_load - (before - to_unload)),
             self._ordered(to_unload, reverse=True),
         )
 

@@ -83,6 +83,7 @@ class Commit:
     removed: list[Running] = field(default_factory=list)  # to stop, off the control thread
     change: Change | None = None
     withdrawn: bool = False
+    writes: list[tuple[str, Any]] = field(default_factory=list)  # made by plugins in start()
 
 
 @dataclass(frozen=True)
@@ -254,6 +255,9 @@ class Runtime:
                     if running is not None:
                         commit.removed.append(running)
                 self.plugins.update(commit.add)
+                for space, value in commit.writes:
+                    if space in self.assembly.values:
+                        self.assembly.values[space] = value
                 commit.change = Change(
                     self.ticks,
                     self.time,

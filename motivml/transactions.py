@@ -21,9 +21,10 @@ Static plugin's fault ends the run (`Runtime.failure`).
 
 from __future__ import annotations
 
+import queue
 import threading
 import time
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor, TimeoutError
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -40,6 +41,15 @@ from .plugins import Plugin
 from .pyplugins import PluginError, PythonPlugins, plugin_error
 from .reconfigure import Plan, Reconfigurer, Refused, Request
 from .runtime import Change, Commit, Fault, Running, Runtime
+
+
+@dataclass
+class Preparing:
+    """What plugins being prepared see: the staged architecture, and their held-back writes."""
+
+    assembly: Assembly | None
+    writes: list[tuple[str, Any]] = field(default_factory=list)
+    active: bool = True
 
 
 @dataclass
@@ -76,7 +86,8 @@ class Binder:
         self.python = PythonPlugins(robot, plugins)
         self.static = {d.feature.id: d.static for d in variant.decisions}
         self._lock = threading.Lock()
-        self._staging: Assembly | None = None  # the architecture being prepared
+        self.between_ticks = False  # simulated clock: changes are made on the control thread
+        self._inbox: queue.SimpleQueue[tuple[Request, Future[Outcome]]] = queue.SimpleQueue()
         self._bring_elements = (
             {e["feature"] for section in architecture.sections() for e in section.values()}
             if architecture is not None
@@ -86,42 +97,51 @@ class Binder:
         runtime.on_fault = self._on_fault
 
     # ---------------------------------------------------------------- plugins
-    def _context(self, feature: str) -> PluginContext:
+    def _context(self, feature: str, preparing: Preparing) -> PluginContext:
+        """A plugin instance's view of the spaces: while it is being prepared, the new
+        architecture's, with its writes held back until the commit; afterwards, the running
+        one's (every instance has its own view, so a running plugin never sees a staging)."""
         runtime = self.runtime
+
+        def read(space: str) -> Any:
+            if preparing.active:
+                staged = preparing.assembly if preparing.assembly is not None else runtime.assembly
+                return staged.values[space]
+            return runtime.assembly.values[space]
+
+        def write(space: str, value: Any) -> None:
+            if not preparing.active:
+                runtime.send(space, value)
+                return
+            staged = preparing.assembly if preparing.assembly is not None else runtime.assembly
+            if space not in staged.values or staged.writers.get(space):
+                raise ValueError(f"{space} is not a space this plugin may write")
+            preparing.writes.append(
+                (space, np.asarray(value, dtype=float).reshape(staged.values[space].shape))
+            )
+
         return PluginContext(
             feature,
             self.plugins[feature].folder,
             runtime.rate,
-            self._read,
-            self._write,
+            read,
+            write,
             lambda text: runtime.note(f"{feature}: {text}"),
         )
 
-    def _read(self, space: str) -> Any:
-        """Spaces as the plugin will see them: the prepared architecture's while it starts."""
-        staging = self._staging
-        return (staging if staging is not None else self.runtime.assembly).values[space]
-
-    def _write(self, space: str, value: Any) -> None:
-        staging = self._staging
-        if staging is None:
-            self.runtime.send(space, value)
-        elif space not in staging.values or staging.writers.get(space):
-            raise ValueError(f"{space} is not a space this plugin may write")
-        else:
-            staging.values[space] = np.asarray(value, dtype=float).reshape(staging.values[space].shape)
-
-    def _start(self, feature: str, fresh: bool = False) -> Running:
+    def _start(self, feature: str, preparing: Preparing, fresh: bool = False) -> Running:
         plugin = self.plugins[feature]
         if plugin.kind == "cpp":
-            instance: Any = cppplugins.create(plugin, self._context(feature))
+            instance: Any = cppplugins.create(plugin, self._context(feature, preparing))
         else:
-            instance = self.python.create(feature, self._context(feature), fresh)
+            instance = self.python.create(feature, self._context(feature, preparing), fresh)
         try:
             instance.start()
-        except Exception as exc:  # plugin code may raise anything
+        except BaseException as exc:  # plugin code may raise anything
             if plugin.kind == "cpp":  # release the C++ object and its library
                 self._stop(Running(feature, instance, self.static[feature], plugin.folder))
+            if not isinstance(exc, Exception):
+                raise
             raise plugin_error(
                 plugin,
                 "class",
@@ -142,13 +162,18 @@ class Binder:
         if problems:
             raise PluginError(problems)
         started: list[Running] = []
+        preparing = Preparing(None)
         try:
             for feature in sorted(self.active & set(self.plugins), key=self.variant.model.index.__getitem__):
-                started.append(self._start(feature))
-        except MotivmlError:
+                started.append(self._start(feature, preparing))
+        except BaseException:
             for running in started:
                 self._stop(running)
             raise
+        finally:
+            preparing.active = False
+        for space, value in preparing.writes:
+            self.runtime.send(space, value)
         for running in started:
             self.runtime.plugins[running.feature] = running
 
@@ -157,8 +182,38 @@ class Binder:
         """Run a request on the binder's worker thread."""
         return self._executor.submit(self.request, request, timeout)
 
+    def make_changes_between_ticks(self) -> None:
+        """Simulated clock: every change is made on the control thread, between two ticks.
+
+        Requests from other threads (the control socket) wait in an inbox that the control
+        thread empties after each tick; so a run is deterministic and no thread ever waits
+        for a tick while holding the binder.
+        """
+        self.between_ticks = True
+        self.runtime.hooks.insert(0, self._empty_inbox)
+
+    def _empty_inbox(self) -> None:
+        while not self._inbox.empty():
+            request, future = self._inbox.get()
+            if future.set_running_or_notify_cancel():
+                future.set_result(self.request_between_ticks(request))
+
     def request(self, request: Request, timeout: float | None = 5.0) -> Outcome:
         """Check, prepare and commit one request; wait (up to `timeout`) for its commit."""
+        if self.between_ticks:
+            future: Future[Outcome] = Future()
+            self._inbox.put((request, future))
+            try:
+                return future.result(timeout)
+            except TimeoutError:
+                if future.cancel():
+                    message = (
+                        f"the control loop did not take the request within {timeout:g} s: nothing changed"
+                    )
+                    return Outcome(
+                        request, False, diagnostics=[error(Location("run"), message, "reconfigure.timeout")]
+                    )
+                return future.result()
         with self._lock:
             began = time.perf_counter()
             try:
@@ -217,37 +272,50 @@ class Binder:
             assembly, _ = build(self.architecture, set(plan.after), self.runtime.rate, self.runtime.assembly)
         reload = plan.request.action == "reload"
         add: dict[str, Running] = {}
-        self._staging = assembly
+        preparing = Preparing(assembly)
         try:
             for feature in plan.loads:
                 if feature in self.plugins:
-                    add[feature] = self._start(feature, fresh=reload)
-        except MotivmlError:
+                    add[feature] = self._start(feature, preparing, fresh=reload)
+        except BaseException:
             for running in add.values():
                 self._stop(running)
             raise
         finally:
-            self._staging = None
+            preparing.active = False
         remove = tuple(f for f in plan.unloads if f in self.runtime.plugins)
-        return Commit(str(plan.request), plan.loads, plan.unloads, assembly, add, remove)
+        return Commit(
+            str(plan.request), plan.loads, plan.unloads, assembly, add, remove, writes=preparing.writes
+        )
 
     # ----------------------------------------------------------------- faults
     def _on_fault(self, fault: Fault) -> None:
-        """Called on the control thread: the unload happens on the binder's thread."""
-        self._executor.submit(self._unload_faulty, fault)
+        """Called on the control thread. Between ticks (simulated clock) the unload happens
+        right here; otherwise on the binder's thread, while the loop goes on."""
+        if self.between_ticks:
+            self._unload_faulty(fault)
+        else:
+            self._executor.submit(self._unload_faulty, fault)
 
     def _unload_faulty(self, fault: Fault) -> None:
+        running = self.runtime.plugins.get(fault.feature)
+        if running is None or not running.faulted or fault.feature not in self.active:
+            self.runtime.note(f"the fault of {fault.feature}: it has already left the loop")
+            return
         model = self.variant.model
         node: int | None = model.index[fault.feature]
         reasons = []
         while node is not None:
             feature = model.features[node].id
             if feature in self.active and not self.static[feature]:
-                outcome = self.request(Request("unload", (feature,)))
+                request = Request("unload", (feature,))
+                outcome = self.request_between_ticks(request) if self.between_ticks else self.request(request)
                 if outcome.accepted:
                     self.runtime.note(f"unloaded {feature} after the fault of {fault.feature}")
                     return
                 reasons.append(outcome.reason)
+                if not any(d.rule == "section 4" for d in outcome.diagnostics):
+                    break  # refused for another reason than the model: an ancestor would not help
             node = model.features[node].parent
         self.runtime.note(
             f"cannot unload {fault.feature} after its fault: {'; '.join(reasons) or 'it is Static'}"

@@ -71,6 +71,7 @@ def test_status_swap_refusal_and_dump(running: tuple[Robot, ControlServer]) -> N
         (b'{"op": "load"}\n', 'load needs "features"'),
         (b'{"op": "swap", "features": ["a"]}\n', "swap needs two features"),
         (b"\xff\xfe\n", "not a JSON line"),
+        (b"[" * 5000 + b"\n", "not a JSON line"),
     ],
 )
 def test_bad_requests_get_an_answer_and_the_run_goes_on(

@@ -61,7 +61,7 @@ def test_a_library_never_unloads_under_a_live_instance_and_really_unloads_after(
     assert library.loaded and mapped("libhands.so")
     instance.release()
     assert library.live == 0
-    assert library.unload() and not library.loaded and library.loads == 0
+    assert library.unload() is False and not library.loaded and library.loads == 0  # nobody else holds it
     assert not mapped("libhands.so")  # dlclose really unmapped it
 
 

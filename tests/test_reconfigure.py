@@ -280,5 +280,7 @@ def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataO
                 plan = None
             assert (None if plan is None else set(plan.after)) == expected, (action, features, active)
             if plan is not None:
+                assert set(plan.unloads) == plan.before - plan.after | (set(plan.unloads) & plan.after)
+                assert set(plan.loads) == plan.after - (plan.before - set(plan.unloads))
                 active = set(plan.after)
                 assert satisfies_section_2(model, {model.index[f] for f in active})

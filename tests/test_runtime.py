@@ -340,7 +340,9 @@ def test_run_prints_a_summary(robot: str, variant: str, fired: str) -> None:
     assert result.exit_code == 0, result.output
     row = next(line for line in result.output.splitlines() if line.strip().startswith(fired))
     assert ("converged" in row or "tracking" in row) and row.rstrip().endswith(" s")
-    assert "3000 ticks, 3.000 s of control time" in result.output.splitlines()  # (the arm adds its coordination)
+    assert (
+        "3000 ticks, 3.000 s of control time" in result.output.splitlines()
+    )  # (the arm adds its coordination)
 
 
 def test_run_refuses_invalid_variants_and_robots_without_an_architecture() -> None:

@@ -274,7 +274,10 @@ def test_scheduled_requests_make_a_deterministic_session() -> None:
     assert "request at 2.000 s (tick 2000): swap hectorslam kartoslam: accepted" in lines
     assert "changed at 2.000 s (tick 2000): swap hectorslam kartoslam" in lines
     bad = CliRunner().invoke(main, [*args[:8], "--at", "1", "explode kartoslam"])
-    assert bad.exit_code == 2 and "a request is load|unload|reload FEATURE..., swap OUT IN, or event NAME" in bad.output
+    assert (
+        bad.exit_code == 2
+        and "a request is load|unload|reload FEATURE..., swap OUT IN, or event NAME" in bad.output
+    )
 
 
 def test_the_arms_motion_primitive_is_swapped_while_the_arm_moves() -> None:
@@ -297,3 +300,104 @@ def test_the_arms_motion_primitive_is_swapped_while_the_arm_moves() -> None:
         assert robot.runtime.first("AttractorReacher", "converged") is not None
     finally:
         robot.close()
+
+
+# ------------------------------------------------------------------ review findings
+def test_a_feature_named_twice_counts_once_and_swap_needs_two(tmp_path: Path) -> None:
+    folder = make_robot(tmp_path, {"a": {}, "b": {}})
+    robot = launch(folder, "v")
+    try:
+        same = ask(robot, "swap a a")
+        assert not same.accepted and "swap takes two different features" in same.reason
+        twice = ask(robot, "reload a a")
+        assert twice.accepted and twice.plan is not None and twice.plan.loads == ("a",)
+        assert set(robot.runtime.plugins) == {"a"}
+    finally:
+        robot.close()
+
+
+def test_writes_in_start_wait_for_the_commit(tmp_path: Path) -> None:
+    quiet = "return  # writes nothing when it steps"
+    folder = make_robot(
+        tmp_path,
+        {
+            "a": {"step": quiet},
+            "b": {"step": quiet, "start": "self.context.write('Out', [7.0]); raise OSError('no device')"},
+            "d": {"step": quiet, "start": "self.context.write('Out', [42.0])"},
+        },
+    )
+    robot = launch(folder, "v")
+    try:
+        robot.runtime.run(0.01)
+        refused = ask(robot, "swap a b")
+        assert not refused.accepted and robot.runtime.assembly.values["Out"][0] == 0.0  # b's write is gone
+        assert ask(robot, "load d").accepted
+        assert robot.runtime.assembly.values["Out"][0] == 42.0  # d's write, applied at the commit
+    finally:
+        robot.close()
+
+
+def test_a_fault_during_a_scripted_simulated_run_is_handled_between_ticks(tmp_path: Path) -> None:
+    folder = make_robot(
+        tmp_path, {"a": {"step": "if self.steps == 3: raise ValueError('lost track')"}, "d": {}}
+    )
+    started = time.perf_counter()
+    result = CliRunner().invoke(
+        main,
+        [
+            "run",
+            str(folder),
+            "--variant",
+            "v",
+            "--duration",
+            "0.5",
+            "--clock",
+            "simulated",
+            "--no-control",
+            "--at",
+            "0.002",
+            "load d",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    assert time.perf_counter() - started < 4.0  # no waiting for a tick that cannot come
+    assert "at 0.004 s (tick 4): unloaded alt after the fault of a" in result.output
+    assert "plugin d: version 1, 498 steps" in result.output  # from the tick after its commit
+
+
+def test_reloading_a_cpp_plugin_completes(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    pytest.importorskip("motivml._cpp_plugins", reason="make cpp-plugins builds the C++ plugin extension")
+    command = [
+        sys.executable,
+        "-m",
+        "motivml.cli",
+        "run",
+        str(ROOT / "feature_models" / "simplebot"),
+        "--variant",
+        "field",
+    ]
+    command += ["--duration", "3", "--clock", "simulated", "--no-control"]
+    command += ["--at", "1", "load gesture_recognition hands", "--at", "2", "reload hands"]
+    done = subprocess.run(command, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "request at 2.000 s (tick 2000): reload hands: accepted" in done.stdout
+    assert "plugin hands: 1 hand gesture, last: stop" in done.stdout  # the new instance counts from its start
+
+
+def test_scheduled_times_must_fall_in_the_run() -> None:
+    base = [
+        "run",
+        str(ROOT / "feature_models" / "simplebot"),
+        "--variant",
+        "field",
+        "--duration",
+        "1",
+        "--clock",
+        "simulated",
+    ]
+    for at in ("5", "nan", "inf"):
+        result = CliRunner().invoke(main, [*base, "--at", at, "load kartoslam"])
+        assert result.exit_code == 2 and "requests are made during the run" in result.output

@@ -71,13 +71,13 @@ class Library {
   Library(const Library&) = delete;
   Library& operator=(const Library&) = delete;
   ~Library() {
-    if (live_ == 0) unload();
+    if (live_ == 0 && loads_ > 0) unload();
   }
 
   std::vector<std::string> classes() const { return loader_->getAvailableClasses<motivml::FeaturePlugin>(); }
 
   std::unique_ptr<Instance> create(const std::string& name) {
-    if (!loader_->isLibraryLoaded()) {
+    if (loads_ == 0) {
       throw std::runtime_error("library " + path_ + " was unloaded");
     }
     auto declared = classes();
@@ -91,19 +91,20 @@ class Library {
     return std::make_unique<Instance>(loader_->createInstance<motivml::FeaturePlugin>(name), &live_);
   }
 
-  // Unload for real; refused while an instance lives. Returns true when the library is gone.
+  // Give back this loader's loads; refused while an instance lives. The library is really
+  // closed when no other loader in the process holds it (class_loader counts per path).
+  // Returns whether it is still mapped because another loader holds it.
   bool unload() {
     if (live_ > 0) {
       throw std::runtime_error(std::to_string(live_) + " instance(s) of " + path_ + " still live: not unloading");
     }
-    while (loader_->isLibraryLoaded()) {
+    for (; loads_ > 0; --loads_) {
       loader_->unloadLibrary();
     }
-    loads_ = 0;
-    return true;
+    return loader_->isLibraryLoadedByAnyClassloader();
   }
 
-  bool loaded() const { return loader_->isLibraryLoaded(); }
+  bool loaded() const { return loads_ > 0; }
   int live() const { return live_; }
   int loads() const { return loads_; }
   const std::string& path() const { return path_; }
@@ -126,9 +127,10 @@ PYBIND11_MODULE(_cpp_plugins, m) {
       .def("read", &motivml::Spaces::read)
       .def("write", &motivml::Spaces::write);
   py::class_<Instance>(m, "Instance")
-      .def("start", &Instance::start)
+      // start and stop may take long (devices, files): the control loop runs meanwhile
+      .def("start", &Instance::start, py::call_guard<py::gil_scoped_release>())
       .def("step", &Instance::step)
-      .def("stop", &Instance::stop)
+      .def("stop", &Instance::stop, py::call_guard<py::gil_scoped_release>())
       .def("status", &Instance::status)
       .def("release", &Instance::release, py::call_guard<py::gil_scoped_release>());
   py::class_<Library>(m, "Library")
