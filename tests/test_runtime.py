@@ -549,7 +549,7 @@ def test_ctrl_c_ends_the_run_with_its_summary() -> None:
 def test_the_live_view_shows_the_rate_and_every_component() -> None:
     from rich.console import Console
 
-    from motivml.cli import _live_view
+    from motivml.cli.running import _live_view
 
     robot = launch(EXAMPLES / "quadruped", "trot")
     robot.runtime.run(1.0)

@@ -1,0 +1,5 @@
+"""python -m motivml.cli"""
+
+from . import main
+
+main()

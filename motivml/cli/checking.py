@@ -1,0 +1,323 @@
+"""validate, show, configure, diff: the model and its variants."""
+
+from __future__ import annotations
+
+import json
+import re
+import sys
+from pathlib import Path
+
+import click
+from rich.console import Console
+from rich.markup import escape
+from rich.tree import Tree
+
+from .. import impact
+from ..check import Report, analyse_model, binding_states, validate
+from ..codegen import late_or_dynamic, outputs, write_if_changed
+from ..configure import PREFERENCES, resolve
+from ..errors import Diagnostic, MotivmlError
+from ..launch import COORDINATION_FILE
+from ..model import Configuration, FeatureModel
+from ..plugins import discover
+from ..plugins import missing as missing_plugins
+from ..robot import RobotFolder
+from . import _plural, _targets, fail, main, out, print_diagnostic
+
+
+@main.command("validate")
+@click.argument("target", default=".", type=click.Path())
+@click.option(
+    "--config", "config", type=click.Path(), help="A configuration file to check against the model."
+)
+@click.option("--variant", help="A variant of the robot folder: variants/NAME.json.")
+@click.option("--partial", is_flag=True, help="Accept features without an entry (left to the configurator).")
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+def validate_command(target: str, config: str | None, variant: str | None, partial: bool, fmt: str) -> None:
+    """Check a feature model, or a configuration (variant) of it.
+
+    TARGET is a model.json or a robot folder (default: the current folder). A robot folder
+    without --variant checks the model and every variant in variants/.
+    """
+    try:
+        model_path, configs, analyse = _targets(target, config, variant)
+        architecture = model_path.parent / "architecture.json" if Path(target).is_dir() else None
+        if architecture is not None and not architecture.is_file():
+            architecture = None
+        coordination = model_path.parent / COORDINATION_FILE if Path(target).is_dir() else None
+        if coordination is not None and not coordination.is_file():
+            coordination = None
+        reports = validate(model_path, configs, partial, analyse, architecture, coordination)
+    except MotivmlError as exc:
+        if fmt == "json":
+            _print_json(False, exc.diagnostics, [], [])
+            sys.exit(exc.exit_code)
+        fail(exc)
+    expected = 1 + len(configs) + (architecture is not None) + (coordination is not None)
+    valid = all(r.valid for r in reports) and len(reports) == expected
+    if fmt == "json":
+        _print_json(
+            valid,
+            [d for r in reports for d in r.errors],
+            [d for r in reports for d in r.warnings],
+            [
+                {
+                    "file": r.file,
+                    "kind": r.kind,
+                    "valid": r.valid,
+                    "errors": len(r.errors),
+                    "warnings": len(r.warnings),
+                }
+                for r in reports
+            ],
+        )
+    else:
+        for report in reports:
+            for d in report.errors + report.warnings:
+                print_diagnostic(d)
+            if report.kind != "model" or report.analysed or report.diagnostics:
+                _verdict(report, checked_variants=len(reports) > 1 or not configs)
+    sys.exit(0 if valid else 1)
+
+
+def _print_json(
+    valid: bool, errors: list[Diagnostic], warnings: list[Diagnostic], documents: list[object]
+) -> None:
+    payload = {
+        "valid": valid,
+        "errors": [d.as_dict() for d in errors],
+        "warnings": [d.as_dict() for d in warnings],
+        "documents": documents,
+    }
+    click.echo(json.dumps(payload, indent=2))
+
+
+def _verdict(report: Report, checked_variants: bool) -> None:
+    counts = f"{_plural(len(report.errors), 'error')}, {_plural(len(report.warnings), 'warning')}"
+    if report.valid:
+        extra = ""
+        if report.kind == "model" and report.model is not None and report.analysed:
+            extra = f" ({len(report.model.features)} features)"
+        elif report.open_bindings:
+            extra = f" ({_plural(report.open_bindings, 'binding')} left to the configurator)"
+        out.print(f"[bold green]valid[/]: {escape(report.file)}{escape(extra)}, {counts}")
+    else:
+        unchecked = (
+            " (its variants were not checked)" if report.kind == "model" and not checked_variants else ""
+        )
+        out.print(f"[bold red]invalid[/]: {escape(report.file)}: {counts} in the {report.kind}{unchecked}")
+
+
+@main.command("configure")
+@click.argument("target", default=".", type=click.Path())
+@click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
+@click.option("-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant>/).")
+@click.option(
+    "--prefer",
+    type=click.Choice(PREFERENCES),
+    multiple=True,
+    help="Decide open bindings Late and/or Dynamic instead of the defaults Early and Static.",
+)
+@click.option("--prefix", default="MOTIVML_", show_default=True, help="Prefix of the C++ macros.")
+def configure_command(
+    target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str
+) -> None:
+    """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml, plugins.json.
+
+    TARGET is a robot folder (default: the current folder). Files are rewritten only when
+    their content changes; nothing is written when the variant is invalid.
+    """
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
+        raise click.UsageError(f"--prefix {prefix!r} cannot start a C++ macro name (letters, digits, _)")
+    try:
+        robot = RobotFolder.open(target)
+        reports = validate(robot.model_path, [robot.variant_path(variant)], partial=True, analyse=False)
+        problems = [d for r in reports for d in r.errors]
+        if problems or len(reports) != 2:
+            for d in problems:
+                print_diagnostic(d)
+            out.print(f"[bold red]invalid[/]: {escape(reports[-1].file)}: nothing written")
+            sys.exit(1)
+        model, config = reports[1].model, reports[1].config
+        assert model is not None and config is not None
+        plugins, problems = discover(robot, model)
+        if problems:
+            for d in problems:
+                print_diagnostic(d)
+            out.print("[bold red]invalid[/]: plugin manifests: nothing written")
+            sys.exit(1)
+        resolved = resolve(model, config, prefer)
+        folder = Path(output) if output else Path("build") / robot.name / variant
+        written = write_if_changed(folder, outputs(resolved, prefix, plugins, robot.path))
+    except MotivmlError as exc:
+        fail(exc)
+    for d in missing_plugins(model, late_or_dynamic(resolved), plugins):
+        print_diagnostic(d)
+    chosen = resolved.selected()
+    by_solver = sum(
+        1
+        for d in resolved.decisions
+        if d.selection_by == "solver" or (d.selected and "solver" in (d.time_by, d.mode_by))
+    )
+    counts = ", ".join(
+        f"{sum(1 for d in chosen if d.binding == b)} {name}"
+        for b, name in (
+            ("SE", "Static Early"),
+            ("SL", "Static Late"),
+            ("DE", "Dynamic Early"),
+            ("DL", "Dynamic Late"),
+        )
+    )
+    out.print(
+        f"variant {escape(variant)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
+    )
+    for name, changed in written.items():
+        out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")
+
+
+@main.command("diff")
+@click.argument("target", type=click.Path())
+@click.argument("first")
+@click.argument("second")
+@click.option(
+    "--prefer",
+    type=click.Choice(PREFERENCES),
+    multiple=True,
+    help="Resolve both variants as configure --prefer does.",
+)
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], fmt: str) -> None:
+    """What moving from variant FIRST to SECOND of the robot folder TARGET takes.
+
+    Both are resolved as `configure` resolves them (give the same --prefer). Each feature
+    whose selection or binding differs is a rebuild, a restart or a run-time change
+    (semantics.md section 4). Exit 0 when every change can be made at run time.
+    """
+    try:
+        robot = RobotFolder.open(target)
+        paths = [robot.variant_path(first), robot.variant_path(second)]
+        reports = validate(robot.model_path, paths, partial=True, analyse=False)
+        problems = [d for r in reports for d in r.errors]
+        if problems or len(reports) != 3:
+            for d in problems:
+                print_diagnostic(d)
+            out.print("[bold red]invalid[/]: nothing to compare (fix the errors above)")
+            sys.exit(1)
+        model = reports[0].model
+        assert model is not None and reports[1].config is not None and reports[2].config is not None
+        changes = impact.diff(
+            resolve(model, reports[1].config, prefer), resolve(model, reports[2].config, prefer)
+        )
+    except MotivmlError as exc:
+        fail(exc)
+    worst = impact.verdict(changes)
+    if fmt == "json":
+        click.echo(
+            json.dumps(
+                {
+                    "from": first,
+                    "to": second,
+                    "swappable_at_run_time": worst == impact.RUN_TIME,
+                    "needs": worst,
+                    "changes": [vars(c) for c in changes],
+                },
+                indent=2,
+            )
+        )
+    else:
+        for c in changes:
+            colour = {impact.REBUILD: "red", impact.RESTART: "yellow", impact.RUN_TIME: "green"}[c.impact]
+            out.print(
+                f"[{colour}]{c.impact:>8}[/]  {escape(c.feature)}: {c.before} -> {c.after}  [dim]{escape(c.reason)}[/]"
+            )
+        summary = {
+            impact.RUN_TIME: "can be swapped while the robot runs",
+            impact.RESTART: "needs a restart (no rebuild)",
+            impact.REBUILD: "needs a rebuild",
+        }[worst]
+        out.print(f"{escape(first)} -> {escape(second)}: {_plural(len(changes), 'change')}; {summary}")
+    sys.exit(0 if worst == impact.RUN_TIME else 1)
+
+
+@main.command("show")
+@click.argument("target", default=".", type=click.Path())
+@click.option("--config", "config", type=click.Path(), help="A configuration file.")
+@click.option("--variant", help="A variant of the robot folder: variants/NAME.json.")
+def show_command(target: str, config: str | None, variant: str | None) -> None:
+    """Print the feature tree with groups, allowed, configured and forced bindings."""
+    try:
+        model_path, configs, _ = _targets(target, config, variant)
+        chosen = configs[:1] if variant or config else []
+        reports = validate(model_path, chosen, partial=True, analyse=False)
+        problems = [d for r in reports for d in r.errors]
+        if problems or len(reports) != 1 + len(chosen):
+            for d in problems:
+                print_diagnostic(d)
+            out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
+            sys.exit(1)
+        model = reports[0].model
+        assert model is not None
+        configuration = reports[-1].config if chosen else None
+        states = binding_states(model, configuration)
+        if not states[0]:  # not even the root: the model has no valid variant
+            for d in analyse_model(model):
+                print_diagnostic(d)
+            out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
+            sys.exit(1)
+    except MotivmlError as exc:
+        fail(exc)
+    # A tree cannot soft-wrap: on a terminal it wraps at its width, into a pipe it stays whole.
+    tree_console = (
+        out if out.is_terminal else Console(highlight=False, emoji=False, width=max(out.width, 240))
+    )
+    tree_console.print(_tree(model, configuration, states))
+    out.print(
+        "[dim]marks: ! mandatory, ? optional, [OR]/[XOR] group member; allowed = mode/time a feature allows; "
+        "set = what the configuration says; solver = what valid variants leave (one value: forced)[/]"
+    )
+
+
+def _tree(model: FeatureModel, config: Configuration | None, states: list[set[str]]) -> Tree:
+    nodes: dict[int, Tree] = {}
+    root_tree: Tree | None = None
+    for f in model.features:
+        if f.parent is None:
+            mark = ""
+        elif f.group:
+            mark = f"[magenta][{f.group}][/] "
+        else:
+            mark = "[bold]![/] " if f.mandatory else "? "
+        allowed = f"allowed {_short(f.mode_allowed)}{_short(f.time_allowed)}"
+        configured = ""
+        if config is not None:
+            entry = config.entries.get(f.id)
+            if entry is None:
+                configured = " set —" if f.parent is not None else ""
+            elif not entry.selected:
+                configured = " set off"
+            else:
+                configured = f" set {_short(entry.mode)}{_short(entry.time)}"
+        possible = states[f.index]
+        order = ["off", "SE", "SL", "DE", "DL"]
+        solver = ",".join(s for s in order if s in possible) or "none"
+        colour = "green" if len(possible) == 1 else "cyan"
+        label = (
+            f"{mark}[bold]{escape(f.id)}[/] [dim]({escape(_printable(f.name))})[/]  {allowed}{configured}  "
+            f"solver [{colour}]{solver}[/]"
+        )
+        if f.parent is None:
+            root_tree = Tree(label)
+            nodes[f.index] = root_tree
+        else:
+            nodes[f.index] = nodes[f.parent].add(label)
+    assert root_tree is not None
+    return root_tree
+
+
+def _printable(text: str) -> str:
+    """A name as it can be shown: control characters (terminal escapes) spelled out."""
+    return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in text)
+
+
+def _short(token: str) -> str:
+    return {"Static": "S", "Dynamic": "D", "Early": "E", "Late": "L", "Any": "*"}[token]

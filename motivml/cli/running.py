@@ -1,0 +1,400 @@
+"""run and ctl: the robot at run time (the loop, its live view and summary, its socket)."""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import sys
+import threading
+import time
+from concurrent.futures import Future
+from pathlib import Path
+
+import click
+from rich import box
+from rich.console import Console, Group
+from rich.live import Live
+from rich.markup import escape
+from rich.table import Table
+
+from ..configure import PREFERENCES
+from ..control import ControlServer, send
+from ..coordinator import Coordinator
+from ..errors import MotivmlError
+from ..launch import launch
+from ..reconfigure import ACTIONS, Request
+from ..runtime import RealClock, RunStats, Runtime, SimulatedClock, Snapshot
+from ..transactions import Outcome
+from . import _plural, err, fail, main, out, print_diagnostic
+
+
+@main.command("run")
+@click.argument("target", type=click.Path())
+@click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
+@click.option(
+    "--duration",
+    type=click.FloatRange(min=0, min_open=True, max=86400),
+    default=5.0,
+    show_default=True,
+    help="Seconds of clock time to run.",
+)
+@click.option(
+    "--rate",
+    type=click.FloatRange(min=1, max=100_000),
+    default=1000.0,
+    show_default=True,
+    help="Control loop rate in Hz.",
+)
+@click.option(
+    "--clock",
+    type=click.Choice(["real", "simulated"]),
+    default="real",
+    show_default=True,
+    help="real: tick on the wall clock; simulated: tick as fast as possible in simulated time.",
+)
+@click.option("--live/--no-live", default=None, help="Show the live view (default: when on a terminal).")
+@click.option(
+    "--prefer",
+    type=click.Choice(PREFERENCES),
+    multiple=True,
+    help="Resolve the variant as configure --prefer does.",
+)
+@click.option(
+    "--run-dir",
+    type=click.Path(file_okay=False),
+    help="Where the control socket goes (default build/<robot>/<variant>/run).",
+)
+@click.option(
+    "--control/--no-control", default=True, show_default=True, help="Open the control socket for motivml ctl."
+)
+@click.option(
+    "--at",
+    "scheduled",
+    type=(click.FloatRange(min=0), str),
+    multiple=True,
+    metavar="SECONDS REQUEST",
+    help='Make a request at a control time, e.g. --at 2 "swap hectorslam kartoslam" (repeatable).',
+)
+def run_command(
+    target: str,
+    variant: str,
+    duration: float,
+    rate: float,
+    clock: str,
+    live: bool | None,
+    prefer: tuple[str, ...],
+    run_dir: str | None,
+    control: bool,
+    scheduled: tuple[tuple[float, str], ...],
+) -> None:
+    """Build the motion architecture of a variant's active features and run it at a fixed rate.
+
+    The active set at start is every Early feature plus the fewest Late ones the model
+    needs (semantics.md section 4); exactly their spaces, mappings, modules and components
+    run. Ends with a summary: each component's status and when its criterion fired, each
+    module's learning state, the final space values and the loop's timing.
+    """
+    plan: list[tuple[float, Request]] = []
+    for at, text in scheduled:
+        action, *features = text.split() or [""]
+        if action == "event" and len(features) == 1:
+            plan.append((at, Request("event", (features[0],))))
+            continue
+        if action not in ACTIONS or not features or (action == "swap" and len(features) != 2):
+            raise click.BadParameter(
+                f"{text!r}: a request is load|unload|reload FEATURE..., swap OUT IN, or event NAME",
+                param_hint="--at",
+            )
+        plan.append((at, Request(action, tuple(features))))
+    for at, request in plan:
+        if not math.isfinite(at) or at >= duration:
+            raise click.BadParameter(
+                f"{at:g} s for {request}: requests are made during the run, before {duration:g} s",
+                param_hint="--at",
+            )
+    plan.sort(key=lambda item: item[0])
+    try:
+        robot = launch(target, variant, rate, prefer)
+    except MotivmlError as exc:
+        for d in exc.diagnostics:
+            print_diagnostic(d)
+        out.print(f"[bold red]cannot run[/]: {escape(target)} variant {escape(variant)}")
+        sys.exit(exc.exit_code)
+    except KeyboardInterrupt:
+        out.print("interrupted before the run started")
+        sys.exit(130)
+    for d in robot.warnings:
+        print_diagnostic(d)
+    runtime = robot.runtime
+    if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
+        out.width = max(out.width, 160)
+    out.print(
+        f"running {escape(robot.folder.name)} variant {escape(variant)}: "
+        f"{_plural(len(robot.assembly.components), 'component')} of {_plural(len(robot.active), 'active feature')} "
+        f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, {duration:g} s"
+    )
+    server = None
+    if control:
+        folder = Path(run_dir) if run_dir else Path("build") / robot.folder.name / variant / "run"
+        server = ControlServer(folder, runtime, robot.binder)
+        try:
+            server.open()
+        except MotivmlError as exc:
+            robot.close()
+            fail(exc)
+        out.print(f"control: {escape(str(server.path))} (motivml ctl)")
+    chosen = RealClock() if clock == "real" else SimulatedClock()
+    if clock == "simulated":
+        robot.binder.make_changes_between_ticks()
+    coordinator = robot.coordinate(simulated=clock == "simulated")
+    if coordinator is None and any(request.action == "event" for _, request in plan):
+        robot.close()
+        raise click.BadParameter(
+            "events go to a coordination statechart, and this robot has none", param_hint="--at"
+        )
+    if server is not None:
+        server.coordinator = coordinator
+    show = out.is_terminal if live is None else live
+    result: list[RunStats] = []
+    finished = threading.Event()
+    answers: list[tuple[float, int, Request, Outcome | Future[Outcome]]] = []
+
+    def scheduler(rt: Runtime) -> bool:
+        """Each tick, on the control thread: make the requests that are due."""
+        while plan and rt.time >= plan[0][0] - 1e-12:
+            _, request = plan.pop(0)
+            if request.action == "event":
+                assert coordinator is not None
+                coordinator.event(request.features[0])
+                rt.note(f"event {request.features[0]}")
+            elif clock == "simulated":  # deterministic: committed right here, between two ticks
+                answers.append((rt.time, rt.ticks, request, robot.binder.request_between_ticks(request)))
+            else:
+                answers.append((rt.time, rt.ticks, request, robot.binder.submit(request)))
+        return coordinator is not None and coordinator.finished is not None
+
+    def work() -> None:
+        try:
+            result.append(runtime.run(duration, chosen, until=scheduler))
+        finally:
+            finished.set()
+
+    interrupted = threading.Event()
+
+    def interrupt(signum: int, frame: object) -> None:  # Ctrl-C: end the run, keep the summary
+        interrupted.set()
+        runtime.stop()
+
+    on_main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, interrupt) if on_main else None
+    worker = threading.Thread(target=work, daemon=True, name="motivml-control")
+    began = time.perf_counter()
+    try:
+        worker.start()
+        reported = 0
+        if show:
+            with Live(
+                _live_view(runtime, began, coordinator), console=out, refresh_per_second=4, transient=True
+            ) as view:
+                while not finished.wait(0.25):
+                    reported = _report_changes(runtime, reported, view.console)
+                    view.update(_live_view(runtime, began, coordinator))
+        else:
+            while not finished.wait(0.25):
+                reported = _report_changes(runtime, reported, out)
+    finally:
+        if on_main:
+            signal.signal(signal.SIGINT, previous)
+        if server is not None:
+            server.close()
+    if not result:
+        out.print("[bold red]the run ended without a result[/]")
+        sys.exit(3)
+    for at, tick, request, answer in answers:
+        outcome = answer if isinstance(answer, Outcome) else answer.result()
+        verdict = "accepted" if outcome.accepted else "refused, nothing changed"
+        out.print(escape(f"request at {at:.3f} s (tick {tick}): {request}: {verdict}"))
+        for d in outcome.diagnostics:
+            print_diagnostic(d)
+    _summary(runtime, result[0])
+    if coordinator is not None:
+        if coordinator.finished is not None:
+            at, tick, state = coordinator.finished
+            out.print(escape(f"coordination reached its final state {state} at {at:.3f} s (tick {tick})"))
+        else:
+            out.print(escape(f"coordination in: {', '.join(coordinator.configuration())}"))
+    if runtime.failure is not None:
+        fault = runtime.failure
+        out.print(
+            f"[bold red]the run stopped[/]: {escape(fault.feature)} raised in its step at {fault.time:.3f} s "
+            f"(tick {fault.tick}): {escape(fault.error)}"
+        )
+    diverged = runtime.diverged()
+    if diverged:
+        out.print(
+            f"[bold red]the run diverged[/]: {escape(', '.join(diverged))} hold non-finite values "
+            "(a system too stiff for its time step, or a goal out of range)"
+        )
+    robot.close()
+    sys.exit(130 if interrupted.is_set() else 1 if diverged or runtime.failure is not None else 0)
+
+
+def _report_changes(runtime: Runtime, reported: int, console: Console) -> int:
+    """Print the changes accepted since the last call, as they happen; the new count."""
+    changes = runtime.changes[reported:]
+    for change in changes:
+        stamp = time.strftime("%H:%M:%S", time.localtime(change.wall)) + f".{int(change.wall % 1 * 1000):03d}"
+        console.print(escape(f"{stamp} tick {change.tick}: {change.request}"))
+    return reported + len(changes)
+
+
+STATUS_COLOURS = {"converged": "green", "tracking": "green", "ongoing": "yellow", "learning": "cyan"}
+
+
+def _components_table(snapshot: Snapshot, runtime: Runtime | None = None) -> Table:
+    table = Table(box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False)
+    for column in ("component", "kind", "status", "error", "learning"):
+        table.add_column(column, justify="right" if column == "error" else "left", no_wrap=True)
+    if runtime is not None:
+        table.add_column("fired at", no_wrap=True)
+    for c in snapshot.components:
+        colour = STATUS_COLOURS.get(c.status, "white")
+        row = [
+            escape(c.id),
+            c.kind,
+            f"[{colour}]{c.status}[/]",
+            "" if c.error != c.error else f"{c.error:.4f}",
+            c.learning,
+        ]
+        if runtime is not None:
+            fired = next(
+                (e for e in runtime.events if e.component == c.id and e.status in ("converged", "tracking")),
+                None,
+            )
+            row.append(f"{fired.time:.3f} s" if fired else "-")
+        table.add_row(*row)
+    return table
+
+
+def _live_view(runtime: Runtime, began: float, coordinator: Coordinator | None = None) -> Group:
+    snapshot = runtime.status()
+    wall = time.perf_counter() - began
+    achieved = snapshot.tick / wall if wall > 0 else 0.0
+    head = f"tick {snapshot.tick}  t = {snapshot.time:.3f} s  achieved {achieved:,.0f} Hz (asked {runtime.rate:g} Hz)"
+    if coordinator is not None:
+        head += f"\ncoordination: {', '.join(coordinator.configuration())}"
+    return Group(head, _components_table(snapshot))
+
+
+def _summary(runtime: Runtime, stats: RunStats) -> None:
+    snapshot = runtime.status()
+    if snapshot.components:
+        out.print(_components_table(snapshot, runtime))
+    for module, state, learned in snapshot.modules:
+        extra = f", learned {learned} time{'s' if learned != 1 else ''}" if learned else ""
+        out.print(f"module {escape(module)}: {state}{extra}")
+    for feature, status in snapshot.plugins:
+        out.print(escape(f"plugin {feature}: {status}"))
+    for change in runtime.changes:
+        out.print(escape(f"changed at {change.time:.3f} s (tick {change.tick}): {change.request}"))
+    for at, tick, text in runtime.notes:
+        out.print(escape(f"at {at:.3f} s (tick {tick}): {text}"))
+    for space, value in runtime.assembly.values.items():
+        numbers = ", ".join(f"{v:.3f}" for v in value)
+        out.print(escape(f"space {space} = [{numbers}]"))
+    line = f"{stats.ticks} ticks, {snapshot.time:.3f} s of control time"
+    if stats.clock == "real":
+        p50, p99 = (stats.percentile(stats.jitter, q) * 1e3 for q in (50, 99))
+        worst = (float(stats.jitter.max()) if len(stats.jitter) else 0.0) * 1e3
+        line += (
+            f" in {stats.elapsed:.3f} s: {stats.achieved:,.1f} Hz achieved (asked {stats.rate:g} Hz); "
+            f"jitter p50 {p50:.3f} ms, p99 {p99:.3f} ms, max {worst:.3f} ms; "
+            f"{_plural(stats.missed, 'missed deadline')}; CPU {stats.cpu_share:.0%}"
+        )
+    out.print(line)
+
+
+@main.command("ctl")
+@click.argument("target", type=click.Path())
+@click.option("--variant", required=True, help="The variant that runs (to find its run directory).")
+@click.option(
+    "--run-dir", type=click.Path(file_okay=False), help="The run's directory, if run was given one."
+)
+@click.argument("op", type=click.Choice(["load", "unload", "reload", "swap", "event", "status", "dump"]))
+@click.argument("features", nargs=-1)
+def ctl_command(target: str, variant: str, run_dir: str | None, op: str, features: tuple[str, ...]) -> None:
+    """Talk to a running robot: load, unload, reload or swap features, or ask its status.
+
+    TARGET and --variant name the run (its control socket is in build/<robot>/<variant>/run
+    unless run was given --run-dir). A change is checked against the model and the variant
+    first; a refused one changes nothing and says why (exit 1). status prints the active set,
+    components and plugins; dump prints everything as JSON.
+    """
+    if op in ("status", "dump") and features:
+        raise click.UsageError(f"{op} takes no features")
+    if op not in ("status", "dump") and not features:
+        raise click.UsageError(f"{op} needs at least one feature")
+    if op == "swap" and len(features) != 2:
+        raise click.UsageError("swap needs two features: the one to unload, then the one to load")
+    if op == "event" and len(features) != 1:
+        raise click.UsageError("event needs one name")
+    folder = Path(run_dir) if run_dir else Path("build") / Path(target).resolve().name / variant / "run"
+    try:
+        answer = send(folder, {"op": op, "features": list(features)} if features else {"op": op})
+    except MotivmlError as exc:
+        fail(exc)
+    if not answer.get("ok"):
+        err.print(f"[bold red]error[/]: {escape(str(answer.get('error')))}")
+        sys.exit(2)
+    if op == "dump":
+        click.echo(json.dumps(answer, indent=2))
+        return
+    if op == "status":
+        _print_status(answer)
+        return
+    if op == "event":
+        out.print(f"event {escape(features[0])} queued for the coordination")
+        return
+    if answer["accepted"]:
+        moved = [
+            f"loaded {', '.join(answer['loads'])}" if answer["loads"] else "",
+            f"unloaded {', '.join(answer['unloads'])}" if answer["unloads"] else "",
+        ]
+        detail = "; ".join(m for m in moved if m) or "reloaded in place"
+        out.print(
+            f"[green]accepted[/]: {escape(op + ' ' + ' '.join(features))} took effect at tick {answer['tick']} "
+            f"({answer['time']:.3f} s), {answer['latency_ms']:.1f} ms after the request; {escape(detail)}"
+        )
+        return
+    for d in answer["diagnostics"]:
+        where = f"{d['file']}:{d['line']}:{d['column']}" if d.get("line") else str(d["file"])
+        out.print(
+            f"[bold]{escape(where)}[/]: {escape(str(d['path']))}: [red]refused[/]: {escape(d['message'])}"
+        )
+        for fact in d["facts"]:
+            place = (
+                f"{fact['file']}:{fact['line']}:{fact['column']}" if fact.get("line") else str(fact["file"])
+            )
+            out.print(f"    [dim]{escape(place)}: {escape(fact['text'])}[/]")
+    out.print(f"[bold red]refused[/]: {escape(op + ' ' + ' '.join(features))}: nothing changed")
+    sys.exit(1)
+
+
+def _print_status(answer: dict[str, object]) -> None:
+    out.print(
+        f"tick {answer['tick']}, t = {answer['time']:.3f} s" if isinstance(answer["time"], float) else ""
+    )
+    active = answer["active"]
+    assert isinstance(active, list)
+    out.print(escape("active: " + ", ".join(active)))
+    components = answer["components"]
+    assert isinstance(components, list)
+    for c in components:
+        out.print(
+            escape(f"component {c['id']} ({c['kind']}, {c['feature']}): {c['status']}, {c['learning']}")
+        )
+    plugins = answer["plugins"]
+    assert isinstance(plugins, list)
+    for plugin in plugins:
+        out.print(escape(f"plugin {plugin['feature']}: {plugin['status']}"))
