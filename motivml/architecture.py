@@ -280,11 +280,16 @@ class _Checker:
                 wrong("kind", f"mapping {element} needs a function: linear or planarArm")
             return
         rows, columns = target["dimension"], source["dimension"]
-        allowed = {"transformation": ("linear", "scale")}.get(kind, ("linear", "planarArm"))
+        allowed = {"transformation": ("linear", "scale")}.get(kind, ("linear", "planarArm", "planarArmIK"))
         if function["type"] not in allowed:
             wrong("type", f"a {kind} cannot compute {function['type']} (it can: {', '.join(allowed)})")
             return
-        needs = {"linear": ("matrix",), "scale": ("factor",), "planarArm": ("links",)}[function["type"]]
+        needs = {
+            "linear": ("matrix",),
+            "scale": ("factor",),
+            "planarArm": ("links",),
+            "planarArmIK": ("links",),
+        }[function["type"]]
         for key in sorted(
             set(function) - set(needs) - {"type", "offset"} - {k for k in function if k.startswith("x-")}
         ):
@@ -306,6 +311,13 @@ class _Checker:
             and len(function["factor"]) != rows
         ):
             wrong("factor", f"{element} scales {rows} numbers but has {len(function['factor'])} factors")
+        if function["type"] == "planarArmIK" and (columns, len(function["links"])) not in ((2, 2), (2, 3)):
+            wrong(
+                "links",
+                f"the inverse kinematics of {element} maps a 2-dimensional position to 2 or 3 joint angles, not {_shape(source)} with {len(function['links'])} links",
+            )
+        elif function["type"] == "planarArmIK" and rows != len(function["links"]):
+            wrong("links", f"{element} has {len(function['links'])} links but {_shape(target)}")
         if function["type"] == "planarArm" and (len(function["links"]), rows) != (columns, 2):
             wrong(
                 "links",
@@ -375,7 +387,11 @@ class _Checker:
             user.setdefault(module, element)
 
     def writers(self) -> None:
-        """A space is computed by component outputs (summed) or by one free mapping, not both."""
+        """A space is computed by component outputs (summed) or by free mappings, not both.
+
+        Two free mappings may compute one space (alternatives of an XOR group, say); if both
+        are active, the later in document order wins.
+        """
         ports = {
             c.get(port, {}).get("through")
             for c in self.by_id["components"].values()
@@ -386,7 +402,7 @@ class _Checker:
             if element in ports or mapping["to"] not in self.by_id["spaces"]:
                 continue
             other = written.get(mapping["to"])
-            if other is not None:
+            if other is not None and other in self.by_id["components"]:
                 self.report(
                     "mappings",
                     element,
@@ -394,7 +410,7 @@ class _Checker:
                     f"{mapping['to']} is written by component {other} and computed by {element}: a space has one kind of writer",
                     "architecture.writers",
                 )
-            written[mapping["to"]] = element
+            written.setdefault(mapping["to"], element)
 
     def module_side(self, element: str, port: str) -> dict[str, Any] | None:
         """The space a component's module sees on a port, after its mapping (if known)."""

@@ -70,6 +70,8 @@ def make_function(mapping: dict[str, Any], inputs: int, outputs: int) -> Functio
         offset = np.asarray(spec.get("offset", np.zeros(outputs)), dtype=float)
         return lambda x: np.asarray(matrix @ x + offset)
     links = np.asarray(spec["links"], dtype=float)
+    if spec["type"] == "planarArmIK":
+        return lambda x: planar_arm_ik(links, x)
     return lambda x: planar_arm(links, x)
 
 
@@ -79,12 +81,35 @@ def planar_arm(links: Vector, angles: Vector) -> Vector:
     return np.array([links @ np.cos(absolute), links @ np.sin(absolute)])
 
 
+def planar_arm_ik(links: Vector, position: Vector) -> Vector:
+    """Joint angles that put a planar arm's hand at (x, y), elbow down.
+
+    With 3 links the redundancy is resolved by pointing the tool away from the base: the
+    wrist sits one tool length short of the target on the line from the base. Targets out
+    of reach are clamped to the arm's reach.
+    """
+    x, y = float(position[0]), float(position[1])
+    heading = math.atan2(y, x)
+    if len(links) == 3:
+        x, y = x - links[2] * math.cos(heading), y - links[2] * math.sin(heading)
+    a, b = float(links[0]), float(links[1])
+    cosine = max(-1.0, min(1.0, (x * x + y * y - a * a - b * b) / (2 * a * b)))
+    elbow = math.acos(cosine)
+    shoulder = math.atan2(y, x) - math.atan2(b * math.sin(elbow), a + b * math.cos(elbow))
+    angles = [shoulder, elbow]
+    if len(links) == 3:
+        angles.append(heading - shoulder - elbow)
+    return np.array(angles)
+
+
 class AdaptiveMapping:
     """A learned mapping: predicts with its learner, and learns from a teacher if it has one.
 
-    online (the default): every evaluation is a sample, learned at once by recursive least
-    squares. offline: samples are collected, and the learner is fitted on all of them in one
-    batch every `BATCH` samples (predictions use the latest fit).
+    A sample is an evaluation whose input has moved since the last sample: holding still
+    teaches nothing new, and would only pull the learner towards one point. online (the
+    default): each sample is learned at once, by recursive least squares. offline: samples
+    are collected, and the learner is fitted on all of them in one batch every `BATCH`
+    samples (predictions use the latest fit).
     """
 
     BATCH = 100
@@ -101,10 +126,12 @@ class AdaptiveMapping:
         self.error = float("nan")
         self._inputs: list[Vector] = []
         self._targets: list[Vector] = []
+        self._last: Vector | None = None
 
     def __call__(self, x: Vector) -> Vector:
         prediction = np.asarray(self.model.predict(x)[0], dtype=float)
-        if self.teacher is not None:
+        if self.teacher is not None and (self._last is None or not np.array_equal(x, self._last)):
+            self._last = x.copy()
             target = self.teacher(x)
             self.error = float(np.linalg.norm(target - prediction))
             self.samples += 1

@@ -29,6 +29,7 @@ from .schema import check_document
 
 COORDINATION = "coordination.schema.json"
 MAX_DEPTH = 64  # nesting of states (the schema check recurses)
+RESERVED_EVENTS = {"motivml", "error", "done"}  # SCXML matches event names by prefix: these would catch ours
 CRITERION_FOR = {
     "converged": ("convergence",),
     "tracking": ("tracking",),
@@ -68,8 +69,9 @@ def _depth(root: Any) -> int:
     while stack:
         node, depth = stack.pop()
         deepest = max(deepest, depth)
-        if isinstance(node, dict):
-            stack += [(s, depth + 1) for s in node.get("states", []) if isinstance(node.get("states"), list)]
+        children = node.get("states") if isinstance(node, dict) else None
+        if isinstance(children, list):
+            stack += [(child, depth + 1) for child in children]
     return deepest
 
 
@@ -123,6 +125,8 @@ class _Checker:
             self.doc, root["initial"], states, parent, paths, float(root.get("rate", 100.0))
         )
         if not any(d.severity.value == "error" for d in self.found):
+            self.eventless_cycles(coordination)
+        if not any(d.severity.value == "error" for d in self.found):
             self.reachability(coordination)
         return coordination
 
@@ -167,6 +171,12 @@ class _Checker:
                     where,
                     f"a transition of {sid} has no event, time or condition: it fires at once",
                     "coordination.eventless",
+                )
+            if transition.get("event") in RESERVED_EVENTS:
+                self.error(
+                    (*where, "event"),
+                    f"event name {transition['event']!r} is reserved (SCXML would match its own {transition['event']}.* events)",
+                    "coordination.event",
                 )
             for j, condition in enumerate(transition.get("when", [])):
                 self.condition(condition, (*where, "when", j))
@@ -252,31 +262,71 @@ class _Checker:
                     f"{verb} {feature}: {feature} is compiled into variant {self.variant.name} (Static Early)",
                     "coordination.variant",
                 )
+            elif binding == "SL" and (verb == "unload" or (verb == "swap" and path[-1] == 0)):
+                self.error(
+                    path,
+                    f"{verb} {feature}: {feature} is Static Late in variant {self.variant.name}: it stays once loaded",
+                    "coordination.variant",
+                )
+
+    def eventless_cycles(self, coordination: Coordination) -> None:
+        """Transitions with no event, time or condition that lead back: the chart never settles."""
+        edges: dict[str, list[str]] = {}
+        for sid, state in coordination.states.items():
+            for t in state.get("transitions", []):
+                if not ({"event", "after", "when"} & set(t)) and t["target"] in coordination.states:
+                    edges.setdefault(sid, []).append(t["target"])
+        for start in edges:
+            seen, todo = set(), list(edges[start])
+            while todo:
+                node = todo.pop()
+                if (
+                    node == start
+                    or coordination.parent.get(node) == start
+                    or self._inside(coordination, start, node)
+                ):
+                    self.error(
+                        (*coordination.paths[start], "transitions"),
+                        f"state {start} leads back to itself through transitions with no event, time or condition: the chart would never settle",
+                        "coordination.eventless-cycle",
+                    )
+                    break
+                if node not in seen:
+                    seen.add(node)
+                    todo += edges.get(node, [])
+
+    @staticmethod
+    def _inside(coordination: Coordination, outer: str, node: str) -> bool:
+        above: str | None = coordination.parent.get(node)
+        while above is not None:
+            if above == outer:
+                return True
+            above = coordination.parent.get(above)
+        return False
 
     def reachability(self, coordination: Coordination) -> None:
-        reached, todo = set(), [coordination.initial]
+        reached: set[str] = set()
+        todo = [coordination.initial]
         while todo:
             sid = todo.pop()
             if sid in reached:
                 continue
             reached.add(sid)
-            node: str | None = sid
-            while node is not None:  # entering a state enters its ancestors
-                if node not in reached:
-                    reached.add(node)
-                    todo.append(node)
-                node = coordination.parent[node]
             state = coordination.states[sid]
             if "initial" in state:
                 todo.append(state["initial"])
             todo += [t["target"] for t in state.get("transitions", [])]
+            above = coordination.parent[sid]
+            if above is not None:
+                todo.append(above)  # entering a state enters its ancestors, with their transitions
         for sid, path in coordination.paths.items():
             if sid not in reached:
                 self.warn((*path, "id"), f"state {sid} can never be entered", "coordination.unreachable")
         for sid, state in coordination.states.items():
             if state.get("final") or state.get("states"):
                 continue
-            node, stuck = sid, True
+            node: str | None = sid
+            stuck = True
             while node is not None:
                 if coordination.states[node].get("transitions"):
                     stuck = False

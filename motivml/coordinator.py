@@ -24,7 +24,8 @@ from .reconfigure import Request
 from .runtime import Runtime
 from .transactions import Binder
 
-ROOT = "coordination"  # the hidden root state
+ROOT = "motivml.root"  # the hidden root state (no state id has a dot)
+MAX_STEPS = 1000  # per advance: a chart that takes more does not settle
 
 
 def _call(action: dict[str, Any]) -> str:
@@ -99,6 +100,7 @@ class Coordinator:
         self._lock = threading.Lock()
         self.history: list[tuple[float, int, str, str]] = []  # (time, tick, "entered"/"exited", state)
         self.finished: tuple[float, int, str] | None = None  # a top-level final state reached
+        self.unsettled = False  # the chart kept moving without end
         self.interpreter = Interpreter(
             statechart(coordination), initial_context=self._context(), clock=self.clock
         )
@@ -123,8 +125,15 @@ class Coordinator:
                 runtime.note(f"coordination: send to {space} skipped: its feature is not active")
                 return
             runtime.send(space, np.asarray(value))
+            changed, grew = {space}, True  # the space, and what free mappings compute from it
+            while grew:
+                grew = False
+                for _, source, target, _ in runtime.assembly.mappings:
+                    if source in changed and target not in changed:
+                        changed.add(target)
+                        grew = True
             for c in runtime.assembly.components:  # a new goal: convergence is not yet known
-                if c.goal is not None and c.goal.space == space and c.criterion is not None:
+                if c.goal is not None and c.goal.space in changed and c.criterion is not None:
                     c.status = "ongoing"
 
         def set_learning(name: str, state: str) -> None:
@@ -136,13 +145,17 @@ class Coordinator:
 
         def start_component(name: str) -> None:
             c = component(name)
-            if c is not None:
-                c.running = True
+            if c is None:
+                runtime.note(f"coordination: start of {name} skipped: its feature is not active")
+                return
+            c.running = True
 
         def stop_component(name: str) -> None:
             c = component(name)
-            if c is not None:
-                c.running, c.contribution = False, None
+            if c is None:
+                runtime.note(f"coordination: stop of {name} skipped: its feature is not active")
+                return
+            c.running, c.contribution = False, None
 
         def reconfigure(action: str, features: list[str]) -> None:
             request = Request(action, tuple(features))
@@ -180,7 +193,10 @@ class Coordinator:
             events, self._events = self._events, []
         for name in events:
             self.interpreter.queue(name)
-        for step in self.interpreter.execute():
+        for _ in range(MAX_STEPS):
+            step = self.interpreter.execute_once()
+            if step is None:
+                break
             for sid in step.exited_states:
                 if sid != ROOT:
                     self.history.append((runtime.time, runtime.ticks, "exited", sid))
@@ -192,6 +208,12 @@ class Coordinator:
                 state = self.coordination.states[sid]
                 if state.get("final") and self.coordination.parent[sid] is None:
                     self.finished = (runtime.time, runtime.ticks, sid)
+        else:
+            runtime.note(
+                f"coordination: did not settle within {MAX_STEPS} steps (a cycle of transitions?): the run stops"
+            )
+            self.unsettled = True
+            runtime.stop()
 
     def configuration(self) -> list[str]:
         """The active states, outermost first."""

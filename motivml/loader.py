@@ -244,6 +244,8 @@ def _index(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH) -> _In
                     raise _fail(text, file, start, f"number of {len(literal):,} digits is too long")
                 else:
                     value = int(literal)
+                    if len(literal) > 300 and abs(value) > sys.float_info.max:
+                        raise _fail(text, file, start, f"number of {len(literal):,} digits is out of range")
             elif kind == 4:
                 value = _LITERALS[m.group(4)]
             elif token in ("{", "["):
@@ -303,6 +305,13 @@ def _constant(name: str) -> Any:
     raise _Rejected
 
 
+def _int(literal: str) -> int:
+    value = int(literal)  # (longer than 4300 digits: ValueError, and the located parser says so)
+    if len(literal) > 300 and abs(value) > sys.float_info.max:
+        raise _Rejected  # no number this tool computes with can be that large
+    return value
+
+
 def _float(literal: str) -> float:
     value = float(literal)
     if value in (float("inf"), float("-inf")):
@@ -325,7 +334,7 @@ def _fast(text: str, max_depth: int) -> tuple[bool, Any]:
     def run() -> None:
         try:
             result[1] = json.loads(
-                text, object_pairs_hook=_pairs, parse_constant=_constant, parse_float=_float
+                text, object_pairs_hook=_pairs, parse_constant=_constant, parse_float=_float, parse_int=_int
             )
             result[0] = True
         except (_Rejected, ValueError, RecursionError, MemoryError):

@@ -288,12 +288,13 @@ class Runtime:
         self.notes.append((self.time, self.ticks, text))
 
     def send(self, space: str, value: list[float] | np.ndarray) -> None:
-        """Write a space no component writes (a goal, a sensor value)."""
+        """Write a space no running component writes (a goal, a sensor value)."""
         values = self.assembly.values
         if space not in values:
             raise KeyError(f"no active space {space!r}")
-        if self.assembly.writers.get(space):
-            raise ValueError(f"{space} is written by {', '.join(c.id for c in self.assembly.writers[space])}")
+        writing = [c.id for c in self.assembly.writers.get(space, []) if c.running]
+        if writing:
+            raise ValueError(f"{space} is written by {', '.join(writing)}")
         vector = np.asarray(value, dtype=float)
         if vector.shape != values[space].shape:
             raise ValueError(f"{space} holds {values[space].size} numbers, not {vector.size}")

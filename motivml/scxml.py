@@ -87,14 +87,14 @@ def to_scxml(coordination: Coordination, name: str = "coordination") -> str:
                     entry,
                     _q("send"),
                     event=f"motivml.after.{sid}.{i}",
-                    delay=f"{float(transition['after']) * 1000:g}ms",
-                    id=f"after_{sid}_{i}",
+                    delay=f"{max(1, round(float(transition['after']) * 1000))}ms",  # whole ms: what engines parse
+                    id=f"motivml.after.{sid}.{i}",  # an xsd:ID no state id (no dots) can take
                 )
         if state.get("exit") or timers:
             leave = ET.SubElement(element, _q("onexit"))
             _actions(leave, state.get("exit", []))
             for i, _ in timers:
-                ET.SubElement(leave, _q("cancel"), sendid=f"after_{sid}_{i}")
+                ET.SubElement(leave, _q("cancel"), sendid=f"motivml.after.{sid}.{i}")
         for i, transition in enumerate(state.get("transitions", [])):
             events = [transition["event"]] if "event" in transition else []
             if "after" in transition:

@@ -161,6 +161,11 @@ CASES = {
         changed("mappings", 1, function={"type": "planarArm", "links": [1.0]}),
         "$.mappings[1].function.type: a transformation cannot compute planarArm (it can: linear, scale)",
     ),
+    "inverse kinematics of the wrong shape": (
+        changed("mappings", 0, kind="mapping", function={"type": "planarArmIK", "links": [0.4, 0.3, 0.2]}),
+        "$.mappings[0].function.links: the inverse kinematics of ik maps a 2-dimensional position to 2 or 3 joint "
+        "angles, not pose_goal: Pose(6) [m, rad] with 3 links",
+    ),
     "matrix of the wrong shape": (
         changed("mappings", 1, function={"type": "linear", "matrix": [[1.0, 0.0]]}),
         "$.mappings[1].function.matrix: the matrix of scale must be 7 x 7 (command from joint_goal)",

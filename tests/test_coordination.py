@@ -256,3 +256,100 @@ def test_the_scxml_export_is_accepted_by_qt_and_says_what_the_document_says(tmp_
         [str(QSCXMLC), str(broken), "-o", str(tmp_path / "no")], capture_output=True, text=True
     )
     assert refused.returncode != 0 and "Nowhere" in refused.stderr  # the engine really checks
+
+
+# ------------------------------------------------------------------ review findings
+MORE_CASES = {
+    "unknown component": (
+        lambda d: working(d)["states"][0]["transitions"][0]["when"][0].update(component="Reacher"),
+        "$.states[0].states[0].transitions[0].when[0].component: error: unknown component 'Reacher'",
+    ),
+    "transition with nothing to wait for": (
+        lambda d: working(d)["states"][2]["transitions"][0].pop("after"),
+        "$.states[0].states[2].transitions[0]: warning: a transition of Rest has no event, time or condition: it fires at once",
+    ),
+    "reserved event name": (
+        lambda d: working(d)["transitions"][0].update(event="done"),
+        "$.states[0].transitions[0].event: error: event name 'done' is reserved (SCXML would match its own done.* events)",
+    ),
+    "a cycle that never settles": (
+        lambda d: working(d)["states"][2].update(transitions=[{"target": "Rest"}]),
+        "$.states[0].states[2].transitions: error: state Rest leads back to itself through transitions with no event, "
+        "time or condition: the chart would never settle",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(MORE_CASES))
+def test_more_validation(tmp_path: Path, case: str) -> None:
+    edit, expected = MORE_CASES[case]
+    assert expected in messages(tmp_path, changed(edit))
+
+
+def test_states_reached_through_an_ancestor_are_reachable(tmp_path: Path) -> None:
+    document = {
+        "initial": "A",
+        "states": [
+            {"id": "A", "transitions": [{"target": "X", "event": "go"}]},
+            {
+                "id": "B",
+                "initial": "Y",
+                "transitions": [{"target": "C", "event": "next"}],
+                "states": [{"id": "Y"}, {"id": "X"}],
+            },
+            {"id": "C", "transitions": [{"target": "Done", "event": "end"}]},
+            {"id": "Done", "final": True},
+        ],
+    }
+    assert not [m for m in messages(tmp_path, document) if "can never be entered" in m]
+
+
+def test_odd_values_are_refused_or_exported_safely(tmp_path: Path) -> None:
+    huge = changed(lambda d: working(d)["states"][1]["entry"][0]["send"].update(value=[10**400, 0, 0]))
+    result = CliRunner().invoke(main, ["validate", str(robot_with(tmp_path / "huge", huge))])
+    assert result.exit_code == 1 and "digits is out of range" in result.output
+    control = changed(lambda d: working(d)["entry"][0].update(log="a\u0001b"))
+    result = CliRunner().invoke(main, ["validate", str(robot_with(tmp_path / "control", control))])
+    assert result.exit_code == 1 and "entry[0].log" in result.output
+    odd = changed(lambda d: working(d)["states"][2]["transitions"][0].update(after=1234.5678))
+    target = tmp_path / "odd.scxml"
+    assert (
+        CliRunner()
+        .invoke(main, ["export", "scxml", str(robot_with(tmp_path / "odd", odd)), "-o", str(target)])
+        .exit_code
+        == 0
+    )
+    assert 'delay="1234568ms"' in target.read_text() and 'id="motivml.after.Rest.0"' in target.read_text()
+
+
+def test_a_chart_that_never_settles_stops_the_run(tmp_path: Path) -> None:
+    looping = {
+        "initial": "A",
+        "states": [
+            {
+                "id": "A",
+                "transitions": [{"target": "B", "when": [{"module": "ReachDMP", "is": "executing"}]}],
+            },
+            {
+                "id": "B",
+                "transitions": [{"target": "A", "when": [{"module": "ReachDMP", "is": "executing"}]}],
+            },
+        ],
+    }
+    result = CliRunner().invoke(
+        main,
+        [
+            "run",
+            str(robot_with(tmp_path, looping)),
+            "--variant",
+            "dmp",
+            "--clock",
+            "simulated",
+            "--no-control",
+        ],
+    )
+    assert (
+        "coordination: did not settle within 1000 steps (a cycle of transitions?): the run stops"
+        in result.output
+    )
+    assert result.exit_code == 1

@@ -40,6 +40,12 @@ EXPECTED_ERRORS = {
         "but dmp_reach is configured Static and attractor_reach is selected: two members of an XOR group can both "
         "be selected only as Dynamic alternatives, at most one of them Early (rules 2.2 and 3.3)"
     ],
+    ("laundry_gripping", "broken_two_calibrations"): [
+        "7:89: $.properties[3].props.mode: calibration_learning and calibration_known are alternatives in "
+        "calibration's XOR group, but calibration_learning is configured Static and calibration_known is selected: "
+        "two members of an XOR group can both be selected only as Dynamic alternatives, at most one of them Early "
+        "(rules 2.2 and 3.3)"
+    ],
     ("quadruped", "broken_two_gaits"): [
         "17:17: $.properties[1].props.mode: trot and pace are alternatives in locomotion's XOR group, but trot is "
         "configured Static and pace is selected: two members of an XOR group can both be selected only as Dynamic "
@@ -53,9 +59,10 @@ EXPECTED_ERRORS = {
 }
 
 
-def test_seven_robots_ship() -> None:
+def test_eight_robots_ship() -> None:
     assert ROBOTS == [
         "coordinated_arm",  # the reaching arm's files (links) with a coordination.json
+        "laundry_gripping",
         "mixture_arm",
         "quadruped",
         "reaching_arm",

@@ -399,7 +399,12 @@ def test_graph_command_refuses_an_invalid_variant_and_writes_nothing(tmp_path: P
     )
 
 
-PICTURES = {"reaching_arm": "dmp", "quadruped": "gaits_at_run_time", "mixture_arm": "mixed"}
+PICTURES = {
+    "reaching_arm": "dmp",
+    "quadruped": "gaits_at_run_time",
+    "mixture_arm": "mixed",
+    "laundry_gripping": "learned",
+}
 
 
 @pytest.mark.parametrize("robot", sorted(PICTURES))

@@ -558,3 +558,28 @@ def test_the_live_view_shows_the_rate_and_every_component() -> None:
     text = console.export_text()
     assert "tick 1000" in text and "t = 1.000 s" in text and "asked 1000 Hz" in text
     assert "TrotGenerator" in text and "tracking" in text and "PostureController" in text
+
+
+def test_inverse_kinematics_puts_the_hand_where_asked() -> None:
+    from motivml.builder import planar_arm_ik
+
+    rng = np.random.default_rng(3)
+    # reachable: the wrist (one tool length short, for 3 links) between |l1 - l2| and l1 + l2
+    for links, (near, far) in (
+        (np.array([0.4, 0.3]), (0.11, 0.69)),
+        (np.array([0.4, 0.3, 0.2]), (0.31, 0.89)),
+    ):
+        for _ in range(200):
+            radius, angle = rng.uniform(near, far), rng.uniform(-np.pi, np.pi)
+            target = radius * np.array([np.cos(angle), np.sin(angle)])
+            assert np.allclose(planar_arm(links, planar_arm_ik(links, target)), target, atol=1e-9)
+
+
+def test_a_stopped_writer_lets_its_space_be_sent_to() -> None:
+    robot = launch(EXAMPLES / "quadruped", "trot")
+    with pytest.raises(ValueError, match="written by TrotGenerator, PostureController"):
+        robot.runtime.send("LegCommand", [0.0] * 4)
+    for c in robot.assembly.components:
+        c.running = False
+    robot.runtime.send("LegCommand", [0.1, 0.2, 0.3, 0.4])
+    assert robot.assembly.values["LegCommand"].tolist() == [0.1, 0.2, 0.3, 0.4]

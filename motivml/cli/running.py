@@ -237,7 +237,10 @@ def run_command(
             "(a system too stiff for its time step, or a goal out of range)"
         )
     robot.close()
-    sys.exit(130 if interrupted.is_set() else 1 if diverged or runtime.failure is not None else 0)
+    unsettled = coordinator is not None and coordinator.unsettled
+    sys.exit(
+        130 if interrupted.is_set() else 1 if diverged or runtime.failure is not None or unsettled else 0
+    )
 
 
 def _report_changes(runtime: Runtime, reported: int, console: Console) -> int:
