@@ -146,6 +146,7 @@ class ControlServer:
             if self.coordinator is None:
                 return {"ok": False, "error": "this robot has no coordination statechart to send events to"}
             self.coordinator.event(name)
+            self.runtime.note(f"event {name} (from the control socket)")
             return {"ok": True, "op": op, "name": name}
         if op not in ACTIONS:
             return {

@@ -163,8 +163,15 @@ class Coordinator:
                 outcome = self.binder.request_between_ticks(request)
                 verdict = "accepted" if outcome.accepted else f"refused: {outcome.reason}"
                 runtime.note(f"coordination: {request}: {verdict}")
-            else:
-                self.binder.submit(request)
+            else:  # the outcome arrives later; it goes into the log then
+                future = self.binder.submit(request)
+
+                def report(done: Any) -> None:
+                    outcome = done.result()
+                    verdict = "accepted" if outcome.accepted else f"refused: {outcome.reason}"
+                    runtime.note(f"coordination: {request}: {verdict}")
+
+                future.add_done_callback(report)
 
         return {
             "status": status,

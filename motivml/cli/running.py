@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import signal
 import sys
 import threading
@@ -183,6 +184,11 @@ def run_command(
     interrupted = threading.Event()
 
     def interrupt(signum: int, frame: object) -> None:  # Ctrl-C: end the run, keep the summary
+        if interrupted.is_set():  # a second Ctrl-C: the loop is stuck (a plugin that never returns)
+            err.print(
+                "[bold red]interrupted twice[/]: the control loop did not stop (a plugin's step that never returns?); exiting now"
+            )
+            os._exit(130)
         interrupted.set()
         runtime.stop()
 
