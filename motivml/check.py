@@ -197,6 +197,15 @@ def validate_coordination(
     if doc is None:
         return report
     coordination, found = read_coordination(doc, model, architecture)
+    if architecture is None and (path_of_architecture := Path(path).parent / "architecture.json").is_file():
+        found = [d for d in found if "the robot has no architecture.json" not in d.message]
+        found.append(
+            error(
+                doc.locate(()),
+                f"{path_of_architecture.name} is invalid (see its errors): the coordination's elements are not checked",
+                "coordination.architecture",
+            )
+        )
     report.diagnostics += found
     if coordination is not None:
         from .configure import resolve  # configure builds on check: resolve only here, at need

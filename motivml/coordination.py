@@ -29,6 +29,13 @@ from .schema import check_document
 
 COORDINATION = "coordination.schema.json"
 MAX_DEPTH = 64  # nesting of states (the schema check recurses)
+CPP_KEYWORDS = frozenset(
+    "alignas alignof and asm auto bitand bitor bool break case catch char class compl concept const consteval "
+    "constexpr constinit continue decltype default delete do double else enum explicit export extern false float "
+    "for friend goto if inline int long mutable namespace new noexcept not nullptr operator or private protected "
+    "public register requires return short signed sizeof static struct switch template this throw true try "
+    "typedef typeid typename union unsigned using virtual void volatile while xor".split()
+)
 RESERVED_EVENTS = {"motivml", "error", "done"}  # SCXML matches event names by prefix: these would catch ours
 CRITERION_FOR = {
     "converged": ("convergence",),
@@ -102,6 +109,13 @@ class _Checker:
 
     def run(self) -> Coordination | None:
         root = self.doc.root
+        for state, _, path, _ in _walk(root):
+            if state["id"] in CPP_KEYWORDS:
+                self.warn(
+                    (*path, "id"),
+                    f"state id {state['id']!r} is a C++ keyword: Qt's SCXML compiler would generate code that does not build",
+                    "coordination.keyword",
+                )
         states: dict[str, dict[str, Any]] = {}
         parent: dict[str, str | None] = {}
         paths: dict[str, tuple[str | int, ...]] = {}
@@ -192,6 +206,13 @@ class _Checker:
         element: dict[str, Any] | None = getattr(self.architecture, section).get(name)
         if element is None:
             self.error(path, f"unknown {what} {name!r}", "coordination.unknown")
+        elif self.variant is not None and element["feature"] not in self.variant.bindings:
+            self.warn(
+                path,
+                f"{what} {name} belongs to {element['feature']}, which variant {self.variant.name} does not select: "
+                f"it is never active there",
+                "coordination.inactive",
+            )
         return element
 
     def condition(self, condition: dict[str, Any], path: tuple[str | int, ...]) -> None:

@@ -324,9 +324,15 @@ class Binder:
         self.runtime.stop()
 
     def close(self) -> None:
+        """Stop every plugin, after the request in flight (if any) has ended."""
         self._executor.shutdown(wait=True)
-        for running in list(self.runtime.plugins.values()):
-            self._stop(running)
+        settled = self._lock.acquire(timeout=10.0)  # a request from the socket may be preparing
+        try:
+            for running in list(self.runtime.plugins.values()):
+                self._stop(running)
+        finally:
+            if settled:
+                self._lock.release()
         self.runtime.plugins.clear()
         self.reconfigurer.close()
         self.python.close()

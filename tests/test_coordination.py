@@ -114,7 +114,11 @@ def test_validation(tmp_path: Path, case: str) -> None:
 
 def test_the_shipped_coordination_is_valid_for_every_variant() -> None:
     result = CliRunner().invoke(main, ["validate", str(ARM)])
-    assert "valid: " + str(ARM / "coordination.json") + ", 0 errors, 0 warnings" in result.output
+    assert "valid: " + str(ARM / "coordination.json") + ", 0 errors, 4 warnings" in result.output
+    # each primitive's component is named in a condition, and each variant has one of them
+    assert (
+        "component DMPReacher belongs to dmp_reach, which variant attractor does not select" in result.output
+    )
 
 
 def test_deep_nesting_is_refused_without_a_traceback(tmp_path: Path) -> None:
@@ -353,3 +357,22 @@ def test_a_chart_that_never_settles_stops_the_run(tmp_path: Path) -> None:
         in result.output
     )
     assert result.exit_code == 1
+
+
+def test_keywords_and_an_invalid_architecture_are_said_so(tmp_path: Path) -> None:
+    keyword = changed(
+        lambda d: d["states"][1].update(id="delete") or working(d)["transitions"][0].update(target="delete")
+    )
+    assert (
+        "$.states[1].id: warning: state id 'delete' is a C++ keyword: Qt's SCXML compiler would generate code that does not build"
+        in messages(tmp_path / "k", keyword)
+    )
+    folder = robot_with(tmp_path / "a", COORDINATION)
+    (folder / "architecture.json").unlink()
+    (folder / "architecture.json").write_text('{"spaces": [{"id": "X"}]}')
+    result = CliRunner().invoke(main, ["validate", str(folder), "--variant", "dmp"])
+    assert (
+        "architecture.json is invalid (see its errors): the coordination's elements are not checked"
+        in result.output
+    )
+    assert "the robot has no architecture.json" not in result.output
