@@ -180,6 +180,12 @@ class Module:
         ]
         return np.concatenate(parts)
 
+    def retarget(self, goal: Vector) -> None:
+        """Move the goal without restarting: the motion so far goes on towards it."""
+        for system, g in zip(self.systems, self._split(goal), strict=True):
+            if isinstance(system, PointAttractor | DiscreteDMP):
+                system.goal = g.copy()
+
     def reset(self, start: Vector, goal: Vector) -> None:
         for system, x0, g in zip(self.systems, self._split(start), self._split(goal), strict=True):
             if isinstance(system, DiscreteDMP):
@@ -325,7 +331,11 @@ class Component:
             if goal is None:
                 goal = self._goal if self._goal is not None else (here if here is not None else module.hold())
             if goal is not self._goal:
-                if self._goal is None or not np.array_equal(goal, self._goal):
+                if self._goal is None:
+                    module.reset(here if here is not None else module.position(), goal)
+                elif self.kind == "TrackingController":  # a moving reference: follow it, keep the motion
+                    module.retarget(goal)
+                elif not np.array_equal(goal, self._goal):  # a new goal: a new movement from here
                     module.reset(here if here is not None else module.position(), goal)
                 self._goal = goal
             out = module.step(self.dt, goal)

@@ -583,3 +583,34 @@ def test_a_stopped_writer_lets_its_space_be_sent_to() -> None:
         c.running = False
     robot.runtime.send("LegCommand", [0.1, 0.2, 0.3, 0.4])
     assert robot.assembly.values["LegCommand"].tolist() == [0.1, 0.2, 0.3, 0.4]
+
+
+def test_a_tracking_controller_follows_a_moving_reference_without_restarting(tmp_path: Path) -> None:
+    architecture = {
+        "spaces": [space("Reference", 1), space("Out", 1)],
+        "modules": [
+            {
+                "id": "m",
+                "systems": [{"type": "pointAttractor", "dimension": 1, "alpha": 40.0}],
+                "feature": "base",
+            }
+        ],
+        "components": [
+            {
+                "id": "follower",
+                "kind": "TrackingController",
+                "module": "m",
+                "goal": {"space": "Reference"},
+                "output": {"space": "Out"},
+                "criterion": {"type": "tracking", "tolerance": 0.05},
+                "feature": "base",
+            }
+        ],
+    }
+    robot = launch(robot_folder(tmp_path, architecture), "v")
+    for k in range(2000):  # a ramp at 0.5 per second
+        robot.runtime.send("Reference", [0.5 * k / 1000])
+        robot.runtime.tick()
+    lag = robot.assembly.values["Reference"][0] - robot.assembly.values["Out"][0]
+    assert 0.0 < lag < 0.06  # a critically damped follower lags by about 2 v / omega = 0.05
+    assert component(robot, "follower").status == "tracking"
