@@ -182,6 +182,11 @@ class Module:
 
     def retarget(self, goal: Vector) -> None:
         """Move the goal without restarting: the motion so far goes on towards it."""
+        single = self._single
+        if single is not None:  # spaces are replaced, never changed in place: no copy needed
+            if not isinstance(single, CoupledOscillators):
+                single.goal = goal
+            return
         for system, g in zip(self.systems, self._split(goal), strict=True):
             if isinstance(system, PointAttractor | DiscreteDMP):
                 system.goal = g.copy()
