@@ -13,7 +13,8 @@ What SCXML has no word for is in the namespace `urn:motivml:coordination:1` (pre
 which SCXML engines accept and ignore:
 - domain conditions: `m:when` on the transition, e.g. `component Reacher is converged`;
   the transition waits for the event `motivml.condition`, which the runtime raises whenever
-  a component's status or a module's learning state changes;
+  a component's status or a module's learning state changes, and which the state raises
+  itself on entry (`<raise>`), so that a condition already true is seen;
 - a transition that needs several of event, time and condition: `m:requires="all"` (SCXML
   reads an event list as alternatives);
 - domain actions: `<m:send space= value=>`, `<m:learning module= state=>`, `<m:start>`,
@@ -79,9 +80,12 @@ def to_scxml(coordination: Coordination, name: str = "coordination") -> str:
         )
         elements[sid] = element
         timers = [(i, t) for i, t in enumerate(state.get("transitions", [])) if "after" in t]
-        if state.get("entry") or timers:
+        waits = any("when" in t for t in state.get("transitions", []))
+        if state.get("entry") or timers or waits:
             entry = ET.SubElement(element, _q("onentry"))
             _actions(entry, state.get("entry", []))
+            if waits:  # a condition that already holds on entry must be looked at once
+                ET.SubElement(entry, _q("raise"), event=CONDITION_EVENT)
             for i, transition in timers:
                 ET.SubElement(
                     entry,

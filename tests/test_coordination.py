@@ -247,6 +247,10 @@ def test_the_scxml_export_is_accepted_by_qt_and_says_what_the_document_says(tmp_
     ]
     assert when == ["component DMPReacher is converged", "component AttractorReacher is converged"]
     assert root.find(".//s:state[@id='Rest']/s:onentry/s:send", ns).get("delay") == "500ms"  # type: ignore[union-attr]
+    raised = root.find(".//s:state[@id='ReachOut']/s:onentry/s:raise", ns)
+    assert (
+        raised is not None and raised.get("event") == "motivml.condition"
+    )  # conditions true on entry are seen
     if not QSCXMLC.exists():
         pytest.fail("Qt's qscxmlc is missing: .ci/run installs libqt6scxml6-bin")
     accepted = subprocess.run(
