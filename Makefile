@@ -24,7 +24,7 @@ cpp-plugins: setup
 	cmake --build build/cpp_plugins -j 2 >/dev/null
 
 test: setup cpp-plugins
-	$(BIN)/ruff check motivml tests bench
+	$(BIN)/ruff check motivml tests bench plugins guidelines/examples
 	$(BIN)/mypy
 	$(BIN)/pytest -q
 

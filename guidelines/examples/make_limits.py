@@ -2,7 +2,6 @@
 import os
 
 
-
 def nested_model(path, n):
     """n features, each one inside the previous one's "sub" array.
 
