@@ -387,6 +387,24 @@ class Assembly:
     fresh: list[Component]  # components built new, to prime before their first step
     features: set[str]  # the active features it was built for
 
+    def goal_changed(self, space: str) -> None:
+        """A space was set from outside: components whose goal depends on it (directly or
+        through free mappings) have not yet judged the new goal, so they are `ongoing`."""
+        changed, grew = {space}, True
+        while grew:
+            grew = False
+            for _, source, target, _ in self.mappings:
+                if source in changed and target not in changed:
+                    changed.add(target)
+                    grew = True
+        for component in self.components:
+            if (
+                component.goal is not None
+                and component.goal.space in changed
+                and component.criterion is not None
+            ):
+                component.status = "ongoing"
+
     def prime(self) -> None:
         """Start the fresh goal-directed components where their feedback or output is now.
 

@@ -20,6 +20,7 @@ from sismic.interpreter import Interpreter
 from sismic.model import BasicState, CompoundState, FinalState, Statechart, Transition
 
 from .coordination import Coordination
+from .errors import describe_exception
 from .reconfigure import Request
 from .runtime import Runtime
 from .transactions import Binder
@@ -100,7 +101,7 @@ class Coordinator:
         self._lock = threading.Lock()
         self.history: list[tuple[float, int, str, str]] = []  # (time, tick, "entered"/"exited", state)
         self.finished: tuple[float, int, str] | None = None  # a top-level final state reached
-        self.unsettled = False  # the chart kept moving without end
+        self.unsettled = False  # the chart kept moving without end, or its code failed: the run stopped
         self.interpreter = Interpreter(
             statechart(coordination), initial_context=self._context(), clock=self.clock
         )
@@ -124,17 +125,10 @@ class Coordinator:
             if space not in runtime.assembly.values:
                 runtime.note(f"coordination: send to {space} skipped: its feature is not active")
                 return
-            runtime.send(space, np.asarray(value))
-            changed, grew = {space}, True  # the space, and what free mappings compute from it
-            while grew:
-                grew = False
-                for _, source, target, _ in runtime.assembly.mappings:
-                    if source in changed and target not in changed:
-                        changed.add(target)
-                        grew = True
-            for c in runtime.assembly.components:  # a new goal: convergence is not yet known
-                if c.goal is not None and c.goal.space in changed and c.criterion is not None:
-                    c.status = "ongoing"
+            try:
+                runtime.send(space, np.asarray(value))
+            except ValueError as exc:  # a running component writes it
+                runtime.note(f"coordination: send to {space} skipped: {exc}")
 
         def set_learning(name: str, state: str) -> None:
             module = runtime.assembly.modules.get(name)
@@ -201,7 +195,13 @@ class Coordinator:
         for name in events:
             self.interpreter.queue(name)
         for _ in range(MAX_STEPS):
-            step = self.interpreter.execute_once()
+            try:
+                step = self.interpreter.execute_once()
+            except Exception as exc:  # a guard or an action that cannot run: say so, stop the run
+                runtime.note(f"coordination failed: {describe_exception(exc)}: the run stops")
+                self.unsettled = True
+                runtime.stop()
+                return
             if step is None:
                 break
             for sid in step.exited_states:

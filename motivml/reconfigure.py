@@ -28,7 +28,7 @@ from types import TracebackType
 
 from . import encoding as enc
 from .configure import Variant
-from .errors import Diagnostic, Location, MotivmlError, error
+from .errors import Location, MotivmlError, error
 from .explain import Explainer
 from .model import Configuration
 
@@ -228,8 +228,3 @@ class Reconfigurer:
         self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
     ) -> None:
         self.close()
-
-
-def explain_refusal(diagnostics: list[Diagnostic]) -> str:
-    """One line per reason (for logs and the control socket)."""
-    return "; ".join(d.message for d in diagnostics)

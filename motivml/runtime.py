@@ -205,9 +205,7 @@ class Runtime:
         before = [c.status for c in self.assembly.components]
         self.assembly.tick(self.ticks)
         self.ticks += 1
-        for component, old in zip(self.assembly.components, before, strict=True):
-            if component.status != old:
-                self.events.append(Event(self.ticks, self.time, component.id, component.status))
+        self._record(before)
         if self.plugins:
             now = self.time
             for running in list(self.plugins.values()):
@@ -299,6 +297,15 @@ class Runtime:
         if vector.shape != values[space].shape:
             raise ValueError(f"{space} holds {values[space].size} numbers, not {vector.size}")
         values[space] = vector
+        before = [c.status for c in self.assembly.components]
+        self.assembly.goal_changed(space)
+        self._record(before)
+
+    def _record(self, before: list[str]) -> None:
+        """An event for every component whose status differs from `before`."""
+        for component, old in zip(self.assembly.components, before, strict=True):
+            if component.status != old:
+                self.events.append(Event(self.ticks, self.time, component.id, component.status))
 
     def first(self, component: str, status: str) -> Event | None:
         """When a component first reached a status (e.g. its criterion fired)."""

@@ -216,14 +216,10 @@ class Binder:
                 return future.result()
         with self._lock:
             began = time.perf_counter()
-            try:
-                plan = self.reconfigurer.plan(self.active, request)
-            except Refused as refused:
-                return Outcome(request, False, diagnostics=refused.diagnostics)
-            try:
-                commit = self._prepare(plan)
-            except MotivmlError as failed:
-                return Outcome(request, False, plan, diagnostics=failed.diagnostics)
+            prepared = self._check_and_prepare(request)
+            if isinstance(prepared, Outcome):
+                return prepared
+            plan, commit = prepared
             self.runtime.submit(commit)
             if not commit.done.wait(timeout) and self.runtime.withdraw(commit):
                 for running in commit.add.values():
@@ -233,12 +229,7 @@ class Binder:
                     request, False, plan, diagnostics=[error(Location("run"), message, "reconfigure.timeout")]
                 )
             commit.done.wait()
-            for running in commit.removed:
-                self._stop(running)
-            self.active = plan.after
-            change = commit.change
-            assert change is not None
-            return Outcome(request, True, plan, change, change.clock - began)
+            return self._committed(plan, commit, began)
 
     def request_between_ticks(self, request: Request) -> Outcome:
         """A request made by the control thread itself, between two ticks: committed at once.
@@ -248,22 +239,33 @@ class Binder:
         """
         with self._lock:
             began = time.perf_counter()
-            try:
-                plan = self.reconfigurer.plan(self.active, request)
-            except Refused as refused:
-                return Outcome(request, False, diagnostics=refused.diagnostics)
-            try:
-                commit = self._prepare(plan)
-            except MotivmlError as failed:
-                return Outcome(request, False, plan, diagnostics=failed.diagnostics)
+            prepared = self._check_and_prepare(request)
+            if isinstance(prepared, Outcome):
+                return prepared
+            plan, commit = prepared
             self.runtime.submit(commit)
             self.runtime.commit_now()
-            for running in commit.removed:
-                self._stop(running)
-            self.active = plan.after
-            change = commit.change
-            assert change is not None
-            return Outcome(request, True, plan, change, change.clock - began)
+            return self._committed(plan, commit, began)
+
+    def _check_and_prepare(self, request: Request) -> tuple[Plan, Commit] | Outcome:
+        """The plan and its prepared commit, or the outcome that says why there is none."""
+        try:
+            plan = self.reconfigurer.plan(self.active, request)
+        except Refused as refused:
+            return Outcome(request, False, diagnostics=refused.diagnostics)
+        try:
+            return plan, self._prepare(plan)
+        except MotivmlError as failed:
+            return Outcome(request, False, plan, diagnostics=failed.diagnostics)
+
+    def _committed(self, plan: Plan, commit: Commit, began: float) -> Outcome:
+        """After the commit: stop the plugins that left, take the new active set."""
+        for running in commit.removed:
+            self._stop(running)
+        self.active = plan.after
+        change = commit.change
+        assert change is not None
+        return Outcome(plan.request, True, plan, change, change.clock - began)
 
     def _prepare(self, plan: Plan) -> Commit:
         assembly = None

@@ -380,3 +380,23 @@ def test_keywords_and_an_invalid_architecture_are_said_so(tmp_path: Path) -> Non
         in result.output
     )
     assert "the robot has no architecture.json" not in result.output
+
+
+def test_a_send_to_a_space_a_running_component_writes_is_skipped_and_said(tmp_path: Path) -> None:
+    document = changed(lambda d: working(d)["states"][0]["entry"][0]["send"].update(space="ArmCommand"))
+    result = CliRunner().invoke(
+        main,
+        [
+            "run",
+            str(robot_with(tmp_path, document)),
+            "--variant",
+            "dmp",
+            "--duration",
+            "0.1",
+            "--clock",
+            "simulated",
+            "--no-control",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    assert "coordination: send to ArmCommand skipped: ArmCommand is written by DMPReacher" in result.output

@@ -16,6 +16,7 @@ from motivml.launch import Robot, launch
 from motivml.runtime import RealClock
 
 EXAMPLES = Path(__file__).parent.parent / "feature_models"
+ROOT_LAUNDRY = EXAMPLES / "laundry_gripping"
 TROT = np.array([0.0, np.pi, np.pi, 0.0])
 
 
@@ -614,3 +615,14 @@ def test_a_tracking_controller_follows_a_moving_reference_without_restarting(tmp
     lag = robot.assembly.values["Reference"][0] - robot.assembly.values["Out"][0]
     assert 0.0 < lag < 0.06  # a critically damped follower lags by about 2 v / omega = 0.05
     assert component(robot, "follower").status == "tracking"
+
+
+def test_a_goal_sent_from_outside_unsettles_the_components_that_follow_it() -> None:
+    robot = launch(ROOT_LAUNDRY, "engineered")
+    robot.runtime.run(2.0)
+    hybrid = component(robot, "HybridController")
+    robot.runtime.send("ImageCentre", [300.0, 200.0])  # unrelated to HybridController's goal
+    status = hybrid.status
+    robot.assembly.components[0].running = False  # the babbler: PleatPixel may be sent now
+    robot.runtime.send("PleatPixel", [400.0, 200.0])  # -> PleatPosition -> JointGoal, through free mappings
+    assert hybrid.status == "ongoing" and status in ("converged", "ongoing")
