@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from motivml.launch import launch
-from motivml.runtime import RealClock
+from motivml.runtime.launch import launch
+from motivml.runtime.loop import RealClock
 
 
 def robot(folder: Path, components: int) -> None:

@@ -30,12 +30,12 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from run_bench import robot  # noqa: E402
 
-from motivml.launch import launch  # noqa: E402
-from motivml.reconfigure import Request  # noqa: E402
-from motivml.runtime import RealClock, RunStats  # noqa: E402
+from motivml.runtime.launch import launch  # noqa: E402
+from motivml.runtime.loop import RealClock, RunStats  # noqa: E402
+from motivml.runtime.reconfigure import Request  # noqa: E402
 
 PLUGIN = """
-from motivml.plugin_api import FeaturePlugin
+from motivml.plugins.api import FeaturePlugin
 
 
 class Plugin(FeaturePlugin):

@@ -55,8 +55,8 @@ def run_measured(args: list[str]) -> tuple[float, int, str]:
 
 
 def stages(model_path: str, config_path: str, cnf_path: str, assumptions_path: str) -> dict[str, float]:
-    from motivml import encoding as enc
-    from motivml.check import load_configuration, load_model
+    from motivml.binding import encoding as enc
+    from motivml.validate import load_configuration, load_model
 
     times: dict[str, float] = {}
     t = time.perf_counter()
@@ -89,7 +89,7 @@ def main() -> None:
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000])
     parser.add_argument("--seed", type=int, default=1)
     args = parser.parse_args()
-    from motivml.encoding import SOLVER
+    from motivml.binding.encoding import SOLVER
 
     motivml = str(Path(sys.executable).with_name("motivml"))
     print(f"solver {SOLVER}; python {sys.version.split()[0]}; {os.cpu_count()} cores")

@@ -33,9 +33,9 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 from xml.sax.saxutils import escape, quoteattr
 
-from .architecture import Architecture
+from .architecture.document import Architecture
 from .errors import EnvironmentProblem, Location, error
-from .model import Feature, FeatureModel
+from .language.model import Feature, FeatureModel
 
 Value = str | int | float | bool
 GRAPHML_NS = "http://graphml.graphdrawing.org/xmlns"

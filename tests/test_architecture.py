@@ -10,10 +10,10 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 
-from motivml.architecture import read_architecture
+from motivml.architecture.document import read_architecture
 from motivml.cli import main
-from motivml.loader import parse
-from motivml.reader import read_model
+from motivml.documents.loader import parse
+from motivml.language.reader import read_model
 
 MODEL = {
     "id": "arm",
@@ -256,7 +256,7 @@ def test_validate_checks_the_robot_folders_architecture(tmp_path: Path) -> None:
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis_jsonschema import from_schema  # noqa: E402
 
-from motivml.schema import load_schema  # noqa: E402
+from motivml.documents.schema import load_schema  # noqa: E402
 
 
 def _small(schema: dict[str, Any]) -> dict[str, Any]:
@@ -290,7 +290,7 @@ def test_schema_valid_documents_never_crash(document: dict[str, Any]) -> None:
 
 def test_an_element_using_one_of_a_feature_that_can_be_inactive_is_an_error(tmp_path: Path) -> None:
     """Family-wide: some variant activates gait without reaching, so walker could not be built."""
-    from motivml.check import validate_architecture
+    from motivml.validate import validate_architecture
 
     document = copy.deepcopy(VALID)
     document["spaces"].append(

@@ -7,7 +7,7 @@ import pytest
 from click.testing import CliRunner
 
 from motivml.cli import main
-from motivml.launch import launch
+from motivml.runtime.launch import launch
 from tests.test_examples import ROOT
 
 LAUNDRY = ROOT / "laundry_gripping"

@@ -14,12 +14,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_property_sat import configurations, models
 
-from motivml.check import load_configuration, load_model, validate
+from motivml.binding.codegen import outputs
+from motivml.binding.resolve import NoVariant, resolve
 from motivml.cli import main
-from motivml.codegen import outputs
-from motivml.configure import NoVariant, resolve
-from motivml.loader import parse
-from motivml.reader import read_configuration, read_model
+from motivml.documents.loader import parse
+from motivml.language.reader import read_configuration, read_model
+from motivml.validate import load_configuration, load_model, validate
 
 ROOT = Path(__file__).resolve().parent.parent
 SIMPLEBOT = ROOT / "feature_models" / "simplebot"

@@ -13,10 +13,10 @@ import pytest
 from click.testing import CliRunner
 
 from motivml.cli import main
-from motivml.control import ControlServer, send
 from motivml.errors import EnvironmentProblem
-from motivml.launch import Robot, launch
-from motivml.runtime import RealClock
+from motivml.runtime.control import ControlServer, send
+from motivml.runtime.launch import Robot, launch
+from motivml.runtime.loop import RealClock
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 

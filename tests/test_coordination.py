@@ -14,7 +14,7 @@ import pytest
 from click.testing import CliRunner
 
 from motivml.cli import main
-from motivml.launch import launch
+from motivml.runtime.launch import launch
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM = ROOT / "feature_models" / "coordinated_arm"  # the reaching arm (links) with a coordination.json

@@ -14,11 +14,11 @@ from types import ModuleType
 
 import pytest
 
-from motivml.launch import Robot, launch
-from motivml.plugin_api import PluginContext
-from motivml.plugins import Plugin
-from motivml.pyplugins import PluginError
-from motivml.reconfigure import Request
+from motivml.plugins.api import PluginContext
+from motivml.plugins.manifests import Plugin
+from motivml.plugins.python import PluginError
+from motivml.runtime.launch import Robot, launch
+from motivml.runtime.reconfigure import Request
 
 ROOT = Path(__file__).resolve().parent.parent
 GESTURES = ROOT / "plugins" / "cpp" / "gestures"
@@ -88,7 +88,7 @@ def manifest(folder: Path) -> Plugin:
 
 
 def test_the_broken_plugin_is_reported_with_its_manifest(extension: ModuleType) -> None:
-    from motivml import cppplugins
+    from motivml.plugins import cpp as cppplugins
 
     with pytest.raises(PluginError) as caught:
         cppplugins.create(manifest(BROKEN), context())
@@ -132,7 +132,7 @@ def test_gesture_plugins_load_step_and_unload_in_the_running_robot(field: Robot)
 def test_a_library_link_that_leaves_the_plugin_folder_is_refused(
     extension: ModuleType, tmp_path: Path
 ) -> None:
-    from motivml import cppplugins
+    from motivml.plugins import cpp as cppplugins
 
     folder = tmp_path / "sneaky"
     folder.mkdir()

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from motivml.dynamics import CoupledOscillators, DiscreteDMP, PointAttractor
-from motivml.learners import ExtremeLearningMachine, ridge
+from motivml.architecture.dynamics import CoupledOscillators, DiscreteDMP, PointAttractor
+from motivml.architecture.learners import ExtremeLearningMachine, ridge
 
 DT = 0.001
 

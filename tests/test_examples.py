@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from motivml.check import validate
-from motivml.robot import RobotFolder
+from motivml.documents.robot_folder import RobotFolder
+from motivml.validate import validate
 
 ROOT = Path(__file__).resolve().parent.parent / "feature_models"
 ROBOTS = sorted(p.name for p in ROOT.iterdir() if (p / "model.json").is_file())

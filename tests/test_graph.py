@@ -13,9 +13,9 @@ from typing import Any
 import pytest
 from helpers import feature
 
-from motivml.architecture import Architecture, read_architecture
-from motivml.check import load_configuration, load_model
-from motivml.configure import Variant, resolve
+from motivml.architecture.document import Architecture, read_architecture
+from motivml.binding.resolve import Variant, resolve
+from motivml.documents.loader import parse
 from motivml.errors import EnvironmentProblem
 from motivml.graph import (
     architecture_dot,
@@ -24,9 +24,9 @@ from motivml.graph import (
     feature_model_graphml,
     render_svg,
 )
-from motivml.loader import parse
-from motivml.model import Feature, FeatureModel
-from motivml.reader import read_model
+from motivml.language.model import Feature, FeatureModel
+from motivml.language.reader import read_model
+from motivml.validate import load_configuration, load_model
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 NS = {"g": "http://graphml.graphdrawing.org/xmlns", "svg": "http://www.w3.org/2000/svg"}

@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from motivml.binding.impact import REBUILD, RESTART, RUN_TIME, classify
 from motivml.cli import main
-from motivml.impact import REBUILD, RESTART, RUN_TIME, classify
 
 STATES = ["off", "SE", "SL", "DE", "DL"]
 

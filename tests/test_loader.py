@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from motivml.documents.loader import MAX_DEPTH, format_path, load_bytes, load_file, parse
 from motivml.errors import DocumentError, EnvironmentProblem, MotivmlError
-from motivml.loader import MAX_DEPTH, format_path, load_bytes, load_file, parse
 
 
 def message(text: str) -> str:

@@ -8,10 +8,10 @@ from typing import Any
 
 from click.testing import CliRunner
 
-from motivml.check import load_model
 from motivml.cli import main
-from motivml.plugins import discover
-from motivml.robot import RobotFolder
+from motivml.documents.robot_folder import RobotFolder
+from motivml.plugins.manifests import discover
+from motivml.validate import load_model
 
 MODEL = {
     "id": "bot",

@@ -15,9 +15,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from semantic_helpers import variant_errors
 
-from motivml.check import analyse_model
-from motivml.loader import parse
-from motivml.reader import read_model
+from motivml.documents.loader import parse
+from motivml.language.reader import read_model
+from motivml.validate import analyse_model
 
 
 @st.composite
@@ -107,8 +107,8 @@ def test_dead_features_equal_brute_force(model: dict[str, Any]) -> None:
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.data())
 def test_reported_conflicts_are_disjoint_minimal_unsatisfiable_sets(data: st.DataObject) -> None:
-    from motivml.encoding import Encoding
-    from motivml.reader import read_configuration
+    from motivml.binding.encoding import Encoding
+    from motivml.language.reader import read_configuration
 
     model = data.draw(models())
     config = data.draw(configurations(model))

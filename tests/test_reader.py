@@ -6,8 +6,8 @@ import json
 
 from helpers import config, dumps, feature
 
-from motivml.loader import parse
-from motivml.reader import read_configuration, read_model
+from motivml.documents.loader import parse
+from motivml.language.reader import read_configuration, read_model
 
 
 def read(model: dict[str, object]):  # type: ignore[no-untyped-def]

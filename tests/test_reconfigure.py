@@ -10,11 +10,11 @@ from helpers import config, feature
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from motivml.configure import NoVariant, resolve, start_state
-from motivml.loader import parse
-from motivml.model import FeatureModel
-from motivml.reader import read_configuration, read_model
-from motivml.reconfigure import Plan, Reconfigurer, Refused, Request
+from motivml.binding.resolve import NoVariant, resolve, start_state
+from motivml.documents.loader import parse
+from motivml.language.model import FeatureModel
+from motivml.language.reader import read_configuration, read_model
+from motivml.runtime.reconfigure import Plan, Reconfigurer, Refused, Request
 from tests.test_property_sat import configurations, models
 from tests.test_start_state import satisfies_section_2
 

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from hypothesis_jsonschema import from_schema
 
 from motivml.cli import main
-from motivml.schema import CONFIGURATION, load_schema
+from motivml.documents.schema import CONFIGURATION, load_schema
 
 ROOT = Path(__file__).resolve().parent.parent
 SIMPLEBOT = ROOT / "feature_models" / "simplebot"

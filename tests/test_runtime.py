@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from motivml.builder import BuildError, planar_arm
+from motivml.architecture.builder import BuildError, planar_arm
 from motivml.cli import main
-from motivml.launch import Robot, launch
-from motivml.runtime import RealClock
+from motivml.runtime.launch import Robot, launch
+from motivml.runtime.loop import RealClock
 
 EXAMPLES = Path(__file__).parent.parent / "feature_models"
 ROOT_LAUNDRY = EXAMPLES / "laundry_gripping"
@@ -562,7 +562,7 @@ def test_the_live_view_shows_the_rate_and_every_component() -> None:
 
 
 def test_inverse_kinematics_puts_the_hand_where_asked() -> None:
-    from motivml.builder import planar_arm_ik
+    from motivml.architecture.builder import planar_arm_ik
 
     rng = np.random.default_rng(3)
     # reachable: the wrist (one tool length short, for 3 links) between |l1 - l2| and l1 + l2

@@ -7,8 +7,14 @@ import json
 import pytest
 from jsonschema import Draft202012Validator
 
-from motivml.loader import parse
-from motivml.schema import CONFIGURATION, FEATURE_MODEL, check_configuration, check_feature_model, load_schema
+from motivml.documents.loader import parse
+from motivml.documents.schema import (
+    CONFIGURATION,
+    FEATURE_MODEL,
+    check_configuration,
+    check_feature_model,
+    load_schema,
+)
 
 
 def model_errors(text: str) -> list[str]:

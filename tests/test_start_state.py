@@ -9,10 +9,10 @@ from typing import Any
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from motivml.configure import NoVariant, resolve, start_state
-from motivml.loader import parse
-from motivml.model import FeatureModel
-from motivml.reader import read_configuration, read_model
+from motivml.binding.resolve import NoVariant, resolve, start_state
+from motivml.documents.loader import parse
+from motivml.language.model import FeatureModel
+from motivml.language.reader import read_configuration, read_model
 from tests.test_property_sat import configurations, models
 
 

@@ -16,11 +16,11 @@ from click.testing import CliRunner
 from helpers import config, feature
 
 from motivml.cli import main
-from motivml.launch import Robot, launch
-from motivml.pyplugins import PluginError
-from motivml.reconfigure import Request
-from motivml.runtime import RealClock
-from motivml.transactions import Outcome
+from motivml.plugins.python import PluginError
+from motivml.runtime.binder import Outcome
+from motivml.runtime.launch import Robot, launch
+from motivml.runtime.loop import RealClock
+from motivml.runtime.reconfigure import Request
 
 ROOT = Path(__file__).resolve().parent.parent
 DL = ("Late", "Dynamic")
@@ -85,7 +85,7 @@ def test_unloading_slam_unloads_its_subtree_and_its_space(simplebot: Robot) -> N
 
 # ------------------------------------------------------------- robots made in the test
 PLUGIN = """
-from motivml.plugin_api import FeaturePlugin
+from motivml.plugins.api import FeaturePlugin
 
 class Plugin(FeaturePlugin):
     VERSION = 1

@@ -119,7 +119,7 @@ class Library {
 }  // namespace
 
 PYBIND11_MODULE(_cpp_plugins, m) {
-  m.doc() = "C++ feature plugins through ROS class_loader (see motivml/cppplugins.py)";
+  m.doc() = "C++ feature plugins through ROS class_loader (see motivml/plugins/cpp.py)";
   auto load_error = py::register_exception<class_loader::ClassLoaderException>(m, "LoadError", PyExc_RuntimeError);
   (void)load_error;
   py::class_<motivml::Spaces, PySpaces>(m, "Spaces")

@@ -20,8 +20,8 @@ from rich.console import Console
 from rich.markup import escape
 
 from .. import __version__
+from ..documents.robot_folder import RobotFolder
 from ..errors import Diagnostic, MotivmlError, Severity
-from ..robot import RobotFolder
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
 err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)

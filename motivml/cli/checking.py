@@ -12,16 +12,16 @@ from rich.console import Console
 from rich.markup import escape
 from rich.tree import Tree
 
-from .. import impact
-from ..check import Report, analyse_model, binding_states, validate
-from ..codegen import late_or_dynamic, outputs, write_if_changed
-from ..configure import PREFERENCES, resolve
+from ..binding import impact
+from ..binding.codegen import late_or_dynamic, outputs, write_if_changed
+from ..binding.resolve import PREFERENCES, resolve
+from ..documents.robot_folder import RobotFolder
 from ..errors import Diagnostic, MotivmlError
-from ..launch import COORDINATION_FILE
-from ..model import Configuration, FeatureModel
-from ..plugins import discover
-from ..plugins import missing as missing_plugins
-from ..robot import RobotFolder
+from ..language.model import Configuration, FeatureModel
+from ..plugins.manifests import discover
+from ..plugins.manifests import missing as missing_plugins
+from ..runtime.launch import COORDINATION_FILE
+from ..validate import Report, analyse_model, binding_states, validate
 from . import _plural, _targets, fail, main, out, print_diagnostic
 
 

@@ -10,10 +10,10 @@ import click
 from rich.markup import escape
 
 from .. import graph
-from ..codegen import write_if_changed
+from ..binding.codegen import write_if_changed
+from ..coordination.scxml import to_scxml
 from ..errors import MotivmlError
-from ..launch import ARCHITECTURE_FILE, COORDINATION_FILE, load, read_robot_coordination
-from ..scxml import to_scxml
+from ..runtime.launch import ARCHITECTURE_FILE, COORDINATION_FILE, load, read_robot_coordination
 from . import main, out, print_diagnostic
 
 

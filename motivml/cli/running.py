@@ -19,14 +19,14 @@ from rich.live import Live
 from rich.markup import escape
 from rich.table import Table
 
-from ..configure import PREFERENCES
-from ..control import ControlServer, send
-from ..coordinator import Coordinator
+from ..binding.resolve import PREFERENCES
 from ..errors import MotivmlError
-from ..launch import launch
-from ..reconfigure import ACTIONS, Request
-from ..runtime import RealClock, RunStats, Runtime, SimulatedClock, Snapshot
-from ..transactions import Outcome
+from ..runtime.binder import Outcome
+from ..runtime.control import ControlServer, send
+from ..runtime.coordinator import Coordinator
+from ..runtime.launch import launch
+from ..runtime.loop import RealClock, RunStats, Runtime, SimulatedClock, Snapshot
+from ..runtime.reconfigure import ACTIONS, Request
 from . import _plural, err, fail, main, out, print_diagnostic
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from motivml.plugin_api import FeaturePlugin
+from motivml.plugins.api import FeaturePlugin
 
 
 class HectorSLAM(FeaturePlugin):

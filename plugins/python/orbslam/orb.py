@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from motivml.plugin_api import FeaturePlugin
+from motivml.plugins.api import FeaturePlugin
 
 
 class OrbSLAM(FeaturePlugin):

@@ -12,11 +12,11 @@ from __future__ import annotations
 from collections.abc import Collection
 from dataclasses import dataclass
 
+from ..documents.loader import no_gc
+from ..errors import MotivmlError
+from ..language.model import Configuration, Entry, Feature, FeatureModel
+from ..validate import check_variant
 from . import encoding as enc
-from .check import check_variant
-from .errors import MotivmlError
-from .loader import no_gc
-from .model import Configuration, Entry, Feature, FeatureModel
 
 PREFERENCES = ("late", "dynamic")
 

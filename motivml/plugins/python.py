@@ -18,10 +18,10 @@ from typing import Any
 
 from pluginbase import PluginBase, PluginSource
 
-from .errors import Diagnostic, EnvironmentProblem, Location, describe_exception, error
-from .loader import load_file
-from .plugin_api import PluginContext
-from .plugins import Plugin
+from ..documents.loader import load_file
+from ..errors import Diagnostic, EnvironmentProblem, Location, describe_exception, error
+from .api import PluginContext
+from .manifests import Plugin
 
 _LAUNCHES = itertools.count()
 

@@ -17,15 +17,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import encoding as enc
-from .architecture import Architecture, read_architecture, references
-from .coordination import VariantBindings, read_coordination
+from .architecture.document import Architecture, read_architecture, references
+from .binding import encoding as enc
+from .binding.explain import Explainer
+from .coordination.document import VariantBindings, read_coordination
+from .documents.loader import no_gc
+from .documents.schema import check_configuration, check_feature_model, read_checked
 from .errors import Diagnostic, Location, Severity, error, warning
-from .explain import Explainer
-from .loader import no_gc
-from .model import Configuration, Feature, FeatureModel
-from .reader import read_configuration, read_model
-from .schema import check_configuration, check_feature_model, read_checked
+from .language.model import Configuration, Feature, FeatureModel
+from .language.reader import read_configuration, read_model
 
 EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
 LISTED_WARNINGS = 100  # per kind: located one by one; the rest are summed up in one warning
@@ -208,7 +208,7 @@ def validate_coordination(
         )
     report.diagnostics += found
     if coordination is not None:
-        from .configure import resolve  # configure builds on check: resolve only here, at need
+        from .binding.resolve import resolve  # configure builds on check: resolve only here, at need
 
         seen = {(d.location.path, d.message) for d in report.diagnostics}
         for config in configs:

@@ -21,11 +21,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from .architecture import Architecture
-from .errors import Diagnostic, error, warning
-from .loader import Document
-from .model import FeatureModel
-from .schema import check_document
+from ..architecture.document import Architecture
+from ..documents.loader import Document
+from ..documents.schema import check_document
+from ..errors import Diagnostic, error, warning
+from ..language.model import FeatureModel
 
 COORDINATION = "coordination.schema.json"
 MAX_DEPTH = 64  # nesting of states (the schema check recurses)

@@ -25,10 +25,10 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from .errors import EnvironmentProblem, Location, error
+from ..errors import EnvironmentProblem, Location, error
+from .binder import Binder
+from .loop import Runtime
 from .reconfigure import ACTIONS, Request
-from .runtime import Runtime
-from .transactions import Binder
 
 SOCKET = "control.sock"
 LINE_LIMIT = 1 << 16  # bytes per request line

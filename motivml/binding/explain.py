@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from ..errors import Diagnostic, Fact, Location, Severity
+from ..language.model import Configuration, FeatureModel
 from . import encoding as enc
-from .errors import Diagnostic, Fact, Location, Severity
-from .model import Configuration, FeatureModel
 
 # kind -> (rule, why); the first matching kind in PRIORITY gives the sentence its "why".
 WHY: dict[str, tuple[str, str]] = {

@@ -13,11 +13,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from .errors import Diagnostic, EnvironmentProblem, Location, error, warning
-from .loader import load_file
-from .model import FeatureModel
-from .robot import RobotFolder
-from .schema import PLUGIN, ROBOT, check_document, read_checked
+from ..documents.loader import load_file
+from ..documents.robot_folder import RobotFolder
+from ..documents.schema import PLUGIN, ROBOT, check_document, read_checked
+from ..errors import Diagnostic, EnvironmentProblem, Location, error, warning
+from ..language.model import FeatureModel
 
 
 @dataclass(frozen=True)

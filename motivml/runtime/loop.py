@@ -32,8 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from .builder import Assembly
-from .errors import describe_exception
+from ..architecture.builder import Assembly
+from ..errors import describe_exception
 
 
 @dataclass

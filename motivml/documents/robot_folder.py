@@ -6,7 +6,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import EnvironmentProblem, Location, error
+from ..errors import EnvironmentProblem, Location, error
 
 
 class UnknownVariant(EnvironmentProblem):

@@ -39,9 +39,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .architecture import Architecture
+from ..errors import Diagnostic, MotivmlError, error, warning
+from .document import Architecture
 from .dynamics import CoupledOscillators, DiscreteDMP, PointAttractor
-from .errors import Diagnostic, MotivmlError, error, warning
 from .learners import ExtremeLearningMachine, LinearRLS
 
 Vector = NDArray[np.float64]

@@ -25,7 +25,7 @@ from typing import Any
 from jsonschema import Draft202012Validator
 from jsonschema.exceptions import ValidationError
 
-from .errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
 from .loader import Document, JSONPath, load_file, no_gc
 
 FEATURE_MODEL = "feature-model.schema.json"
@@ -50,7 +50,7 @@ def schema_path(name: str) -> Path:
     packaged = resources.files("motivml").joinpath("schemas", name)
     if packaged.is_file():
         return Path(str(packaged))
-    return Path(__file__).resolve().parent.parent / "schemas" / name
+    return Path(__file__).resolve().parents[2] / "schemas" / name
 
 
 @functools.cache

@@ -26,11 +26,11 @@ from collections.abc import Collection
 from dataclasses import dataclass
 from types import TracebackType
 
-from . import encoding as enc
-from .configure import Variant
-from .errors import Location, MotivmlError, error
-from .explain import Explainer
-from .model import Configuration
+from ..binding import encoding as enc
+from ..binding.explain import Explainer
+from ..binding.resolve import Variant
+from ..errors import Location, MotivmlError, error
+from ..language.model import Configuration
 
 ACTIONS = ("load", "unload", "reload", "swap")
 

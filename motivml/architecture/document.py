@@ -20,10 +20,10 @@ import difflib
 from dataclasses import dataclass
 from typing import Any
 
-from .errors import Diagnostic, Location, error
-from .loader import Document
-from .model import FeatureModel
-from .schema import check_document
+from ..documents.loader import Document
+from ..documents.schema import check_document
+from ..errors import Diagnostic, Location, error
+from ..language.model import FeatureModel
 
 ARCHITECTURE = "architecture.schema.json"
 GOAL_DIRECTED = {"pointAttractor", "dmp"}

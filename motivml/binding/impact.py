@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .configure import Decision, Variant
+from .resolve import Decision, Variant
 
 REBUILD, RESTART, RUN_TIME = "rebuild", "restart", "run time"
 ORDER = (REBUILD, RESTART, RUN_TIME)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from typing import Any
 
-from .coordination import Coordination
+from .document import Coordination
 
 SCXML = "http://www.w3.org/2005/07/scxml"
 MOTIVML = "urn:motivml:coordination:1"

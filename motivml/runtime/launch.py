@@ -14,19 +14,19 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from .architecture import Architecture, read_architecture
-from .builder import Assembly, build, empty_assembly
-from .check import load_configuration, load_model
-from .configure import Variant, resolve, start_state
-from .coordination import Coordination, VariantBindings, read_coordination
+from ..architecture.builder import Assembly, build, empty_assembly
+from ..architecture.document import Architecture, read_architecture
+from ..binding.resolve import Variant, resolve, start_state
+from ..coordination.document import Coordination, VariantBindings, read_coordination
+from ..documents.robot_folder import RobotFolder
+from ..documents.schema import read_checked
+from ..errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
+from ..language.model import Configuration, FeatureModel
+from ..plugins.manifests import discover
+from ..validate import load_configuration, load_model
+from .binder import Binder
 from .coordinator import Coordinator
-from .errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
-from .model import Configuration, FeatureModel
-from .plugins import discover
-from .robot import RobotFolder
-from .runtime import Runtime
-from .schema import read_checked
-from .transactions import Binder
+from .loop import Runtime
 
 ARCHITECTURE_FILE = "architecture.json"
 COORDINATION_FILE = "coordination.json"

@@ -34,7 +34,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from .errors import DocumentError, EnvironmentProblem, Location, error
+from ..errors import DocumentError, EnvironmentProblem, Location, error
 
 MAX_BYTES = 64 * 1024 * 1024
 MAX_DEPTH = 10_000

@@ -19,11 +19,11 @@ from sismic.clock import SimulatedClock as StatechartClock
 from sismic.interpreter import Interpreter
 from sismic.model import BasicState, CompoundState, FinalState, Statechart, Transition
 
-from .coordination import Coordination
-from .errors import describe_exception
+from ..coordination.document import Coordination
+from ..errors import describe_exception
+from .binder import Binder
+from .loop import Runtime
 from .reconfigure import Request
-from .runtime import Runtime
-from .transactions import Binder
 
 ROOT = "motivml.root"  # the hidden root state (no state id has a dot)
 MAX_STEPS = 1000  # per advance: a chart that takes more does not settle

@@ -18,14 +18,14 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from .plugin_api import PluginContext
-from .plugins import Plugin
-from .pyplugins import plugin_error
+from .api import PluginContext
+from .manifests import Plugin
+from .python import plugin_error
 
 
 def _extension() -> ModuleType | None:
     try:
-        from . import _cpp_plugins  # type: ignore[attr-defined]
+        from .. import _cpp_plugins  # type: ignore[attr-defined]
     except ImportError:
         return None
     module: ModuleType = _cpp_plugins

@@ -12,8 +12,8 @@ from __future__ import annotations
 import difflib
 from typing import Any
 
-from .errors import Diagnostic, error, warning
-from .loader import Document
+from ..documents.loader import Document
+from ..errors import Diagnostic, error, warning
 from .model import Configuration, Entry, Feature, FeatureModel, Group
 
 

@@ -30,17 +30,17 @@ from typing import Any
 
 import numpy as np
 
-from . import cppplugins
-from .architecture import Architecture
-from .builder import Assembly, build
-from .configure import Variant
-from .errors import Diagnostic, Location, MotivmlError, describe_exception, error
-from .model import Configuration
-from .plugin_api import PluginContext
-from .plugins import Plugin
-from .pyplugins import PluginError, PythonPlugins, plugin_error
+from ..architecture.builder import Assembly, build
+from ..architecture.document import Architecture
+from ..binding.resolve import Variant
+from ..errors import Diagnostic, Location, MotivmlError, describe_exception, error
+from ..language.model import Configuration
+from ..plugins import cpp as cppplugins
+from ..plugins.api import PluginContext
+from ..plugins.manifests import Plugin
+from ..plugins.python import PluginError, PythonPlugins, plugin_error
+from .loop import Change, Commit, Fault, Running, Runtime
 from .reconfigure import Plan, Reconfigurer, Refused, Request
-from .runtime import Change, Commit, Fault, Running, Runtime
 
 
 @dataclass

@@ -1,0 +1,1 @@
+"""The motion architecture: its document, checks, dynamical systems, learners and the builder."""

@@ -1,0 +1,1 @@
+"""The coordination statechart: its document, checks and SCXML export."""

@@ -1,0 +1,1 @@
+"""Reading documents: located JSON, the schemas, the robot folder."""

@@ -1,0 +1,1 @@
+"""The feature model's plain data and turning checked documents into it."""

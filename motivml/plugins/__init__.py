@@ -1,0 +1,1 @@
+"""Feature implementations: the plugin API, manifests and one module per kind."""

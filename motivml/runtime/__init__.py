@@ -1,0 +1,1 @@
+"""The running robot: the loop, reconfiguration, the binder, the control socket, launching."""
