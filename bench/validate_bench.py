@@ -56,7 +56,7 @@ def run_measured(args: list[str]) -> tuple[float, int, str]:
 
 def stages(model_path: str, config_path: str, cnf_path: str, assumptions_path: str) -> dict[str, float]:
     from motivml.binding import encoding as enc
-    from motivml.validate import load_configuration, load_model
+    from motivml.language.reader import load_configuration, load_model
 
     times: dict[str, float] = {}
     t = time.perf_counter()

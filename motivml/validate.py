@@ -1,14 +1,9 @@
-"""Checking models and configurations: the pipeline behind `motivml validate` and `show`.
+"""Checking a robot's documents: the pipeline behind `motivml validate`.
 
-document -> schema -> model objects -> SAT. Each stage reports every problem it finds; a
-stage runs only when the one before left something sound to work on. Semantics are
-decided by the encoding alone (no second, hand-written rule checker): a configuration is
-valid iff the solver finds a variant under its facts; when it does not, the minimal
-conflicts are explained.
-
-Analyses of a model alone (dead features, bindings a feature allows but can never take)
-need many solves, so they run when a model is validated without a configuration; a
-variant check reports only what concerns the variant (and a void model).
+document -> schema -> model objects -> SAT, for the model, each configuration, the
+architecture and the coordination. Each stage reports every problem it finds; a stage runs
+only when the one before left something sound to work on. Semantics are decided by the
+encoding alone (`binding.check`); this module only decides what is checked against what.
 """
 
 from __future__ import annotations
@@ -17,18 +12,16 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .architecture.document import Architecture, read_architecture, references
-from .binding import encoding as enc
-from .binding.explain import Explainer
+from .architecture.document import Architecture, read_architecture
+from .architecture.family import architecture_bindings
+from .binding.check import analyse_model, check_variant
+from .binding.resolve import resolve
 from .coordination.document import VariantBindings, read_coordination
-from .documents.loader import no_gc
-from .documents.schema import check_configuration, check_feature_model, read_checked
-from .errors import Diagnostic, Location, Severity, error, warning
-from .language.model import Configuration, Feature, FeatureModel
-from .language.reader import read_configuration, read_model
-
-EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
-LISTED_WARNINGS = 100  # per kind: located one by one; the rest are summed up in one warning
+from .documents.robot_folder import ARCHITECTURE_FILE
+from .documents.schema import read_checked
+from .errors import Diagnostic, Severity, error
+from .language.model import Configuration, FeatureModel
+from .language.reader import load_configuration, load_model
 
 
 @dataclass
@@ -54,33 +47,6 @@ class Report:
     @property
     def valid(self) -> bool:
         return not self.errors
-
-
-def _usable(diagnostics: list[Diagnostic]) -> bool:
-    return not any(d.severity is Severity.ERROR for d in diagnostics)
-
-
-def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]:
-    """Read a feature model file; None when it cannot be used (the diagnostics say why)."""
-    doc, problems = read_checked(path, check_feature_model)
-    if doc is None:
-        return None, problems
-    with no_gc():
-        model, diagnostics = read_model(doc)
-    return (model if _usable(diagnostics) else None), diagnostics
-
-
-def load_configuration(
-    path: str | Path, model: FeatureModel, partial: bool = False
-) -> tuple[Configuration | None, list[Diagnostic]]:
-    """Read a configuration of `model`; None when it cannot be used (the diagnostics say why)."""
-    doc, problems = read_checked(path, check_configuration)
-    if doc is None:
-        return None, problems
-    with no_gc():
-        config, diagnostics = read_configuration(doc, model, partial)
-    config.name = Path(path).stem
-    return (config if _usable(diagnostics) else None), diagnostics
 
 
 def validate_model(model_path: str | Path, analyse: bool = True) -> Report:
@@ -124,38 +90,6 @@ def validate_architecture(model: FeatureModel, path: str | Path) -> Report:
     return _sorted(report)
 
 
-def architecture_bindings(model: FeatureModel, architecture: Architecture) -> list[Diagnostic]:
-    """Every element an active element uses is active too, in every variant of the model.
-
-    A family-wide check on the one encoding: for each pair of features (user, used) that
-    an architecture reference joins, is there an active set (section 2 over a(f), every
-    selected Early feature active) with the user active and the used one not? Then some
-    variant cannot be built, and each reference of that pair is an error.
-    """
-    pairs: dict[tuple[str, str], list[Diagnostic]] = {}
-    for ref in references(architecture):
-        if ref.user_feature == ref.target_feature:
-            continue
-        message = (
-            f"{ref.element} (feature {ref.user_feature}) uses {ref.kind.removesuffix('s')} {ref.target} of feature "
-            f"{ref.target_feature}, but the model lets {ref.target_feature} be inactive while {ref.user_feature} "
-            f"is active: bring both with one feature, or make {ref.user_feature} include {ref.target_feature}"
-        )
-        where = architecture.locate(ref.section, ref.element, *ref.keys)
-        pairs.setdefault((ref.user_feature, ref.target_feature), []).append(
-            error(where, message, "architecture.binding", ref.user_feature)
-        )
-    found: list[Diagnostic] = []
-    if not pairs:
-        return found
-    with no_gc(), enc.Encoding(model) as encoding:
-        for (user, used), diagnostics in pairs.items():
-            i, j = model.index[user], model.index[used]
-            if encoding.solve(with_config=False, extra=[encoding.a(i), -encoding.a(j)]):
-                found += diagnostics
-    return found
-
-
 def validate(
     model_path: str | Path,
     config_paths: Sequence[str | Path] = (),
@@ -196,20 +130,18 @@ def validate_coordination(
     report.diagnostics += problems
     if doc is None:
         return report
-    coordination, found = read_coordination(doc, model, architecture)
-    if architecture is None and (path_of_architecture := Path(path).parent / "architecture.json").is_file():
-        found = [d for d in found if "the robot has no architecture.json" not in d.message]
+    architecture_invalid = architecture is None and (Path(path).parent / ARCHITECTURE_FILE).is_file()
+    coordination, found = read_coordination(doc, model, architecture, architecture_invalid=architecture_invalid)
+    if architecture_invalid:
         found.append(
             error(
                 doc.locate(()),
-                f"{path_of_architecture.name} is invalid (see its errors): the coordination's elements are not checked",
+                f"{ARCHITECTURE_FILE} is invalid (see its errors): the coordination's elements are not checked",
                 "coordination.architecture",
             )
         )
     report.diagnostics += found
     if coordination is not None:
-        from .binding.resolve import resolve  # configure builds on check: resolve only here, at need
-
         seen = {(d.location.path, d.message) for d in report.diagnostics}
         for config in configs:
             variant = resolve(model, config)
@@ -227,147 +159,3 @@ def _sorted(report: Report) -> Report:
     return report
 
 
-def check_variant(model: FeatureModel, config: Configuration) -> list[Diagnostic]:
-    """Errors of a configuration: every independent minimal conflict, explained."""
-    with no_gc():
-        with enc.Encoding(model) as hard:
-            hard.set_configuration(config)
-            if hard.solve():
-                return []
-        with enc.Encoding(model, explain=True) as encoding:
-            encoding.set_configuration(config)
-            explainer = Explainer(encoding, model, config)
-            if not encoding.solve(with_config=False):
-                return _void(encoding, explainer)
-            return [explainer.diagnostic(mus) for mus in encoding.conflicts()]
-
-
-def _void(encoding: enc.Encoding, explainer: Explainer) -> list[Diagnostic]:
-    return [
-        explainer.diagnostic(mus, prefix="the model has no valid variant: ")
-        for mus in encoding.conflicts(with_config=False)
-    ]
-
-
-def analyse_model(model: FeatureModel) -> list[Diagnostic]:
-    """A void model (error); dead features and never-possible bindings (warnings)."""
-    with no_gc(), enc.Encoding(model) as hard:
-        if not hard.solve(with_config=False):
-            with enc.Encoding(model, explain=True) as encoding:
-                return _void(encoding, Explainer(encoding, model, None))
-        features = model.features
-        n = len(features)
-        alive = hard.cover(
-            [[hard.s(i)] for i in range(n)], with_config=False, hints=[[hard.s(i) for i in range(n)]]
-        )
-        targets: list[list[int]] = []
-        owners: list[tuple[int, str, str]] = []  # (feature, aspect, value)
-        for f in features:
-            if not alive[f.index]:
-                continue
-            i = f.index
-            if f.time_allowed == "Any":
-                targets += [[hard.s(i), hard.E(i)], [hard.s(i), -hard.E(i)]]
-                owners += [(i, "time", "Early"), (i, "time", "Late")]
-            if f.mode_allowed == "Any":
-                targets += [[hard.s(i), hard.S(i)], [hard.s(i), -hard.S(i)]]
-                owners += [(i, "mode", "Static"), (i, "mode", "Dynamic")]
-        hints = [
-            [lit for i in range(n) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
-            for e in (1, -1)
-            for m in (1, -1)
-        ]
-        possible = hard.cover(targets, with_config=False, hints=hints)
-
-    dead = [f for f in features if not alive[f.index] and (f.parent is None or alive[f.parent])]
-    impossible = [owners[k] for k in range(len(targets)) if not possible[k]]
-    if not dead and not impossible:
-        return []
-    found: list[Diagnostic] = []
-    with no_gc(), enc.Encoding(model, explain=True) as encoding:
-        explainer = Explainer(encoding, model, None)
-        for count, f in enumerate(dead):
-            below = len(model.subtree(f.index)) - 1
-            extra = f" (and so are its {below} sub-features)" if below else ""
-            head = f"{f.id} is dead: no valid variant selects it{extra}"
-            if count >= LISTED_WARNINGS:
-                found.append(_more(dead[count:], model, "model.dead-feature", "dead features"))
-                break
-            if count >= EXPLAINED_WARNINGS:
-                found.append(
-                    warning(explainer.model_location(f.index, "id"), head, "model.dead-feature", f.id)
-                )
-                continue
-            q = encoding.query("query-selected", f.index, encoding.s(f.index))
-            explainer.query_words[q] = f"{f.id} would be selected"
-            (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q])
-            where = explainer.model_location(f.index, "id")
-            found.append(_as_warning(explainer.diagnostic(mus), where, head, "model.dead-feature", f.id))
-        for count, (i, aspect, value) in enumerate(impossible):
-            f = features[i]
-            if count >= LISTED_WARNINGS:
-                rest = [features[j] for j, _, _ in impossible[count:]]
-                found.append(
-                    _more(rest, model, "model.impossible-binding", "bindings allowed but never possible")
-                )
-                break
-            other = {"Early": "Late", "Late": "Early", "Static": "Dynamic", "Dynamic": "Static"}[value]
-            head = f"{f.id} allows Any binding {aspect} but can never be {value}, only {other}"
-            key = "bindingTimeAllowed" if aspect == "time" else "bindingModeAllowed"
-            where = explainer.model_location(i, "constraints", key)
-            if count >= EXPLAINED_WARNINGS:
-                found.append(warning(where, head, "model.impossible-binding", f.id))
-                continue
-            literal = {
-                "Early": encoding.E(i),
-                "Late": -encoding.E(i),
-                "Static": encoding.S(i),
-                "Dynamic": -encoding.S(i),
-            }
-            q1 = encoding.query("query-selected", i, encoding.s(i))
-            q2 = encoding.query("query-binding", i, literal[value])
-            explainer.query_words[q1] = f"{f.id} would be selected"
-            explainer.query_words[q2] = f"{f.id} would be {value}"
-            (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q1, q2])
-            found.append(
-                _as_warning(explainer.diagnostic(mus), where, head, "model.impossible-binding", f.id)
-            )
-    return found
-
-
-def _more(rest: list[Feature], model: FeatureModel, rule: str, what: str) -> Diagnostic:
-    """One warning for what is left after LISTED_WARNINGS of a kind."""
-    names = ", ".join(dict.fromkeys(f.id for f in rest[:10]))
-    location = model.source.locate(model.path(rest[0].index, "id")) if model.source else Location(model.name)
-    return warning(location, f"{len(rest)} more {what}, in {names}{', ...' if len(rest) > 10 else ''}", rule)
-
-
-def _as_warning(explained: Diagnostic, where: Location, head: str, rule: str, feature: str) -> Diagnostic:
-    return Diagnostic(
-        Severity.WARNING,
-        where,
-        f"{head}, because {explained.message}",
-        rule,
-        feature,
-        explained.facts,
-    )
-
-
-def binding_states(model: FeatureModel, config: Configuration | None) -> list[set[str]]:
-    """Per feature, what valid variants (of the configuration) can make of it.
-
-    Each set holds "off" (not selected) and/or the bindings SE, SL, DE, DL it can take; a
-    one-element set is what the solver forces. This is the paper's "binding semantics
-    interpreter", answered by `Encoding.cover`.
-    """
-    with no_gc(), enc.Encoding(model) as hard:
-        if config is not None:
-            hard.set_configuration(config)
-        targets: list[list[int]] = []
-        for f in model.features:
-            i = f.index
-            s, e, st = hard.s(i), hard.E(i), hard.S(i)
-            targets += [[-s], [s, e, st], [s, -e, st], [s, e, -st], [s, -e, -st]]
-        possible = hard.cover(targets, with_config=config is not None)
-    names = ("off", "SE", "SL", "DE", "DL")
-    return [{names[j] for j in range(5) if possible[5 * f.index + j]} for f in model.features]

@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 from typing import Any
 
+from motivml.binding.check import check_variant
 from motivml.documents.loader import parse
 from motivml.errors import Diagnostic
 from motivml.language.reader import read_configuration, read_model
-from motivml.validate import check_variant
 
 
 def variant_errors(model: dict[str, Any], config: dict[str, Any]) -> list[Diagnostic]:

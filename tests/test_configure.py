@@ -18,8 +18,8 @@ from motivml.binding.codegen import outputs
 from motivml.binding.resolve import NoVariant, resolve
 from motivml.cli import main
 from motivml.documents.loader import parse
-from motivml.language.reader import read_configuration, read_model
-from motivml.validate import load_configuration, load_model, validate
+from motivml.language.reader import load_configuration, load_model, read_configuration, read_model
+from motivml.validate import validate
 
 ROOT = Path(__file__).resolve().parent.parent
 SIMPLEBOT = ROOT / "feature_models" / "simplebot"

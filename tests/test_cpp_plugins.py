@@ -14,8 +14,8 @@ from types import ModuleType
 
 import pytest
 
+from motivml.documents.robot_folder import Plugin
 from motivml.plugins.api import PluginContext
-from motivml.plugins.manifests import Plugin
 from motivml.plugins.python import PluginError
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.reconfigure import Request

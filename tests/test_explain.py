@@ -9,9 +9,9 @@ import pytest
 from helpers import config, feature
 from semantic_helpers import variant_errors
 
+from motivml.binding.check import analyse_model
 from motivml.documents.loader import parse
 from motivml.language.reader import read_model
-from motivml.validate import analyse_model
 
 
 def messages(model: dict[str, Any], cfg: dict[str, Any]) -> list[str]:

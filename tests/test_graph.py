@@ -25,8 +25,7 @@ from motivml.graph import (
     render_svg,
 )
 from motivml.language.model import Feature, FeatureModel
-from motivml.language.reader import read_model
-from motivml.validate import load_configuration, load_model
+from motivml.language.reader import load_configuration, load_model, read_model
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 NS = {"g": "http://graphml.graphdrawing.org/xmlns", "svg": "http://www.w3.org/2000/svg"}

@@ -10,8 +10,8 @@ from click.testing import CliRunner
 
 from motivml.cli import main
 from motivml.documents.robot_folder import RobotFolder
+from motivml.language.reader import load_model
 from motivml.plugins.manifests import discover
-from motivml.validate import load_model
 
 MODEL = {
     "id": "bot",

@@ -15,9 +15,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from semantic_helpers import variant_errors
 
+from motivml.binding.check import analyse_model
 from motivml.documents.loader import parse
 from motivml.language.reader import read_model
-from motivml.validate import analyse_model
 
 
 @st.composite

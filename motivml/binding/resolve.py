@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from ..documents.loader import no_gc
 from ..errors import MotivmlError
 from ..language.model import Configuration, Entry, Feature, FeatureModel
-from ..validate import check_variant
 from . import encoding as enc
+from .check import check_variant
 
 PREFERENCES = ("late", "dynamic")
 

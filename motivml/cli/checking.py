@@ -13,15 +13,16 @@ from rich.markup import escape
 from rich.tree import Tree
 
 from ..binding import impact
-from ..binding.codegen import late_or_dynamic, outputs, write_if_changed
+from ..binding.check import analyse_model, binding_states
+from ..binding.codegen import late_or_dynamic, outputs
 from ..binding.resolve import PREFERENCES, resolve
-from ..documents.robot_folder import RobotFolder
+from ..documents.robot_folder import ARCHITECTURE_FILE, COORDINATION_FILE, RobotFolder
+from ..documents.writing import write_if_changed
 from ..errors import Diagnostic, MotivmlError
 from ..language.model import Configuration, FeatureModel
 from ..plugins.manifests import discover
 from ..plugins.manifests import missing as missing_plugins
-from ..runtime.launch import COORDINATION_FILE
-from ..validate import Report, analyse_model, binding_states, validate
+from ..validate import Report, validate
 from . import _plural, _targets, fail, main, out, print_diagnostic
 
 
@@ -41,7 +42,7 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     """
     try:
         model_path, configs, analyse = _targets(target, config, variant)
-        architecture = model_path.parent / "architecture.json" if Path(target).is_dir() else None
+        architecture = model_path.parent / ARCHITECTURE_FILE if Path(target).is_dir() else None
         if architecture is not None and not architecture.is_file():
             architecture = None
         coordination = model_path.parent / COORDINATION_FILE if Path(target).is_dir() else None

@@ -10,10 +10,11 @@ import click
 from rich.markup import escape
 
 from .. import graph
-from ..binding.codegen import write_if_changed
 from ..coordination.scxml import to_scxml
+from ..documents.robot_folder import ARCHITECTURE_FILE
+from ..documents.writing import write_if_changed
 from ..errors import MotivmlError
-from ..runtime.launch import ARCHITECTURE_FILE, COORDINATION_FILE, load, read_robot_coordination
+from ..runtime.launch import load, read_robot_coordination
 from . import main, out, print_diagnostic
 
 
@@ -88,7 +89,7 @@ def export_command(what: str, target: str, output: str | None) -> None:
         coordination = read_robot_coordination(loaded.folder, loaded.model, loaded.architecture, None)
         if coordination is None:
             out.print(
-                f"[bold red]nothing to export[/]: {escape(str(loaded.folder.path / COORDINATION_FILE))} does not exist"
+                f"[bold red]nothing to export[/]: {escape(str(loaded.folder.coordination_path))} does not exist"
             )
             sys.exit(3)
         path = Path(output) if output else Path("build") / loaded.folder.name / "coordination.scxml"

@@ -23,6 +23,7 @@ from typing import Any
 
 from ..architecture.document import Architecture
 from ..documents.loader import Document
+from ..documents.robot_folder import ARCHITECTURE_FILE
 from ..documents.schema import check_document
 from ..errors import Diagnostic, error, warning
 from ..language.model import FeatureModel
@@ -97,8 +98,11 @@ class _Checker:
         model: FeatureModel,
         architecture: Architecture | None,
         variant: VariantBindings | None,
+        architecture_invalid: bool = False,
     ) -> None:
         self.doc, self.model, self.architecture, self.variant = doc, model, architecture, variant
+        self.architecture_invalid = architecture_invalid
+        self.unchecked = 0  # element references not checked because the architecture is invalid
         self.found: list[Diagnostic] = []
 
     def error(self, path: tuple[str | int, ...], message: str, rule: str) -> None:
@@ -201,7 +205,10 @@ class _Checker:
         self, section: str, name: str, path: tuple[str | int, ...], what: str
     ) -> dict[str, Any] | None:
         if self.architecture is None:
-            self.error(path, f"{what} {name!r}: the robot has no architecture.json", "coordination.unknown")
+            if self.architecture_invalid:
+                self.unchecked += 1
+            else:
+                self.error(path, f"{what} {name!r}: the robot has no {ARCHITECTURE_FILE}", "coordination.unknown")
             return None
         element: dict[str, Any] | None = getattr(self.architecture, section).get(name)
         if element is None:
@@ -365,8 +372,14 @@ def read_coordination(
     model: FeatureModel,
     architecture: Architecture | None,
     variant: VariantBindings | None = None,
+    architecture_invalid: bool = False,
 ) -> tuple[Coordination | None, list[Diagnostic]]:
-    """Check a coordination document: schema, references, types, reachability."""
+    """Check a coordination document: schema, references, types, reachability.
+
+    With `architecture_invalid` (the robot has an architecture, but it did not pass its
+    checks) references to its elements are left unchecked, and no coordination is returned
+    when there are any.
+    """
     if _depth(doc.root) > MAX_DEPTH:
         return None, [
             error(doc.locate(()), f"states nest deeper than {MAX_DEPTH} levels", "coordination.depth")
@@ -374,7 +387,7 @@ def read_coordination(
     problems = check_document(doc, COORDINATION, "a coordination document")
     if problems:
         return None, problems
-    checker = _Checker(doc, model, architecture, variant)
+    checker = _Checker(doc, model, architecture, variant, architecture_invalid)
     coordination = checker.run()
     errors = [d for d in checker.found if d.severity.value == "error"]
-    return (None if errors else coordination), checker.found
+    return (None if errors or checker.unchecked else coordination), checker.found

@@ -1,4 +1,9 @@
-"""A robot folder: `model.json` and `variants/<name>.json` (plus, later, architecture and plugins)."""
+"""A robot folder and the names of its files: the only place they are written down.
+
+`model.json`, `variants/<name>.json`, and optionally `architecture.json`,
+`coordination.json` and `robot.json` (which names the plugin directories, whose
+sub-folders hold a `plugin.json` manifest each).
+"""
 
 from __future__ import annotations
 
@@ -7,6 +12,24 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import EnvironmentProblem, Location, error
+
+MODEL_FILE = "model.json"
+VARIANTS_FOLDER = "variants"
+ARCHITECTURE_FILE = "architecture.json"
+COORDINATION_FILE = "coordination.json"
+SETTINGS_FILE = "robot.json"
+MANIFEST_FILE = "plugin.json"
+
+
+@dataclass(frozen=True)
+class Plugin:
+    """One plugin manifest: the implementation of a feature, and where it is."""
+
+    feature: str
+    kind: str  # a kind of the plugin registry: "python", "cpp"
+    entry: dict[str, str]
+    folder: Path
+    manifest: Path
 
 
 class UnknownVariant(EnvironmentProblem):
@@ -28,7 +51,7 @@ class RobotFolder:
             raise EnvironmentProblem(
                 error(
                     Location(str(folder.model_path)),
-                    "no model.json here: a robot folder holds model.json and variants/<name>.json",
+                    f"no {MODEL_FILE} here: a robot folder holds {MODEL_FILE} and {VARIANTS_FOLDER}/<name>.json",
                     "io",
                 )
             )
@@ -40,11 +63,23 @@ class RobotFolder:
 
     @property
     def model_path(self) -> Path:
-        return self.path / "model.json"
+        return self.path / MODEL_FILE
+
+    @property
+    def architecture_path(self) -> Path:
+        return self.path / ARCHITECTURE_FILE
+
+    @property
+    def coordination_path(self) -> Path:
+        return self.path / COORDINATION_FILE
+
+    @property
+    def settings_path(self) -> Path:
+        return self.path / SETTINGS_FILE
 
     def variant_names(self) -> list[str]:
         """Names of the regular, non-hidden `variants/*.json` files."""
-        folder = self.path / "variants"
+        folder = self.path / VARIANTS_FOLDER
         if not folder.exists():
             return []
         try:
@@ -60,7 +95,7 @@ class RobotFolder:
         )
 
     def variant_path(self, name: str) -> Path:
-        candidate = self.path / "variants" / f"{name}.json"
+        candidate = self.path / VARIANTS_FOLDER / f"{name}.json"
         if name not in self.variant_names():
             known = ", ".join(self.variant_names()) or "none"
             raise UnknownVariant(

@@ -10,10 +10,12 @@ deselected feature. Everything else about meaning is the SAT encoding's job.
 from __future__ import annotations
 
 import difflib
+from pathlib import Path
 from typing import Any
 
-from ..documents.loader import Document
-from ..errors import Diagnostic, error, warning
+from ..documents.loader import Document, no_gc
+from ..documents.schema import check_configuration, check_feature_model, read_checked
+from ..errors import Diagnostic, Severity, error, warning
 from .model import Configuration, Entry, Feature, FeatureModel, Group
 
 
@@ -250,3 +252,30 @@ def read_configuration(
             )
         )
     return config, diagnostics
+
+
+def _usable(diagnostics: list[Diagnostic]) -> bool:
+    return not any(d.severity is Severity.ERROR for d in diagnostics)
+
+
+def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]:
+    """Read a feature model file; None when it cannot be used (the diagnostics say why)."""
+    doc, problems = read_checked(path, check_feature_model)
+    if doc is None:
+        return None, problems
+    with no_gc():
+        model, diagnostics = read_model(doc)
+    return (model if _usable(diagnostics) else None), diagnostics
+
+
+def load_configuration(
+    path: str | Path, model: FeatureModel, partial: bool = False
+) -> tuple[Configuration | None, list[Diagnostic]]:
+    """Read a configuration of `model`; None when it cannot be used (the diagnostics say why)."""
+    doc, problems = read_checked(path, check_configuration)
+    if doc is None:
+        return None, problems
+    with no_gc():
+        config, diagnostics = read_configuration(doc, model, partial)
+    config.name = Path(path).stem
+    return (config if _usable(diagnostics) else None), diagnostics

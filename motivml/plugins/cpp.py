@@ -18,8 +18,8 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from ..documents.robot_folder import Plugin
 from .api import PluginContext
-from .manifests import Plugin
 from .python import plugin_error
 
 

@@ -10,23 +10,13 @@ for the runtime.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from ..documents.loader import load_file
-from ..documents.robot_folder import RobotFolder
+from ..documents.robot_folder import MANIFEST_FILE, SETTINGS_FILE, Plugin, RobotFolder
 from ..documents.schema import PLUGIN, ROBOT, check_document, read_checked
 from ..errors import Diagnostic, EnvironmentProblem, Location, error, warning
 from ..language.model import FeatureModel
-
-
-@dataclass(frozen=True)
-class Plugin:
-    feature: str
-    kind: str  # "python" or "cpp"
-    entry: dict[str, str]
-    folder: Path
-    manifest: Path
 
 
 def _read(path: Path, schema: str, what: str) -> tuple[dict[str, object] | None, list[Diagnostic]]:
@@ -36,10 +26,10 @@ def _read(path: Path, schema: str, what: str) -> tuple[dict[str, object] | None,
 
 def plugin_directories(robot: RobotFolder) -> tuple[list[Path], list[Diagnostic]]:
     """The plugin directories robot.json declares (none without robot.json)."""
-    settings_path = robot.path / "robot.json"
+    settings_path = robot.settings_path
     if not settings_path.is_file():
         return [], []
-    settings, problems = _read(settings_path, ROBOT, "robot.json")
+    settings, problems = _read(settings_path, ROBOT, SETTINGS_FILE)
     if settings is None:
         return [], problems
     folders: list[Path] = []
@@ -74,7 +64,7 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
                 error(Location(str(folder)), f"cannot read: {exc.strerror}", "io")
             ) from None
         for candidate in candidates:
-            manifest_path = candidate / "plugin.json"
+            manifest_path = candidate / MANIFEST_FILE
             if not manifest_path.is_file():
                 continue
             manifest, problems = _read(manifest_path, PLUGIN, "a plugin manifest")
@@ -143,7 +133,7 @@ def missing(model: FeatureModel, features: list[str], plugins: dict[str, Plugin]
             warning(
                 where,
                 f"no plugin implements {feature_id}, which the variant binds Dynamic or Late "
-                f"(declare a plugin directory in robot.json holding its plugin.json)",
+                f"(declare a plugin directory in {SETTINGS_FILE} holding its {MANIFEST_FILE})",
                 "plugins.missing",
                 feature_id,
             )

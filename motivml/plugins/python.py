@@ -19,9 +19,9 @@ from typing import Any
 from pluginbase import PluginBase, PluginSource
 
 from ..documents.loader import load_file
+from ..documents.robot_folder import Plugin
 from ..errors import Diagnostic, EnvironmentProblem, Location, describe_exception, error
 from .api import PluginContext
-from .manifests import Plugin
 
 _LAUNCHES = itertools.count()
 

@@ -33,11 +33,11 @@ import numpy as np
 from ..architecture.builder import Assembly, build
 from ..architecture.document import Architecture
 from ..binding.resolve import Variant
+from ..documents.robot_folder import Plugin
 from ..errors import Diagnostic, Location, MotivmlError, describe_exception, error
 from ..language.model import Configuration
 from ..plugins import cpp as cppplugins
 from ..plugins.api import PluginContext
-from ..plugins.manifests import Plugin
 from ..plugins.python import PluginError, PythonPlugins, plugin_error
 from .loop import Change, Commit, Fault, Running, Runtime
 from .reconfigure import Plan, Reconfigurer, Refused, Request

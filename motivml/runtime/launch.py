@@ -22,14 +22,11 @@ from ..documents.robot_folder import RobotFolder
 from ..documents.schema import read_checked
 from ..errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
 from ..language.model import Configuration, FeatureModel
+from ..language.reader import load_configuration, load_model
 from ..plugins.manifests import discover
-from ..validate import load_configuration, load_model
 from .binder import Binder
 from .coordinator import Coordinator
 from .loop import Runtime
-
-ARCHITECTURE_FILE = "architecture.json"
-COORDINATION_FILE = "coordination.json"
 
 
 @dataclass
@@ -79,7 +76,7 @@ class Loaded:
 
 
 def read_robot_architecture(folder: RobotFolder, model: FeatureModel, required: bool) -> Architecture | None:
-    path = folder.path / ARCHITECTURE_FILE
+    path = folder.architecture_path
     if not path.is_file():
         if not required:
             return None
@@ -136,7 +133,7 @@ def launch(
     if _errors(problems):
         raise DocumentError(_errors(problems))
     if loaded.architecture is None and not plugins:
-        path = loaded.folder.path / ARCHITECTURE_FILE
+        path = loaded.folder.architecture_path
         raise EnvironmentProblem(
             error(
                 Location(str(path)),
@@ -176,7 +173,7 @@ def read_robot_coordination(
     folder: RobotFolder, model: FeatureModel, architecture: Architecture | None, variant: Variant | None
 ) -> Coordination | None:
     """The robot's coordination.json, checked against the model, architecture and variant."""
-    path = folder.path / COORDINATION_FILE
+    path = folder.coordination_path
     if not path.is_file():
         return None
     doc, problems = read_checked(path, lambda d: [])

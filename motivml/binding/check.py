@@ -1,0 +1,164 @@
+"""Questions asked of the one encoding about a model or a configuration.
+
+A configuration is valid iff the solver finds a variant under its facts; when it does
+not, every independent minimal conflict is explained. Analyses of a model alone (a void
+model, dead features, bindings a feature allows but can never take) need many solves, so
+the CLI runs them when a model is validated without a configuration.
+"""
+
+from __future__ import annotations
+
+from ..documents.loader import no_gc
+from ..errors import Diagnostic, Location, Severity, warning
+from ..language.model import Configuration, Feature, FeatureModel
+from . import encoding as enc
+from .explain import Explainer
+
+EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
+LISTED_WARNINGS = 100  # per kind: located one by one; the rest are summed up in one warning
+
+
+def check_variant(model: FeatureModel, config: Configuration) -> list[Diagnostic]:
+    """Errors of a configuration: every independent minimal conflict, explained."""
+    with no_gc():
+        with enc.Encoding(model) as hard:
+            hard.set_configuration(config)
+            if hard.solve():
+                return []
+        with enc.Encoding(model, explain=True) as encoding:
+            encoding.set_configuration(config)
+            explainer = Explainer(encoding, model, config)
+            if not encoding.solve(with_config=False):
+                return _void(encoding, explainer)
+            return [explainer.diagnostic(mus) for mus in encoding.conflicts()]
+
+
+def _void(encoding: enc.Encoding, explainer: Explainer) -> list[Diagnostic]:
+    return [
+        explainer.diagnostic(mus, prefix="the model has no valid variant: ")
+        for mus in encoding.conflicts(with_config=False)
+    ]
+
+
+def analyse_model(model: FeatureModel) -> list[Diagnostic]:
+    """A void model (error); dead features and never-possible bindings (warnings)."""
+    with no_gc(), enc.Encoding(model) as hard:
+        if not hard.solve(with_config=False):
+            with enc.Encoding(model, explain=True) as encoding:
+                return _void(encoding, Explainer(encoding, model, None))
+        features = model.features
+        n = len(features)
+        alive = hard.cover(
+            [[hard.s(i)] for i in range(n)], with_config=False, hints=[[hard.s(i) for i in range(n)]]
+        )
+        targets: list[list[int]] = []
+        owners: list[tuple[int, str, str]] = []  # (feature, aspect, value)
+        for f in features:
+            if not alive[f.index]:
+                continue
+            i = f.index
+            if f.time_allowed == "Any":
+                targets += [[hard.s(i), hard.E(i)], [hard.s(i), -hard.E(i)]]
+                owners += [(i, "time", "Early"), (i, "time", "Late")]
+            if f.mode_allowed == "Any":
+                targets += [[hard.s(i), hard.S(i)], [hard.s(i), -hard.S(i)]]
+                owners += [(i, "mode", "Static"), (i, "mode", "Dynamic")]
+        hints = [
+            [lit for i in range(n) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
+            for e in (1, -1)
+            for m in (1, -1)
+        ]
+        possible = hard.cover(targets, with_config=False, hints=hints)
+
+    dead = [f for f in features if not alive[f.index] and (f.parent is None or alive[f.parent])]
+    impossible = [owners[k] for k in range(len(targets)) if not possible[k]]
+    if not dead and not impossible:
+        return []
+    found: list[Diagnostic] = []
+    with no_gc(), enc.Encoding(model, explain=True) as encoding:
+        explainer = Explainer(encoding, model, None)
+        for count, f in enumerate(dead):
+            below = len(model.subtree(f.index)) - 1
+            extra = f" (and so are its {below} sub-features)" if below else ""
+            head = f"{f.id} is dead: no valid variant selects it{extra}"
+            if count >= LISTED_WARNINGS:
+                found.append(_more(dead[count:], model, "model.dead-feature", "dead features"))
+                break
+            if count >= EXPLAINED_WARNINGS:
+                found.append(
+                    warning(explainer.model_location(f.index, "id"), head, "model.dead-feature", f.id)
+                )
+                continue
+            q = encoding.query("query-selected", f.index, encoding.s(f.index))
+            explainer.query_words[q] = f"{f.id} would be selected"
+            (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q])
+            where = explainer.model_location(f.index, "id")
+            found.append(_as_warning(explainer.diagnostic(mus), where, head, "model.dead-feature", f.id))
+        for count, (i, aspect, value) in enumerate(impossible):
+            f = features[i]
+            if count >= LISTED_WARNINGS:
+                rest = [features[j] for j, _, _ in impossible[count:]]
+                found.append(
+                    _more(rest, model, "model.impossible-binding", "bindings allowed but never possible")
+                )
+                break
+            other = {"Early": "Late", "Late": "Early", "Static": "Dynamic", "Dynamic": "Static"}[value]
+            head = f"{f.id} allows Any binding {aspect} but can never be {value}, only {other}"
+            key = "bindingTimeAllowed" if aspect == "time" else "bindingModeAllowed"
+            where = explainer.model_location(i, "constraints", key)
+            if count >= EXPLAINED_WARNINGS:
+                found.append(warning(where, head, "model.impossible-binding", f.id))
+                continue
+            literal = {
+                "Early": encoding.E(i),
+                "Late": -encoding.E(i),
+                "Static": encoding.S(i),
+                "Dynamic": -encoding.S(i),
+            }
+            q1 = encoding.query("query-selected", i, encoding.s(i))
+            q2 = encoding.query("query-binding", i, literal[value])
+            explainer.query_words[q1] = f"{f.id} would be selected"
+            explainer.query_words[q2] = f"{f.id} would be {value}"
+            (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q1, q2])
+            found.append(
+                _as_warning(explainer.diagnostic(mus), where, head, "model.impossible-binding", f.id)
+            )
+    return found
+
+
+def _more(rest: list[Feature], model: FeatureModel, rule: str, what: str) -> Diagnostic:
+    """One warning for what is left after LISTED_WARNINGS of a kind."""
+    names = ", ".join(dict.fromkeys(f.id for f in rest[:10]))
+    location = model.source.locate(model.path(rest[0].index, "id")) if model.source else Location(model.name)
+    return warning(location, f"{len(rest)} more {what}, in {names}{', ...' if len(rest) > 10 else ''}", rule)
+
+
+def _as_warning(explained: Diagnostic, where: Location, head: str, rule: str, feature: str) -> Diagnostic:
+    return Diagnostic(
+        Severity.WARNING,
+        where,
+        f"{head}, because {explained.message}",
+        rule,
+        feature,
+        explained.facts,
+    )
+
+
+def binding_states(model: FeatureModel, config: Configuration | None) -> list[set[str]]:
+    """Per feature, what valid variants (of the configuration) can make of it.
+
+    Each set holds "off" (not selected) and/or the bindings SE, SL, DE, DL it can take; a
+    one-element set is what the solver forces. This is the paper's "binding semantics
+    interpreter", answered by `Encoding.cover`.
+    """
+    with no_gc(), enc.Encoding(model) as hard:
+        if config is not None:
+            hard.set_configuration(config)
+        targets: list[list[int]] = []
+        for f in model.features:
+            i = f.index
+            s, e, st = hard.s(i), hard.E(i), hard.S(i)
+            targets += [[-s], [s, e, st], [s, -e, st], [s, e, -st], [s, -e, -st]]
+        possible = hard.cover(targets, with_config=config is not None)
+    names = ("off", "SE", "SL", "DE", "DL")
+    return [{names[j] for j in range(5) if possible[5 * f.index + j]} for f in model.features]
