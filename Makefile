@@ -26,9 +26,11 @@ cpp-plugins: setup
 test: setup cpp-plugins
 	$(BIN)/ruff check motivml tests bench plugins guidelines/examples
 	$(BIN)/mypy
+	$(BIN)/lint-imports
 	$(BIN)/pytest -q
 
 bench: setup
+	$(BIN)/python bench/startup_bench.py
 	$(BIN)/python bench/validate_bench.py
 	$(BIN)/python bench/configure_bench.py
 	$(BIN)/python bench/run_bench.py

@@ -32,7 +32,7 @@ from run_bench import robot  # noqa: E402
 
 from motivml.runtime.launch import launch  # noqa: E402
 from motivml.runtime.loop import RealClock, RunStats  # noqa: E402
-from motivml.runtime.reconfigure import Request  # noqa: E402
+from motivml.runtime.requests import Request  # noqa: E402
 
 PLUGIN = """
 from motivml.plugins.api import FeaturePlugin

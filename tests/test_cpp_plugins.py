@@ -18,7 +18,7 @@ from motivml.documents.robot_folder import Plugin
 from motivml.plugins.api import PluginContext
 from motivml.plugins.python import PluginError
 from motivml.runtime.launch import Robot, launch
-from motivml.runtime.reconfigure import Request
+from motivml.runtime.requests import Request
 
 ROOT = Path(__file__).resolve().parent.parent
 GESTURES = ROOT / "plugins" / "cpp" / "gestures"

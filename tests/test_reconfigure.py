@@ -14,7 +14,8 @@ from motivml.binding.resolve import NoVariant, resolve, start_state
 from motivml.documents.loader import parse
 from motivml.language.model import FeatureModel
 from motivml.language.reader import read_configuration, read_model
-from motivml.runtime.reconfigure import Plan, Reconfigurer, Refused, Request
+from motivml.runtime.reconfigure import Plan, Reconfigurer, Refused
+from motivml.runtime.requests import Request
 from tests.test_property_sat import configurations, models
 from tests.test_start_state import satisfies_section_2
 

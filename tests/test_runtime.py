@@ -551,11 +551,15 @@ def test_the_live_view_shows_the_rate_and_every_component() -> None:
     from rich.console import Console
 
     from motivml.cli.running import _live_view
+    from motivml.runtime.session import Session
 
-    robot = launch(EXAMPLES / "quadruped", "trot")
-    robot.runtime.run(1.0)
+    session = Session(launch(EXAMPLES / "quadruped", "trot"), 1.0, "simulated")
+    session.open()
+    session.start()
+    assert session.wait(60)
+    session.close()
     console = Console(record=True, width=120)
-    console.print(_live_view(robot.runtime, began=0.0))
+    console.print(_live_view(session.feed()))
     text = console.export_text()
     assert "tick 1000" in text and "t = 1.000 s" in text and "asked 1000 Hz" in text
     assert "TrotGenerator" in text and "tracking" in text and "PostureController" in text

@@ -20,7 +20,7 @@ from motivml.plugins.python import PluginError
 from motivml.runtime.binder import Outcome
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import RealClock
-from motivml.runtime.reconfigure import Request
+from motivml.runtime.requests import Request
 
 ROOT = Path(__file__).resolve().parent.parent
 DL = ("Late", "Dynamic")

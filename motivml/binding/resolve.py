@@ -15,10 +15,9 @@ from dataclasses import dataclass
 from ..documents.loader import no_gc
 from ..errors import MotivmlError
 from ..language.model import Configuration, Entry, Feature, FeatureModel
+from . import PREFERENCES
 from . import encoding as enc
 from .check import check_variant
-
-PREFERENCES = ("late", "dynamic")
 
 
 class NoVariant(MotivmlError):

@@ -6,27 +6,25 @@ import json
 import re
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 from rich.console import Console
 from rich.markup import escape
-from rich.tree import Tree
 
-from ..binding import impact
-from ..binding.check import analyse_model, binding_states
-from ..binding.codegen import late_or_dynamic, outputs
-from ..binding.resolve import PREFERENCES, resolve
+from ..binding import PREFERENCES
 from ..documents.robot_folder import ARCHITECTURE_FILE, COORDINATION_FILE, RobotFolder
-from ..documents.writing import write_if_changed
 from ..errors import Diagnostic, MotivmlError
-from ..language.model import Configuration, FeatureModel
-from ..plugins.manifests import discover
-from ..plugins.manifests import missing as missing_plugins
-from ..validate import Report, validate
-from . import _plural, _targets, fail, main, out, print_diagnostic
+from .common import fail, out, plural, print_diagnostic, targets
+
+if TYPE_CHECKING:
+    from rich.tree import Tree
+
+    from ..language.model import Configuration, FeatureModel
+    from ..validate import Report
 
 
-@main.command("validate")
+@click.command("validate")
 @click.argument("target", default=".", type=click.Path())
 @click.option(
     "--config", "config", type=click.Path(), help="A configuration file to check against the model."
@@ -40,8 +38,10 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     TARGET is a model.json or a robot folder (default: the current folder). A robot folder
     without --variant checks the model and every variant in variants/.
     """
+    from ..validate import validate
+
     try:
-        model_path, configs, analyse = _targets(target, config, variant)
+        model_path, configs, analyse = targets(target, config, variant)
         architecture = model_path.parent / ARCHITECTURE_FILE if Path(target).is_dir() else None
         if architecture is not None and not architecture.is_file():
             architecture = None
@@ -94,13 +94,13 @@ def _print_json(
 
 
 def _verdict(report: Report, checked_variants: bool) -> None:
-    counts = f"{_plural(len(report.errors), 'error')}, {_plural(len(report.warnings), 'warning')}"
+    counts = f"{plural(len(report.errors), 'error')}, {plural(len(report.warnings), 'warning')}"
     if report.valid:
         extra = ""
         if report.kind == "model" and report.model is not None and report.analysed:
             extra = f" ({len(report.model.features)} features)"
         elif report.open_bindings:
-            extra = f" ({_plural(report.open_bindings, 'binding')} left to the configurator)"
+            extra = f" ({plural(report.open_bindings, 'binding')} left to the configurator)"
         out.print(f"[bold green]valid[/]: {escape(report.file)}{escape(extra)}, {counts}")
     else:
         unchecked = (
@@ -109,7 +109,7 @@ def _verdict(report: Report, checked_variants: bool) -> None:
         out.print(f"[bold red]invalid[/]: {escape(report.file)}: {counts} in the {report.kind}{unchecked}")
 
 
-@main.command("configure")
+@click.command("configure")
 @click.argument("target", default=".", type=click.Path())
 @click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
 @click.option("-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant>/).")
@@ -128,6 +128,13 @@ def configure_command(
     TARGET is a robot folder (default: the current folder). Files are rewritten only when
     their content changes; nothing is written when the variant is invalid.
     """
+    from ..binding.codegen import late_or_dynamic, outputs
+    from ..binding.resolve import resolve
+    from ..documents.writing import write_if_changed
+    from ..plugins.manifests import discover
+    from ..plugins.manifests import missing as missing_plugins
+    from ..validate import validate
+
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
         raise click.UsageError(f"--prefix {prefix!r} cannot start a C++ macro name (letters, digits, _)")
     try:
@@ -176,7 +183,7 @@ def configure_command(
         out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")
 
 
-@main.command("diff")
+@click.command("diff")
 @click.argument("target", type=click.Path())
 @click.argument("first")
 @click.argument("second")
@@ -194,6 +201,10 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
     whose selection or binding differs is a rebuild, a restart or a run-time change
     (semantics.md section 4). Exit 0 when every change can be made at run time.
     """
+    from ..binding import impact
+    from ..binding.resolve import resolve
+    from ..validate import validate
+
     try:
         robot = RobotFolder.open(target)
         paths = [robot.variant_path(first), robot.variant_path(second)]
@@ -236,18 +247,21 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
             impact.RESTART: "needs a restart (no rebuild)",
             impact.REBUILD: "needs a rebuild",
         }[worst]
-        out.print(f"{escape(first)} -> {escape(second)}: {_plural(len(changes), 'change')}; {summary}")
+        out.print(f"{escape(first)} -> {escape(second)}: {plural(len(changes), 'change')}; {summary}")
     sys.exit(0 if worst == impact.RUN_TIME else 1)
 
 
-@main.command("show")
+@click.command("show")
 @click.argument("target", default=".", type=click.Path())
 @click.option("--config", "config", type=click.Path(), help="A configuration file.")
 @click.option("--variant", help="A variant of the robot folder: variants/NAME.json.")
 def show_command(target: str, config: str | None, variant: str | None) -> None:
     """Print the feature tree with groups, allowed, configured and forced bindings."""
+    from ..binding.check import analyse_model, binding_states
+    from ..validate import validate
+
     try:
-        model_path, configs, _ = _targets(target, config, variant)
+        model_path, configs, _ = targets(target, config, variant)
         chosen = configs[:1] if variant or config else []
         reports = validate(model_path, chosen, partial=True, analyse=False)
         problems = [d for r in reports for d in r.errors]
@@ -279,6 +293,8 @@ def show_command(target: str, config: str | None, variant: str | None) -> None:
 
 
 def _tree(model: FeatureModel, config: Configuration | None, states: list[set[str]]) -> Tree:
+    from rich.tree import Tree
+
     nodes: dict[int, Tree] = {}
     root_tree: Tree | None = None
     for f in model.features:

@@ -9,16 +9,12 @@ from pathlib import Path
 import click
 from rich.markup import escape
 
-from .. import graph
-from ..coordination.scxml import to_scxml
 from ..documents.robot_folder import ARCHITECTURE_FILE
-from ..documents.writing import write_if_changed
 from ..errors import MotivmlError
-from ..runtime.launch import load, read_robot_coordination
-from . import main, out, print_diagnostic
+from .common import out, print_diagnostic
 
 
-@main.command("graph")
+@click.command("graph")
 @click.argument("target", default=".", type=click.Path())
 @click.option(
     "--variant", help="Draw this variant: its selection and bindings, and the architecture it starts with."
@@ -36,6 +32,10 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
     the architecture shows the elements of the variant's active set at start (what
     `motivml run` builds).
     """
+    from .. import graph
+    from ..documents.writing import write_if_changed
+    from ..runtime.launch import load
+
     try:
         loaded = load(target, variant)
         robot = loaded.folder
@@ -69,7 +69,7 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
         )
 
 
-@main.command("export")
+@click.command("export")
 @click.argument("what", type=click.Choice(["scxml"]))
 @click.argument("target", default=".", type=click.Path())
 @click.option(
@@ -84,6 +84,10 @@ def export_command(what: str, target: str, output: str | None) -> None:
     Domain conditions and actions are kept in the namespace urn:motivml:coordination:1
     (see guidelines/coordinating-behaviour.md); the file is rewritten only when it changes.
     """
+    from ..coordination.scxml import to_scxml
+    from ..documents.writing import write_if_changed
+    from ..runtime.launch import load, read_robot_coordination
+
     try:
         loaded = load(target, None)
         coordination = read_robot_coordination(loaded.folder, loaded.model, loaded.architecture, None)

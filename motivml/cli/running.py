@@ -5,32 +5,28 @@ from __future__ import annotations
 import json
 import math
 import os
-import signal
 import sys
-import threading
 import time
-from concurrent.futures import Future
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 from rich import box
 from rich.console import Console, Group
-from rich.live import Live
 from rich.markup import escape
 from rich.table import Table
 
-from ..binding.resolve import PREFERENCES
+from ..binding import PREFERENCES
 from ..errors import MotivmlError
-from ..runtime.binder import Outcome
-from ..runtime.control import ControlServer, send
-from ..runtime.coordinator import Coordinator
-from ..runtime.launch import launch
-from ..runtime.loop import RealClock, RunStats, Runtime, SimulatedClock, Snapshot
-from ..runtime.reconfigure import ACTIONS, Request
-from . import _plural, err, fail, main, out, print_diagnostic
+from ..runtime.requests import ACTIONS, Request
+from .common import err, fail, out, plural, print_diagnostic
+
+if TYPE_CHECKING:
+    from ..runtime.loop import Change, RunStats, Runtime, Snapshot
+    from ..runtime.session import Feed
 
 
-@main.command("run")
+@click.command("run")
 @click.argument("target", type=click.Path())
 @click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
 @click.option(
@@ -115,6 +111,11 @@ def run_command(
                 param_hint="--at",
             )
     plan.sort(key=lambda item: item[0])
+    from rich.live import Live
+
+    from ..runtime.launch import launch
+    from ..runtime.session import EXIT_INTERRUPTED, Session
+
     try:
         robot = launch(target, variant, rate, prefer)
     except MotivmlError as exc:
@@ -132,98 +133,56 @@ def run_command(
         out.width = max(out.width, 160)
     out.print(
         f"running {escape(robot.folder.name)} variant {escape(variant)}: "
-        f"{_plural(len(robot.assembly.components), 'component')} of {_plural(len(robot.active), 'active feature')} "
+        f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
         f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, {duration:g} s"
     )
-    server = None
-    if control:
-        folder = Path(run_dir) if run_dir else Path("build") / robot.folder.name / variant / "run"
-        server = ControlServer(folder, runtime, robot.binder)
-        try:
-            server.open()
-        except MotivmlError as exc:
-            robot.close()
-            fail(exc)
-        out.print(f"control: {escape(str(server.path))} (motivml ctl)")
-    chosen = RealClock() if clock == "real" else SimulatedClock()
-    if clock == "simulated":
-        robot.binder.make_changes_between_ticks()
-    coordinator = robot.coordinate(simulated=clock == "simulated")
+
+    def stuck() -> None:  # a second Ctrl-C while the loop is stuck in a plugin
+        err.print(
+            "[bold red]interrupted twice[/]: the control loop did not stop (a plugin's step that never returns?); exiting now"
+        )
+        os._exit(EXIT_INTERRUPTED)
+
+    folder = (
+        (Path(run_dir) if run_dir else Path("build") / robot.folder.name / variant / "run")
+        if control
+        else None
+    )
+    session = Session(robot, duration, clock, plan, folder, on_stuck=stuck)
+    try:
+        session.open()
+    except MotivmlError as exc:
+        fail(exc)
+    if session.server is not None:
+        out.print(f"control: {escape(str(session.server.path))} (motivml ctl)")
+    coordinator = session.coordinator
     if coordinator is None and any(request.action == "event" for _, request in plan):
-        robot.close()
+        session.close()
         raise click.BadParameter(
             "events go to a coordination statechart, and this robot has none", param_hint="--at"
         )
-    if server is not None:
-        server.coordinator = coordinator
     show = out.is_terminal if live is None else live
-    result: list[RunStats] = []
-    finished = threading.Event()
-    answers: list[tuple[float, int, Request, Outcome | Future[Outcome]]] = []
-
-    def scheduler(rt: Runtime) -> bool:
-        """Each tick, on the control thread: make the requests that are due."""
-        while plan and rt.time >= plan[0][0] - 1e-12:
-            _, request = plan.pop(0)
-            if request.action == "event":
-                assert coordinator is not None
-                coordinator.event(request.features[0])
-                rt.note(f"event {request.features[0]}")
-            elif clock == "simulated":  # deterministic: committed right here, between two ticks
-                answers.append((rt.time, rt.ticks, request, robot.binder.request_between_ticks(request)))
-            else:
-                answers.append((rt.time, rt.ticks, request, robot.binder.submit(request)))
-        return coordinator is not None and coordinator.finished is not None
-
-    def work() -> None:
-        try:
-            result.append(runtime.run(duration, chosen, until=scheduler))
-        finally:
-            finished.set()
-
-    interrupted = threading.Event()
-
-    def interrupt(signum: int, frame: object) -> None:  # Ctrl-C: end the run, keep the summary
-        if interrupted.is_set():  # a second Ctrl-C: the loop is stuck (a plugin that never returns)
-            err.print(
-                "[bold red]interrupted twice[/]: the control loop did not stop (a plugin's step that never returns?); exiting now"
-            )
-            os._exit(130)
-        interrupted.set()
-        runtime.stop()
-
-    on_main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, interrupt) if on_main else None
-    worker = threading.Thread(target=work, daemon=True, name="motivml-control")
-    began = time.perf_counter()
+    session.start()
     try:
-        worker.start()
-        reported = 0
         if show:
-            with Live(
-                _live_view(runtime, began, coordinator), console=out, refresh_per_second=4, transient=True
-            ) as view:
-                while not finished.wait(0.25):
-                    reported = _report_changes(runtime, reported, view.console)
-                    view.update(_live_view(runtime, began, coordinator))
+            with Live(_live_view(session.feed()), console=out, refresh_per_second=4, transient=True) as view:
+                while not session.wait(0.25):
+                    _report_changes(session.new_changes(), view.console)
+                    view.update(_live_view(session.feed()))
         else:
-            while not finished.wait(0.25):
-                reported = _report_changes(runtime, reported, out)
+            while not session.wait(0.25):
+                _report_changes(session.new_changes(), out)
     finally:
-        if on_main:
-            signal.signal(signal.SIGINT, previous)
-        if server is not None:
-            server.close()
-    if not result:
+        session.stop_watching()
+    if session.stats is None:
         out.print("[bold red]the run ended without a result[/]")
         sys.exit(3)
-    for at, tick, request, answer in answers:
-        outcome = answer if isinstance(answer, Outcome) else answer.result()
-        verdict = "accepted" if outcome.accepted else "refused, nothing changed"
-        out.print(escape(f"request at {at:.3f} s (tick {tick}): {request}: {verdict}"))
-        for d in outcome.diagnostics:
+    for answer in session.answers():
+        verdict = "accepted" if answer.outcome.accepted else "refused, nothing changed"
+        out.print(escape(f"request at {answer.time:.3f} s (tick {answer.tick}): {answer.request}: {verdict}"))
+        for d in answer.outcome.diagnostics:
             print_diagnostic(d)
-    _summary(runtime, result[0])
+    _summary(runtime, session.stats)
     if coordinator is not None:
         if coordinator.finished is not None:
             at, tick, state = coordinator.finished
@@ -242,20 +201,21 @@ def run_command(
             f"[bold red]the run diverged[/]: {escape(', '.join(diverged))} hold non-finite values "
             "(a system too stiff for its time step, or a goal out of range)"
         )
-    robot.close()
-    unsettled = coordinator is not None and coordinator.unsettled
+    session.close()
     sys.exit(
-        130 if interrupted.is_set() else 1 if diverged or runtime.failure is not None or unsettled else 0
+        EXIT_INTERRUPTED
+        if session.interrupted.is_set()
+        else 1
+        if diverged or runtime.failure is not None or session.unsettled
+        else 0
     )
 
 
-def _report_changes(runtime: Runtime, reported: int, console: Console) -> int:
-    """Print the changes accepted since the last call, as they happen; the new count."""
-    changes = runtime.changes[reported:]
+def _report_changes(changes: list[Change], console: Console) -> None:
+    """Print the changes accepted since the last call, as they happen."""
     for change in changes:
         stamp = time.strftime("%H:%M:%S", time.localtime(change.wall)) + f".{int(change.wall % 1 * 1000):03d}"
         console.print(escape(f"{stamp} tick {change.tick}: {change.request}"))
-    return reported + len(changes)
 
 
 STATUS_COLOURS = {"converged": "green", "tracking": "green", "ongoing": "yellow", "learning": "cyan"}
@@ -286,13 +246,11 @@ def _components_table(snapshot: Snapshot, runtime: Runtime | None = None) -> Tab
     return table
 
 
-def _live_view(runtime: Runtime, began: float, coordinator: Coordinator | None = None) -> Group:
-    snapshot = runtime.status()
-    wall = time.perf_counter() - began
-    achieved = snapshot.tick / wall if wall > 0 else 0.0
-    head = f"tick {snapshot.tick}  t = {snapshot.time:.3f} s  achieved {achieved:,.0f} Hz (asked {runtime.rate:g} Hz)"
-    if coordinator is not None:
-        head += f"\ncoordination: {', '.join(coordinator.configuration())}"
+def _live_view(feed: Feed) -> Group:
+    snapshot = feed.snapshot
+    head = f"tick {snapshot.tick}  t = {snapshot.time:.3f} s  achieved {feed.achieved:,.0f} Hz (asked {feed.rate:g} Hz)"
+    if feed.coordination is not None:
+        head += f"\ncoordination: {', '.join(feed.coordination)}"
     return Group(head, _components_table(snapshot))
 
 
@@ -319,12 +277,12 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
         line += (
             f" in {stats.elapsed:.3f} s: {stats.achieved:,.1f} Hz achieved (asked {stats.rate:g} Hz); "
             f"jitter p50 {p50:.3f} ms, p99 {p99:.3f} ms, max {worst:.3f} ms; "
-            f"{_plural(stats.missed, 'missed deadline')}; CPU {stats.cpu_share:.0%}"
+            f"{plural(stats.missed, 'missed deadline')}; CPU {stats.cpu_share:.0%}"
         )
     out.print(line)
 
 
-@main.command("ctl")
+@click.command("ctl")
 @click.argument("target", type=click.Path())
 @click.option("--variant", required=True, help="The variant that runs (to find its run directory).")
 @click.option(
@@ -348,6 +306,8 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
         raise click.UsageError("swap needs two features: the one to unload, then the one to load")
     if op == "event" and len(features) != 1:
         raise click.UsageError("event needs one name")
+    from ..runtime.control import send
+
     folder = Path(run_dir) if run_dir else Path("build") / Path(target).resolve().name / variant / "run"
     try:
         answer = send(folder, {"op": op, "features": list(features)} if features else {"op": op})

@@ -40,7 +40,8 @@ from ..plugins import cpp as cppplugins
 from ..plugins.api import PluginContext
 from ..plugins.python import PluginError, PythonPlugins, plugin_error
 from .loop import Change, Commit, Fault, Running, Runtime
-from .reconfigure import Plan, Reconfigurer, Refused, Request
+from .reconfigure import Plan, Reconfigurer, Refused
+from .requests import Request
 
 
 @dataclass

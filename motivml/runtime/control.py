@@ -28,7 +28,7 @@ from typing import Any
 from ..errors import EnvironmentProblem, Location, error
 from .binder import Binder
 from .loop import Runtime
-from .reconfigure import ACTIONS, Request
+from .requests import ACTIONS, Request
 
 SOCKET = "control.sock"
 LINE_LIMIT = 1 << 16  # bytes per request line

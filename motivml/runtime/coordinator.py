@@ -23,7 +23,7 @@ from ..coordination.document import Coordination
 from ..errors import describe_exception
 from .binder import Binder
 from .loop import Runtime
-from .reconfigure import Request
+from .requests import Request
 
 ROOT = "motivml.root"  # the hidden root state (no state id has a dot)
 MAX_STEPS = 1000  # per advance: a chart that takes more does not settle

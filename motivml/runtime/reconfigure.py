@@ -31,21 +31,11 @@ from ..binding.explain import Explainer
 from ..binding.resolve import Variant
 from ..errors import Location, MotivmlError, error
 from ..language.model import Configuration
-
-ACTIONS = ("load", "unload", "reload", "swap")
+from .requests import ACTIONS, Request
 
 
 class Refused(MotivmlError):
     """The request would break a rule of section 4; nothing changed."""
-
-
-@dataclass(frozen=True)
-class Request:
-    action: str  # load | unload | reload | swap
-    features: tuple[str, ...]  # swap: (the one to unload, the one to load)
-
-    def __str__(self) -> str:
-        return f"{self.action} {' '.join(self.features)}"
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,59 @@
+"""What every command shares: the consoles, printing diagnostics, the exit on an error, targets."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import NoReturn
+
+import click
+from rich.console import Console
+from rich.markup import escape
+
+from ..documents.robot_folder import RobotFolder
+from ..errors import Diagnostic, MotivmlError, Severity
+
+out = Console(highlight=False, soft_wrap=True, emoji=False)
+err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
+
+
+def fail(exc: MotivmlError) -> NoReturn:
+    """Print a library error (located) and exit with its code."""
+    for diagnostic in exc.diagnostics:
+        err.print(f"[bold red]{escape(str(diagnostic.location))}[/]: {escape(diagnostic.message)}")
+    sys.exit(exc.exit_code)
+
+
+def print_diagnostic(d: Diagnostic) -> None:
+    colour = "red" if d.severity is Severity.ERROR else "yellow"
+    out.print(
+        f"[bold]{escape(str(d.location))}[/]: {escape(d.location.path)}: "
+        f"[{colour}]{d.severity.value}[/]: {escape(d.message)}"
+    )
+    for fact in d.facts:
+        out.print(f"    [dim]{escape(str(fact.location))}: {escape(fact.text)}[/]")
+
+
+def targets(target: str, config: str | None, variant: str | None) -> tuple[Path, list[Path], bool]:
+    """The model file, the configurations a call is about, and whether to analyse the model.
+
+    The model is analysed (dead features, bindings never possible) when it is checked on
+    its own or with every variant of its folder, not when one variant is asked about.
+    """
+    if config is not None and variant is not None:
+        raise click.UsageError("give --config FILE or --variant NAME, not both")
+    path = Path(target)
+    if path.is_dir():
+        robot = RobotFolder.open(path)
+        if config is not None:
+            return robot.model_path, [Path(config)], False
+        if variant is not None:
+            return robot.model_path, [robot.variant_path(variant)], False
+        return robot.model_path, [robot.variant_path(n) for n in robot.variant_names()], True
+    if variant is not None:
+        raise click.UsageError("--variant needs a robot folder (model.json, variants/NAME.json), not a file")
+    return path, [Path(config)] if config else [], config is None
+
+
+def plural(count: int, word: str) -> str:
+    return f"{count} {word}{'s' * (count != 1)}"

@@ -1,0 +1,186 @@
+"""One run of a launched robot: the control thread, the socket, scheduled requests, Ctrl-C, shutdown.
+
+`motivml run` is a thin front over a `Session`: the CLI parses, launches the robot, opens a
+session, shows what `feed()` gives while the session runs, prints the summary and picks
+the exit code from the session's verdict. Everything with threads or signals is here:
+
+* the loop runs on its own thread (`motivml-control`) while the caller's thread watches;
+* requests scheduled at control times (`run --at`) are made between two ticks: on the
+  simulated clock committed right there (deterministic), on the real clock submitted to
+  the binder, which prepares them off the loop;
+* Ctrl-C (SIGINT, when the session runs on the main thread) ends the run and keeps its
+  summary; a second Ctrl-C means the loop is stuck in a plugin, and `on_stuck` is called
+  (by default the process exits with 130 at once);
+* `close()` closes the control socket and stops the plugins and the binder's thread.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future
+from dataclasses import dataclass
+from pathlib import Path
+from types import FrameType
+
+from .binder import Outcome
+from .control import ControlServer
+from .coordinator import Coordinator
+from .launch import Robot
+from .loop import Change, RealClock, RunStats, Runtime, SimulatedClock, Snapshot
+from .requests import Request
+
+EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by SIGINT
+
+
+def _exit_now() -> None:
+    os._exit(EXIT_INTERRUPTED)
+
+
+@dataclass(frozen=True)
+class Feed:
+    """What a live view shows of a running session, read at one moment."""
+
+    snapshot: Snapshot
+    achieved: float  # ticks per wall-clock second since the start
+    rate: float  # asked
+    coordination: tuple[str, ...] | None  # active states, None without coordination
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A scheduled request and what became of it."""
+
+    time: float  # control time when it was made
+    tick: int
+    request: Request
+    outcome: Outcome
+
+
+class Session:
+    """Run `robot` for `duration` seconds of `clock` time ("real" or "simulated")."""
+
+    def __init__(
+        self,
+        robot: Robot,
+        duration: float,
+        clock: str,
+        plan: Sequence[tuple[float, Request]] = (),
+        run_dir: Path | None = None,
+        on_stuck: Callable[[], None] = _exit_now,
+    ) -> None:
+        self.robot = robot
+        self.runtime: Runtime = robot.runtime
+        self.duration = duration
+        self.simulated = clock == "simulated"
+        self.plan = sorted(plan, key=lambda item: item[0])
+        self.server = ControlServer(run_dir, robot.runtime, robot.binder) if run_dir is not None else None
+        self.on_stuck = on_stuck
+        self.coordinator: Coordinator | None = None
+        self.stats: RunStats | None = None
+        self.finished = threading.Event()
+        self.interrupted = threading.Event()
+        self._answers: list[tuple[float, int, Request, Outcome | Future[Outcome]]] = []
+        self._reported = 0
+        self._began = 0.0
+        self._previous: signal.Handlers | Callable[[int, FrameType | None], object] | int | None = None
+        self._on_main = False
+        self._worker: threading.Thread | None = None
+
+    def open(self) -> None:
+        """Open the control socket and start the coordination; the robot is closed if this fails."""
+        try:
+            if self.server is not None:
+                self.server.open()
+        except BaseException:
+            self.robot.close()
+            raise
+        if self.simulated:
+            self.robot.binder.make_changes_between_ticks()
+        self.coordinator = self.robot.coordinate(simulated=self.simulated)
+        if self.server is not None:
+            self.server.coordinator = self.coordinator
+
+    def start(self) -> None:
+        """Start the loop on its own thread; Ctrl-C ends it from now on."""
+        clock = SimulatedClock() if self.simulated else RealClock()
+
+        def work() -> None:
+            try:
+                self.stats = self.runtime.run(self.duration, clock, until=self._scheduler)
+            finally:
+                self.finished.set()
+
+        self._on_main = threading.current_thread() is threading.main_thread()
+        if self._on_main:
+            self._previous = signal.signal(signal.SIGINT, self._interrupt)
+        self._worker = threading.Thread(target=work, daemon=True, name="motivml-control")
+        self._began = time.perf_counter()
+        self._worker.start()
+
+    def wait(self, timeout: float) -> bool:
+        """True once the loop has ended; at most `timeout` seconds."""
+        return self.finished.wait(timeout)
+
+    def stop_watching(self) -> None:
+        """Give Ctrl-C back and close the control socket: no more requests from outside."""
+        if self._on_main:
+            signal.signal(signal.SIGINT, self._previous)
+            self._on_main = False
+        if self.server is not None:
+            self.server.close()
+
+    def close(self) -> None:
+        """Stop the plugins and the binder's thread (after `stop_watching`)."""
+        self.stop_watching()
+        self.robot.close()
+
+    def _interrupt(self, signum: int, frame: FrameType | None) -> None:
+        if self.interrupted.is_set():  # a second Ctrl-C: the loop is stuck (a plugin that never returns)
+            self.on_stuck()
+            return
+        self.interrupted.set()
+        self.runtime.stop()
+
+    def _scheduler(self, rt: Runtime) -> bool:
+        """Each tick, on the control thread: make the requests that are due; True ends the run."""
+        while self.plan and rt.time >= self.plan[0][0] - 1e-12:
+            _, request = self.plan.pop(0)
+            if request.action == "event":
+                assert self.coordinator is not None
+                self.coordinator.event(request.features[0])
+                rt.note(f"event {request.features[0]}")
+            elif self.simulated:  # deterministic: committed right here, between two ticks
+                self._answers.append(
+                    (rt.time, rt.ticks, request, self.robot.binder.request_between_ticks(request))
+                )
+            else:
+                self._answers.append((rt.time, rt.ticks, request, self.robot.binder.submit(request)))
+        return self.coordinator is not None and self.coordinator.finished is not None
+
+    def new_changes(self) -> list[Change]:
+        """The changes committed since the last call, in order."""
+        changes = self.runtime.changes[self._reported :]
+        self._reported += len(changes)
+        return changes
+
+    def feed(self) -> Feed:
+        snapshot = self.runtime.status()
+        wall = time.perf_counter() - self._began
+        coordination = tuple(self.coordinator.configuration()) if self.coordinator is not None else None
+        return Feed(snapshot, snapshot.tick / wall if wall > 0 else 0.0, self.runtime.rate, coordination)
+
+    def answers(self) -> list[Answer]:
+        """The scheduled requests made during the run, each with its outcome (waited for)."""
+        return [
+            Answer(at, tick, request, answer if isinstance(answer, Outcome) else answer.result())
+            for at, tick, request, answer in self._answers
+        ]
+
+    @property
+    def unsettled(self) -> bool:
+        """The coordination stopped because its statechart never settled."""
+        return self.coordinator is not None and self.coordinator.unsettled

@@ -1,0 +1,64 @@
+"""The package's floors and the CLI's start-up: what a command imports is what it uses."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+HEAVY = ("numpy", "sismic", "rich.live")
+
+PROBE = """
+import sys
+from motivml.cli import main
+try:
+    main(sys.argv[1:], prog_name="motivml")
+except SystemExit:
+    pass
+heavy = [name for name in {heavy!r} if name in sys.modules]
+print("HEAVY:" + ",".join(heavy), file=sys.stderr)
+"""
+
+
+def _heavy_modules_after(*args: str) -> list[str]:
+    done = subprocess.run(
+        [sys.executable, "-c", PROBE.format(heavy=HEAVY), *args], cwd=ROOT, capture_output=True, text=True
+    )
+    (line,) = [line for line in done.stderr.splitlines() if line.startswith("HEAVY:")]
+    return [name for name in line.removeprefix("HEAVY:").split(",") if name]
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("--help",),
+        ("--version",),
+        ("validate", "feature_models/simplebot"),
+        ("validate", "feature_models/simplebot", "--variant", "lab"),
+        ("validate", "feature_models/coordinated_arm"),  # with a coordination statechart
+        ("configure", "feature_models/simplebot", "--variant", "lab", "-o", "/dev/null/never"),
+        ("show", "feature_models/simplebot", "--variant", "lab"),
+    ],
+    ids=" ".join,
+)
+def test_checking_commands_load_neither_numpy_nor_sismic_nor_the_live_view(args: tuple[str, ...]) -> None:
+    assert _heavy_modules_after(*args) == []
+
+
+def test_the_probe_sees_heavy_imports_where_they_are_used() -> None:
+    """The check above can fail: `run --help` lists options only, but `graph` draws the start state."""
+    assert "numpy" in _heavy_modules_after(
+        "graph", "feature_models/quadruped", "--variant", "trot", "-o", "/dev/null/x"
+    )
+
+
+def test_the_import_contract_holds() -> None:
+    """lint-imports (make test runs it too): no loop, no upward import, pysat and click where they belong."""
+    linter = Path(sys.executable).with_name("lint-imports")
+    if not linter.exists():
+        pytest.skip("import-linter is not installed (pip install -e '.[dev]')")
+    done = subprocess.run([str(linter)], cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
