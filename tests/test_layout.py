@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-HEAVY = ("numpy", "sismic", "rich.live")
+HEAVY = ("numpy", "sismic", "rich.live", "pluginbase", "motivml._cpp_plugins")
 
 PROBE = """
 import sys
@@ -44,7 +44,9 @@ def _heavy_modules_after(*args: str) -> list[str]:
     ],
     ids=" ".join,
 )
-def test_checking_commands_load_neither_numpy_nor_sismic_nor_the_live_view(args: tuple[str, ...]) -> None:
+def test_checking_commands_load_neither_numpy_nor_sismic_nor_the_live_view_nor_plugin_loaders(
+    args: tuple[str, ...],
+) -> None:
     assert _heavy_modules_after(*args) == []
 
 

@@ -19,6 +19,7 @@ from types import ModuleType
 from typing import Any
 
 from ..documents.robot_folder import Plugin
+from ..errors import Diagnostic
 from .api import PluginContext
 from .python import plugin_error
 
@@ -94,6 +95,26 @@ def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
         library.unload()
         raise plugin_error(plugin, "class", _first_line(exc)) from None
     return CppPlugin(library, instance, context, extension.Spaces)
+
+
+class CppPlugins:
+    """The C++ plugins of one robot: each instance holds its library until it is stopped."""
+
+    def __init__(self, robot: str, plugins: dict[str, Plugin]) -> None:
+        self.plugins = plugins
+
+    def problems(self) -> list[Diagnostic]:
+        return []
+
+    def create(self, plugin: Plugin, context: PluginContext, fresh: bool = False) -> CppPlugin:
+        return create(plugin, context)
+
+    def discard(self, instance: Any) -> None:
+        """Release the object and, with its last instance, the library (stop() releases too)."""
+        instance.stop()
+
+    def close(self) -> None:
+        """Libraries are released by their last instance's stop()."""
 
 
 def _first_line(exc: BaseException) -> str:

@@ -10,13 +10,14 @@ for the runtime.
 
 from __future__ import annotations
 
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 from ..documents.loader import load_file
 from ..documents.robot_folder import MANIFEST_FILE, SETTINGS_FILE, Plugin, RobotFolder
 from ..documents.schema import PLUGIN, ROBOT, check_document, read_checked
 from ..errors import Diagnostic, EnvironmentProblem, Location, error, warning
 from ..language.model import FeatureModel
+from .registry import KINDS
 
 
 def _read(path: Path, schema: str, what: str) -> tuple[dict[str, object] | None, list[Diagnostic]]:
@@ -74,26 +75,12 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
             doc = load_file(manifest_path)
             feature, kind, entry = str(manifest["feature"]), str(manifest["kind"]), manifest["entry"]
             assert isinstance(entry, dict)
-            needed = "module" if kind == "python" else "library"
-            if needed not in entry:
-                diagnostics.append(
-                    error(
-                        doc.locate(("entry",)),
-                        f"a {kind} plugin's entry needs {needed!r}",
-                        "plugins.entry",
-                        feature,
-                    )
-                )
-                continue
-            if kind == "cpp" and (".." in PurePosixPath(entry["library"]).parts):
-                diagnostics.append(
-                    error(
-                        doc.locate(("entry", "library")),
-                        f"library {entry['library']!r} leaves the plugin folder",
-                        "plugins.escape",
-                        feature,
-                    )
-                )
+            unusable = KINDS[kind].check_entry(entry)
+            if unusable is not None:
+                key, problem = unusable
+                where = doc.locate(("entry", key) if key else ("entry",))
+                rule = "plugins.escape" if key else "plugins.entry"
+                diagnostics.append(error(where, problem, rule, feature))
                 continue
             if feature not in model.index:
                 diagnostics.append(

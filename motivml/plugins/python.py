@@ -43,7 +43,7 @@ class PythonPlugins:
     """The Python plugins of one robot: import, construct, reload."""
 
     def __init__(self, robot: str, plugins: dict[str, Plugin]) -> None:
-        self.plugins = {f: p for f, p in plugins.items() if p.kind == "python"}
+        self.plugins = plugins
         self.base = PluginBase(package="motivml.robot_plugins")
         self.source: PluginSource = self.base.make_plugin_source(
             searchpath=[str(p.folder) for p in self.plugins.values()],
@@ -92,9 +92,9 @@ class PythonPlugins:
         self.modules[plugin.feature] = module
         return module
 
-    def create(self, feature: str, context: PluginContext, fresh: bool = False) -> Any:
+    def create(self, plugin: Plugin, context: PluginContext, fresh: bool = False) -> Any:
         """An instance of the feature's plugin class (`fresh`: re-read its module first)."""
-        plugin = self.plugins[feature]
+        feature = plugin.feature
         module = self._module(plugin, fresh)
         name = plugin.entry["class"]
         cls = getattr(module, name, None)
@@ -116,6 +116,9 @@ class PythonPlugins:
                 "class",
                 f"constructing {name} of plugin {feature} failed: {describe_exception(exc, plugin.folder)}",
             ) from None
+
+    def discard(self, instance: Any) -> None:
+        """Nothing to release: the instance is garbage once dropped."""
 
     def close(self) -> None:
         self.modules.clear()

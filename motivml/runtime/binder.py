@@ -36,9 +36,9 @@ from ..binding.resolve import Variant
 from ..documents.robot_folder import Plugin
 from ..errors import Diagnostic, Location, MotivmlError, describe_exception, error
 from ..language.model import Configuration
-from ..plugins import cpp as cppplugins
 from ..plugins.api import PluginContext
-from ..plugins.python import PluginError, PythonPlugins, plugin_error
+from ..plugins.python import PluginError, plugin_error
+from ..plugins.registry import loaders
 from .loop import Change, Commit, Fault, Running, Runtime
 from .reconfigure import Plan, Reconfigurer, Refused
 from .requests import Request
@@ -61,6 +61,7 @@ class Outcome:
     change: Change | None = None  # when it took effect
     latency: float = 0.0  # s, from the request to its commit
     diagnostics: list[Diagnostic] = field(default_factory=list)  # why not
+    breaks_relations: bool = False  # refused because the new active set breaks the model's relations
 
     @property
     def reason(self) -> str:
@@ -84,7 +85,7 @@ class Binder:
         self.plugins = plugins
         self.active = frozenset(active)
         self.reconfigurer = Reconfigurer(variant, config)
-        self.python = PythonPlugins(robot, plugins)
+        self.loaders = loaders(robot, plugins)
         self.static = {d.feature.id: d.static for d in variant.decisions}
         self._lock = threading.Lock()
         self.between_ticks = False  # simulated clock: changes are made on the control thread
@@ -132,15 +133,17 @@ class Binder:
 
     def _start(self, feature: str, preparing: Preparing, fresh: bool = False) -> Running:
         plugin = self.plugins[feature]
-        if plugin.kind == "cpp":
-            instance: Any = cppplugins.create(plugin, self._context(feature, preparing))
-        else:
-            instance = self.python.create(feature, self._context(feature, preparing), fresh)
+        loader = self.loaders[plugin.kind]
+        instance = loader.create(plugin, self._context(feature, preparing), fresh)
         try:
             instance.start()
         except BaseException as exc:  # plugin code may raise anything
-            if plugin.kind == "cpp":  # release the C++ object and its library
-                self._stop(Running(feature, instance, self.static[feature], plugin.folder))
+            try:
+                loader.discard(instance)
+            except Exception as problem:
+                self.runtime.note(
+                    f"stop() of plugin {feature} raised {describe_exception(problem, plugin.folder)}"
+                )
             if not isinstance(exc, Exception):
                 raise
             raise plugin_error(
@@ -159,7 +162,7 @@ class Binder:
 
     def start(self) -> None:
         """Start the plugins of the start state (before the loop runs); all or none."""
-        problems = self.python.problems()
+        problems = [d for loader in self.loaders.values() for d in loader.problems()]
         if problems:
             raise PluginError(problems)
         started: list[Running] = []
@@ -253,7 +256,9 @@ class Binder:
         try:
             plan = self.reconfigurer.plan(self.active, request)
         except Refused as refused:
-            return Outcome(request, False, diagnostics=refused.diagnostics)
+            return Outcome(
+                request, False, diagnostics=refused.diagnostics, breaks_relations=refused.breaks_relations
+            )
         try:
             return plan, self._prepare(plan)
         except MotivmlError as failed:
@@ -317,7 +322,7 @@ class Binder:
                     self.runtime.note(f"unloaded {feature} after the fault of {fault.feature}")
                     return
                 reasons.append(outcome.reason)
-                if not any(d.rule == "section 4" for d in outcome.diagnostics):
+                if not outcome.breaks_relations:
                     break  # refused for another reason than the model: an ancestor would not help
             node = model.features[node].parent
         self.runtime.note(
@@ -338,4 +343,5 @@ class Binder:
                 self._lock.release()
         self.runtime.plugins.clear()
         self.reconfigurer.close()
-        self.python.close()
+        for loader in self.loaders.values():
+            loader.close()

@@ -29,13 +29,22 @@ from types import TracebackType
 from ..binding import encoding as enc
 from ..binding.explain import Explainer
 from ..binding.resolve import Variant
-from ..errors import Location, MotivmlError, error
+from ..errors import Diagnostic, Location, MotivmlError, error
 from ..language.model import Configuration
 from .requests import ACTIONS, Request
 
 
 class Refused(MotivmlError):
-    """The request would break a rule of section 4; nothing changed."""
+    """The request would break a rule of section 4; nothing changed.
+
+    `breaks_relations`: the new active set would break the model's relations (a group, an
+    include, a mandatory child), as opposed to a rule about the request itself (a Static
+    feature, an inactive parent). Only the first can be mended by moving more features.
+    """
+
+    def __init__(self, diagnostics: list[Diagnostic] | Diagnostic, breaks_relations: bool = False) -> None:
+        super().__init__(diagnostics)
+        self.breaks_relations = breaks_relations
 
 
 @dataclass(frozen=True)
@@ -154,7 +163,7 @@ class Reconfigurer:
             self.fixed, [self.model.index[f] for f in after], limit=5
         )
         if conflicts:
-            raise Refused([self.explainer.diagnostic(mus) for mus in conflicts])
+            raise Refused([self.explainer.diagnostic(mus) for mus in conflicts], breaks_relations=True)
         return Plan(
             request,
             before,
