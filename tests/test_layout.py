@@ -64,3 +64,26 @@ def test_the_import_contract_holds() -> None:
         pytest.skip("import-linter is not installed (pip install -e '.[dev]')")
     done = subprocess.run([str(linter)], cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_python_dash_m_runs_the_cli(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import runpy
+
+    from motivml import __version__
+
+    monkeypatch.setattr(sys, "argv", ["motivml", "--version"])
+    with pytest.raises(SystemExit) as ended:
+        runpy.run_module("motivml.cli", run_name="__main__")
+    assert ended.value.code == 0 and capsys.readouterr().out == f"motivml, version {__version__}\n"
+
+
+def test_an_unknown_command_is_a_usage_error_listing_none_of_the_modules() -> None:
+    from click.testing import CliRunner
+
+    from motivml.cli import COMMANDS, main
+
+    result = CliRunner().invoke(main, ["valdate", "x"])
+    assert result.exit_code == 2 and "No such command 'valdate'" in result.output
+    assert sorted(main.list_commands(None)) == sorted(COMMANDS)  # type: ignore[arg-type]
