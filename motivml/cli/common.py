@@ -10,7 +10,7 @@ import click
 from rich.console import Console
 from rich.markup import escape
 
-from ..documents.robot_folder import RobotFolder
+from ..documents.robot_folder import MODEL_FILE, VARIANTS_FOLDER, RobotFolder
 from ..errors import Diagnostic, MotivmlError, Severity
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
@@ -51,7 +51,9 @@ def targets(target: str, config: str | None, variant: str | None) -> tuple[Path,
             return robot.model_path, [robot.variant_path(variant)], False
         return robot.model_path, [robot.variant_path(n) for n in robot.variant_names()], True
     if variant is not None:
-        raise click.UsageError("--variant needs a robot folder (model.json, variants/NAME.json), not a file")
+        raise click.UsageError(
+            f"--variant needs a robot folder ({MODEL_FILE}, {VARIANTS_FOLDER}/NAME.json), not a file"
+        )
     return path, [Path(config)] if config else [], config is None
 
 

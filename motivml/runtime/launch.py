@@ -18,7 +18,7 @@ from ..architecture.builder import Assembly, build, empty_assembly
 from ..architecture.document import Architecture, read_architecture
 from ..binding.resolve import Variant, resolve, start_state
 from ..coordination.document import Coordination, VariantBindings, read_coordination
-from ..documents.robot_folder import RobotFolder
+from ..documents.robot_folder import ARCHITECTURE_FILE, RobotFolder
 from ..documents.schema import read_checked
 from ..errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
 from ..language.model import Configuration, FeatureModel
@@ -83,7 +83,7 @@ def read_robot_architecture(folder: RobotFolder, model: FeatureModel, required: 
         raise EnvironmentProblem(
             error(
                 Location(str(path)),
-                "no architecture.json: this robot has no motion architecture to run",
+                f"no {ARCHITECTURE_FILE}: this robot has no motion architecture to run",
                 "io",
             )
         )
@@ -137,7 +137,7 @@ def launch(
         raise EnvironmentProblem(
             error(
                 Location(str(path)),
-                "no architecture.json and no plugins: this robot has nothing to run",
+                f"no {ARCHITECTURE_FILE} and no plugins: this robot has nothing to run",
                 "io",
             )
         )
