@@ -16,7 +16,7 @@ from motivml.cli import main
 from motivml.errors import EnvironmentProblem
 from motivml.runtime.control import ControlServer, send
 from motivml.runtime.launch import Robot, launch
-from motivml.runtime.loop import RealClock
+from motivml.runtime.loop import RealClock, Runtime
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 
@@ -27,8 +27,18 @@ def running(tmp_path: Path) -> Iterator[tuple[Robot, ControlServer]]:
     robot = launch(SIMPLEBOT, "field")
     server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
     server.open()
-    loop = threading.Thread(target=robot.runtime.run, args=(60.0, RealClock()), daemon=True)
+    ticking = threading.Event()
+
+    def first_tick(runtime: Runtime) -> bool:
+        if runtime.ticks:  # called before each tick: one has run
+            ticking.set()
+        return False
+
+    loop = threading.Thread(
+        target=robot.runtime.run, args=(60.0, RealClock()), kwargs={"until": first_tick}, daemon=True
+    )
     loop.start()
+    assert ticking.wait(30), "the loop did not start"  # requests below find it ticking
     yield robot, server
     robot.runtime.stop()
     loop.join()

@@ -70,9 +70,10 @@ def test_diff_run_time_swap_exits_0(tmp_path: Path) -> None:
     ]
 
 
-def test_diff_rebuild_exits_1_with_json(tmp_path: Path) -> None:
+def test_diff_rebuild_exits_4_with_json(tmp_path: Path) -> None:
+    """Its own code, so that a script can tell "needs a rebuild" from "a variant is invalid" (1)."""
     result = CliRunner().invoke(main, ["diff", str(robot(tmp_path)), "a", "c", "--format", "json"])
-    assert result.exit_code == 1
+    assert result.exit_code == 4
     data = json.loads(result.output)
     assert data["needs"] == "rebuild" and data["swappable_at_run_time"] is False
     assert [(c["feature"], c["before"], c["after"], c["impact"]) for c in data["changes"]] == [

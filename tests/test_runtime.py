@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import json
 from pathlib import Path
 from typing import Any
@@ -13,7 +14,7 @@ from click.testing import CliRunner
 from motivml.architecture.builder import BuildError, planar_arm
 from motivml.cli import main
 from motivml.runtime.launch import Robot, launch
-from motivml.runtime.loop import RealClock
+from motivml.runtime.loop import RealClock, Runtime
 
 EXAMPLES = Path(__file__).parent.parent / "feature_models"
 ROOT_LAUNDRY = EXAMPLES / "laundry_gripping"
@@ -630,3 +631,34 @@ def test_a_goal_sent_from_outside_unsettles_the_components_that_follow_it() -> N
     robot.assembly.components[0].running = False  # the babbler: PleatPixel may be sent now
     robot.runtime.send("PleatPixel", [400.0, 200.0])  # -> PleatPosition -> JointGoal, through free mappings
     assert hybrid.status == "ongoing" and status in ("converged", "ongoing")
+
+
+class _Cycle:
+    """Cyclic garbage that counts how many of its kind are alive."""
+
+    alive = 0
+
+    def __init__(self) -> None:
+        _Cycle.alive += 1
+        self.me = self
+
+    def __del__(self) -> None:
+        _Cycle.alive -= 1
+
+
+def test_cyclic_garbage_is_collected_in_the_real_clock_loops_slack() -> None:
+    """A plugin making cyclic garbage every tick must not grow the process for the whole run."""
+    runtime = launch(EXAMPLES / "quadruped", "trot").runtime
+    _Cycle.alive = 0
+    peak = [0]
+
+    def litter(rt: Runtime) -> bool:
+        for _ in range(100):
+            _Cycle()
+        peak[0] = max(peak[0], _Cycle.alive)
+        return False
+
+    stats = runtime.run(0.5, RealClock(), until=litter)
+    assert stats.ticks > 100 and stats.collections > 0
+    assert peak[0] < 5_000 < 100 * stats.ticks  # bounded, where nothing collected would keep them all
+    assert gc.isenabled() and not gc.get_freeze_count()  # the automatic collector is back, nothing frozen

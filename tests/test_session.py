@@ -95,3 +95,62 @@ def test_ctrl_c_ends_the_run_and_a_second_one_calls_on_stuck() -> None:
     assert stuck.is_set()
     session.close()
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_sigterm_stops_the_run_like_ctrl_c_and_is_remembered() -> None:
+    stuck = threading.Event()
+    session = Session(launch(SIMPLEBOT, "field"), float("inf"), "real", on_stuck=stuck.set)
+    session.open()
+    session.start()
+    assert signal.getsignal(signal.SIGTERM) == session._interrupt
+    session._interrupt(signal.SIGTERM, None)
+    assert session.wait(60) and session.stopped_by == signal.SIGTERM
+    session.close()
+    assert session.runtime.plugins == {}  # the plugins were stopped
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+
+
+def test_a_run_under_a_service_manager_runs_until_sigterm_then_cleans_up(tmp_path: Path) -> None:
+    """`run --duration inf` as a service: SIGTERM gives the summary, stops plugins, removes the socket, exits 0."""
+    import subprocess
+    import sys
+
+    run_dir = tmp_path / "run"
+    command = [sys.executable, "-m", "motivml.cli", "run", str(SIMPLEBOT), "--variant", "field"]
+    command += ["--duration", "inf", "--no-live", "--run-dir", str(run_dir)]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    assert process.stdout is not None
+    seen = []
+    for line in process.stdout:  # the socket is announced once it listens: no sleeping
+        seen.append(line)
+        if line.startswith("control: "):
+            break
+    assert "until stopped" in seen[0], seen
+    assert (run_dir / "control.sock").is_socket()
+    process.send_signal(signal.SIGTERM)
+    rest, _ = process.communicate(timeout=60)
+    assert process.returncode == 0, rest
+    assert "plugin hectorslam: " in rest and "ticks" in rest.splitlines()[-1]
+    assert not (run_dir / "control.sock").exists()
+
+
+@pytest.mark.parametrize("option", ["--duration", "--rate"])
+def test_nan_durations_and_rates_are_usage_errors(option: str) -> None:
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    result = CliRunner().invoke(main, ["run", str(SIMPLEBOT), "--variant", "field", option, "nan"])
+    assert result.exit_code == 2 and "'nan' is not a finite number" in result.output
+
+
+def test_a_second_run_on_the_same_socket_is_refused_and_leaves_the_first_ones_socket(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    first = Session(launch(SIMPLEBOT, "field"), 1.0, "simulated", run_dir=run_dir)
+    first.open()
+    second = Session(launch(SIMPLEBOT, "field"), 1.0, "simulated", run_dir=run_dir)
+    with pytest.raises(EnvironmentProblem, match="another run is listening here"):
+        second.open()
+    assert (run_dir / "control.sock").is_socket()  # the first run's socket is still there
+    first.close()
+    assert not (run_dir / "control.sock").exists()

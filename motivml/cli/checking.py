@@ -17,6 +17,8 @@ from ..documents.robot_folder import ARCHITECTURE_FILE, COORDINATION_FILE, Robot
 from ..errors import Diagnostic, MotivmlError
 from .common import fail, out, plural, print_diagnostic, targets
 
+EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
+
 if TYPE_CHECKING:
     from rich.tree import Tree
 
@@ -199,7 +201,8 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
 
     Both are resolved as `configure` resolves them (give the same --prefer). Each feature
     whose selection or binding differs is a rebuild, a restart or a run-time change
-    (semantics.md section 4). Exit 0 when every change can be made at run time.
+    (semantics.md section 4). Exit 0 when every change can be made at run time, 4 when one
+    needs a rebuild or a restart, 1 when a variant is invalid.
     """
     from ..binding import impact
     from ..binding.resolve import resolve
@@ -248,7 +251,7 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
             impact.REBUILD: "needs a rebuild",
         }[worst]
         out.print(f"{escape(first)} -> {escape(second)}: {plural(len(changes), 'change')}; {summary}")
-    sys.exit(0 if worst == impact.RUN_TIME else 1)
+    sys.exit(0 if worst == impact.RUN_TIME else EXIT_NOT_AT_RUN_TIME)
 
 
 @click.command("show")

@@ -5,10 +5,11 @@ from __future__ import annotations
 import json
 import math
 import os
+import signal
 import sys
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 from rich import box
@@ -26,19 +27,33 @@ if TYPE_CHECKING:
     from ..runtime.session import Feed
 
 
+class Number(click.FloatRange):
+    """A FloatRange that refuses nan (which passes every comparison) and, unless allowed, infinity."""
+
+    def __init__(self, *, allow_inf: bool = False, **limits: Any) -> None:
+        super().__init__(**limits)
+        self.allow_inf = allow_inf
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = super().convert(value, param, ctx)
+        if math.isnan(number) or (math.isinf(number) and not self.allow_inf):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
 @click.command("run")
 @click.argument("target", type=click.Path())
 @click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
 @click.option(
     "--duration",
-    type=click.FloatRange(min=0, min_open=True, max=86400),
+    type=Number(min=0, min_open=True, allow_inf=True),
     default=5.0,
     show_default=True,
-    help="Seconds of clock time to run.",
+    help="Seconds of clock time to run; inf: until stopped (Ctrl-C, SIGTERM).",
 )
 @click.option(
     "--rate",
-    type=click.FloatRange(min=1, max=100_000),
+    type=Number(min=1, max=100_000),
     default=1000.0,
     show_default=True,
     help="Control loop rate in Hz.",
@@ -134,7 +149,8 @@ def run_command(
     out.print(
         f"running {escape(robot.folder.name)} variant {escape(variant)}: "
         f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
-        f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, {duration:g} s"
+        f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, "
+        + (f"{duration:g} s" if math.isfinite(duration) else "until stopped")
     )
 
     def stuck() -> None:  # a second Ctrl-C while the loop is stuck in a plugin
@@ -204,10 +220,10 @@ def run_command(
     session.close()
     sys.exit(
         EXIT_INTERRUPTED
-        if session.interrupted.is_set()
+        if session.stopped_by == signal.SIGINT
         else 1
         if diverged or runtime.failure is not None or session.unsettled
-        else 0
+        else 0  # a run stopped by SIGTERM (a service manager's stop) ended normally
     )
 
 

@@ -202,10 +202,12 @@ class ControlServer:
         }
 
     def close(self) -> None:
+        """Stop serving and remove the socket, if this server made it (never another run's)."""
         self._closing.set()
-        if self._socket is not None:
-            self._socket.close()
-            self._socket = None
+        if self._socket is None:
+            return
+        self._socket.close()
+        self._socket = None
         try:
             self.path.unlink()
         except OSError:

@@ -8,9 +8,11 @@ the exit code from the session's verdict. Everything with threads or signals is 
 * requests scheduled at control times (`run --at`) are made between two ticks: on the
   simulated clock committed right there (deterministic), on the real clock submitted to
   the binder, which prepares them off the loop;
-* Ctrl-C (SIGINT, when the session runs on the main thread) ends the run and keeps its
-  summary; a second Ctrl-C means the loop is stuck in a plugin, and `on_stuck` is called
-  (by default the process exits with 130 at once);
+* Ctrl-C (SIGINT) and a service manager's SIGTERM, when the session runs on the main
+  thread, end the run as its duration would: the loop stops between two ticks, the
+  plugins' stop() runs, the socket is removed and the caller prints its summary. A second
+  signal means the loop is stuck in a plugin, and `on_stuck` is called (by default the
+  process exits with 130 at once);
 * `close()` closes the control socket and stops the plugins and the binder's thread.
 """
 
@@ -34,6 +36,7 @@ from .loop import Change, RealClock, RunStats, Runtime, SimulatedClock, Snapshot
 from .requests import Request
 
 EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by SIGINT
+SIGNALS = (signal.SIGINT, signal.SIGTERM)  # each ends the run cleanly
 
 
 def _exit_now() -> None:
@@ -61,7 +64,7 @@ class Answer:
 
 
 class Session:
-    """Run `robot` for `duration` seconds of `clock` time ("real" or "simulated")."""
+    """Run `robot` for `duration` seconds of `clock` time ("real" or "simulated"; inf: until stopped)."""
 
     def __init__(
         self,
@@ -82,21 +85,32 @@ class Session:
         self.coordinator: Coordinator | None = None
         self.stats: RunStats | None = None
         self.finished = threading.Event()
-        self.interrupted = threading.Event()
+        self.interrupted = threading.Event()  # by SIGINT or SIGTERM
+        self.stopped_by: int | None = None  # the first signal that ended the run
         self._answers: list[tuple[float, int, Request, Outcome | Future[Outcome]]] = []
         self._reported = 0
         self._began = 0.0
-        self._previous: signal.Handlers | Callable[[int, FrameType | None], object] | int | None = None
+        self._previous: dict[
+            int, signal.Handlers | Callable[[int, FrameType | None], object] | int | None
+        ] = {}
         self._on_main = False
         self._worker: threading.Thread | None = None
 
     def open(self) -> None:
-        """Open the control socket and start the coordination; the robot is closed if this fails."""
+        """Take over Ctrl-C and SIGTERM, open the control socket, start the coordination.
+
+        The signals are taken first, so that a run stopped as soon as it is announced still
+        ends cleanly; if the socket cannot open, they are given back and the robot closed.
+        """
+        self._on_main = threading.current_thread() is threading.main_thread()
+        if self._on_main:
+            for signum in SIGNALS:
+                self._previous[signum] = signal.signal(signum, self._interrupt)
         try:
             if self.server is not None:
                 self.server.open()
         except BaseException:
-            self.robot.close()
+            self.close()
             raise
         if self.simulated:
             self.robot.binder.make_changes_between_ticks()
@@ -105,7 +119,7 @@ class Session:
             self.server.coordinator = self.coordinator
 
     def start(self) -> None:
-        """Start the loop on its own thread; Ctrl-C ends it from now on."""
+        """Start the loop on its own thread (at once over if a signal came since `open`)."""
         clock = SimulatedClock() if self.simulated else RealClock()
 
         def work() -> None:
@@ -114,9 +128,6 @@ class Session:
             finally:
                 self.finished.set()
 
-        self._on_main = threading.current_thread() is threading.main_thread()
-        if self._on_main:
-            self._previous = signal.signal(signal.SIGINT, self._interrupt)
         self._worker = threading.Thread(target=work, daemon=True, name="motivml-control")
         self._began = time.perf_counter()
         self._worker.start()
@@ -128,7 +139,8 @@ class Session:
     def stop_watching(self) -> None:
         """Give Ctrl-C back and close the control socket: no more requests from outside."""
         if self._on_main:
-            signal.signal(signal.SIGINT, self._previous)
+            for signum, previous in self._previous.items():
+                signal.signal(signum, previous)
             self._on_main = False
         if self.server is not None:
             self.server.close()
@@ -139,9 +151,10 @@ class Session:
         self.robot.close()
 
     def _interrupt(self, signum: int, frame: FrameType | None) -> None:
-        if self.interrupted.is_set():  # a second Ctrl-C: the loop is stuck (a plugin that never returns)
+        if self.interrupted.is_set():  # a second signal: the loop is stuck (a plugin that never returns)
             self.on_stuck()
             return
+        self.stopped_by = signum
         self.interrupted.set()
         self.runtime.stop()
 
