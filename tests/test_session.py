@@ -154,3 +154,48 @@ def test_a_second_run_on_the_same_socket_is_refused_and_leaves_the_first_ones_so
     assert (run_dir / "control.sock").is_socket()  # the first run's socket is still there
     first.close()
     assert not (run_dir / "control.sock").exists()
+
+
+LOGGING_PLUGIN = """
+from motivml.plugins.api import FeaturePlugin
+
+class Plugin(FeaturePlugin):
+    def start(self):
+        self.context.log("started \\x1b[31mred\\x1b[0m")
+    def step(self, time):
+        pass
+    def stop(self):
+        self.context.log("stopping: bye")
+"""
+
+
+def test_the_run_logs_as_it_happens_with_refusals_stop_logs_and_no_terminal_escapes(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+    from test_transactions import make_robot
+
+    from motivml.cli import main
+
+    folder = make_robot(tmp_path / "bot", {"a": {}, "b": {}, "d": {}})
+    (folder / "plugins" / "a" / "mod_a.py").write_text(LOGGING_PLUGIN)
+    command = [
+        "run",
+        str(folder),
+        "--variant",
+        "v",
+        "--duration",
+        "1",
+        "--clock",
+        "simulated",
+        "--no-control",
+    ]
+    result = CliRunner().invoke(main, [*command, "--no-live", "--at", "0.5", "load b"])
+    lines = result.output.splitlines()
+    assert result.exit_code == 0, result.output
+    assert "\x1b" not in result.output  # a plugin cannot drive the terminal
+    started = lines.index("at 0.000 s (tick 0): a: started \\x1b[31mred\\x1b[0m")
+    refused = next(
+        i for i, line in enumerate(lines) if line.startswith("at 0.500 s (tick 500): refused load b: ")
+    )
+    summary = next(i for i, line in enumerate(lines) if line.startswith("1000 ticks"))
+    assert started < refused < summary  # the log comes before the summary, in order
+    assert lines[-1] == "at 1.000 s (tick 1000): a: stopping: bye"  # said while the run closed

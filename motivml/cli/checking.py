@@ -15,7 +15,7 @@ from rich.markup import escape
 from ..binding import PREFERENCES
 from ..documents.robot_folder import ARCHITECTURE_FILE, COORDINATION_FILE, RobotFolder
 from ..errors import Diagnostic, MotivmlError
-from .common import fail, out, plural, print_diagnostic, targets
+from .common import fail, out, plural, print_diagnostic, printable, targets
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
 
@@ -322,7 +322,7 @@ def _tree(model: FeatureModel, config: Configuration | None, states: list[set[st
         solver = ",".join(s for s in order if s in possible) or "none"
         colour = "green" if len(possible) == 1 else "cyan"
         label = (
-            f"{mark}[bold]{escape(f.id)}[/] [dim]({escape(_printable(f.name))})[/]  {allowed}{configured}  "
+            f"{mark}[bold]{escape(f.id)}[/] [dim]({escape(printable(f.name))})[/]  {allowed}{configured}  "
             f"solver [{colour}]{solver}[/]"
         )
         if f.parent is None:
@@ -332,11 +332,6 @@ def _tree(model: FeatureModel, config: Configuration | None, states: list[set[st
             nodes[f.index] = nodes[f.parent].add(label)
     assert root_tree is not None
     return root_tree
-
-
-def _printable(text: str) -> str:
-    """A name as it can be shown: control characters (terminal escapes) spelled out."""
-    return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in text)
 
 
 def _short(token: str) -> str:

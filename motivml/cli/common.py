@@ -57,5 +57,18 @@ def targets(target: str, config: str | None, variant: str | None) -> tuple[Path,
     return path, [Path(config)] if config else [], config is None
 
 
+def printable(text: str) -> str:
+    """Text from a document, a plugin or a socket client as it may reach a terminal:
+    control characters (escape sequences, carriage returns) spelled out."""
+    if text.isprintable():
+        return text
+    return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in text)
+
+
+def shown(text: str) -> str:
+    """Outside text ready for rich: control characters spelled out, markup escaped."""
+    return escape(printable(text))
+
+
 def plural(count: int, word: str) -> str:
     return f"{count} {word}{'s' * (count != 1)}"

@@ -20,11 +20,11 @@ from rich.table import Table
 from ..binding import PREFERENCES
 from ..errors import MotivmlError
 from ..runtime.requests import ACTIONS, Request
-from .common import err, fail, out, plural, print_diagnostic
+from .common import err, fail, out, plural, print_diagnostic, printable, shown
 
 if TYPE_CHECKING:
-    from ..runtime.loop import Change, RunStats, Runtime, Snapshot
-    from ..runtime.session import Feed
+    from ..runtime.loop import RunStats, Runtime, Snapshot
+    from ..runtime.session import Feed, Session
 
 
 class Number(click.FloatRange):
@@ -183,11 +183,12 @@ def run_command(
         if show:
             with Live(_live_view(session.feed()), console=out, refresh_per_second=4, transient=True) as view:
                 while not session.wait(0.25):
-                    _report_changes(session.new_changes(), view.console)
+                    _report(session, view.console)
                     view.update(_live_view(session.feed()))
         else:
             while not session.wait(0.25):
-                _report_changes(session.new_changes(), out)
+                _report(session, out)
+        _report_notes(session, out)  # all of the run's log, before the summary (same place every run)
     finally:
         session.stop_watching()
     if session.stats is None:
@@ -218,6 +219,7 @@ def run_command(
             "(a system too stiff for its time step, or a goal out of range)"
         )
     session.close()
+    _report_notes(session, out)  # what plugins said while they stopped
     sys.exit(
         EXIT_INTERRUPTED
         if session.stopped_by == signal.SIGINT
@@ -227,11 +229,17 @@ def run_command(
     )
 
 
-def _report_changes(changes: list[Change], console: Console) -> None:
-    """Print the changes accepted since the last call, as they happen."""
-    for change in changes:
+def _report(session: Session, console: Console) -> None:
+    """Print what happened since the last call, as it happens: accepted changes, log lines."""
+    for change in session.new_changes():
         stamp = time.strftime("%H:%M:%S", time.localtime(change.wall)) + f".{int(change.wall % 1 * 1000):03d}"
-        console.print(escape(f"{stamp} tick {change.tick}: {change.request}"))
+        console.print(escape(printable(f"{stamp} tick {change.tick}: {change.request}")))
+    _report_notes(session, console)
+
+
+def _report_notes(session: Session, console: Console) -> None:
+    for at, tick, text in session.new_notes():
+        console.print(shown(f"at {at:.3f} s (tick {tick}): {text}"))
 
 
 STATUS_COLOURS = {"converged": "green", "tracking": "green", "ongoing": "yellow", "learning": "cyan"}
@@ -278,11 +286,9 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
         extra = f", learned {learned} time{'s' if learned != 1 else ''}" if learned else ""
         out.print(f"module {escape(module)}: {state}{extra}")
     for feature, status in snapshot.plugins:
-        out.print(escape(f"plugin {feature}: {status}"))
+        out.print(escape(printable(f"plugin {feature}: {status}")))
     for change in runtime.changes:
         out.print(escape(f"changed at {change.time:.3f} s (tick {change.tick}): {change.request}"))
-    for at, tick, text in runtime.notes:
-        out.print(escape(f"at {at:.3f} s (tick {tick}): {text}"))
     for space, value in runtime.assembly.values.items():
         numbers = ", ".join(f"{v:.3f}" for v in value)
         out.print(escape(f"space {space} = [{numbers}]"))
@@ -330,7 +336,7 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
     except MotivmlError as exc:
         fail(exc)
     if not answer.get("ok"):
-        err.print(f"[bold red]error[/]: {escape(str(answer.get('error')))}")
+        err.print(f"[bold red]error[/]: {shown(str(answer.get('error')))}")
         sys.exit(2)
     if op == "dump":
         click.echo(json.dumps(answer, indent=2))
@@ -339,7 +345,7 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
         _print_status(answer)
         return
     if op == "event":
-        out.print(f"event {escape(features[0])} queued for the coordination")
+        out.print(f"event {shown(features[0])} queued for the coordination")
         return
     if answer["accepted"]:
         moved = [
@@ -348,21 +354,19 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
         ]
         detail = "; ".join(m for m in moved if m) or "reloaded in place"
         out.print(
-            f"[green]accepted[/]: {escape(op + ' ' + ' '.join(features))} took effect at tick {answer['tick']} "
-            f"({answer['time']:.3f} s), {answer['latency_ms']:.1f} ms after the request; {escape(detail)}"
+            f"[green]accepted[/]: {shown(op + ' ' + ' '.join(features))} took effect at tick {answer['tick']} "
+            f"({answer['time']:.3f} s), {answer['latency_ms']:.1f} ms after the request; {shown(detail)}"
         )
         return
     for d in answer["diagnostics"]:
         where = f"{d['file']}:{d['line']}:{d['column']}" if d.get("line") else str(d["file"])
-        out.print(
-            f"[bold]{escape(where)}[/]: {escape(str(d['path']))}: [red]refused[/]: {escape(d['message'])}"
-        )
+        out.print(f"[bold]{shown(where)}[/]: {shown(str(d['path']))}: [red]refused[/]: {shown(d['message'])}")
         for fact in d["facts"]:
             place = (
                 f"{fact['file']}:{fact['line']}:{fact['column']}" if fact.get("line") else str(fact["file"])
             )
-            out.print(f"    [dim]{escape(place)}: {escape(fact['text'])}[/]")
-    out.print(f"[bold red]refused[/]: {escape(op + ' ' + ' '.join(features))}: nothing changed")
+            out.print(f"    [dim]{shown(place)}: {shown(fact['text'])}[/]")
+    out.print(f"[bold red]refused[/]: {shown(op + ' ' + ' '.join(features))}: nothing changed")
     sys.exit(1)
 
 
@@ -372,14 +376,12 @@ def _print_status(answer: dict[str, object]) -> None:
     )
     active = answer["active"]
     assert isinstance(active, list)
-    out.print(escape("active: " + ", ".join(active)))
+    out.print(shown("active: " + ", ".join(active)))
     components = answer["components"]
     assert isinstance(components, list)
     for c in components:
-        out.print(
-            escape(f"component {c['id']} ({c['kind']}, {c['feature']}): {c['status']}, {c['learning']}")
-        )
+        out.print(shown(f"component {c['id']} ({c['kind']}, {c['feature']}): {c['status']}, {c['learning']}"))
     plugins = answer["plugins"]
     assert isinstance(plugins, list)
     for plugin in plugins:
-        out.print(escape(f"plugin {plugin['feature']}: {plugin['status']}"))
+        out.print(shown(f"plugin {plugin['feature']}: {plugin['status']}"))

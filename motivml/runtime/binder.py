@@ -214,8 +214,12 @@ class Binder:
                     message = (
                         f"the control loop did not take the request within {timeout:g} s: nothing changed"
                     )
-                    return Outcome(
-                        request, False, diagnostics=[error(Location("run"), message, "reconfigure.timeout")]
+                    return self._refused(
+                        Outcome(
+                            request,
+                            False,
+                            diagnostics=[error(Location("run"), message, "reconfigure.timeout")],
+                        )
                     )
                 return future.result()
         with self._lock:
@@ -229,8 +233,13 @@ class Binder:
                 for running in commit.add.values():
                     self._stop(running)
                 message = f"the control loop did not take the change within {timeout:g} s: nothing changed"
-                return Outcome(
-                    request, False, plan, diagnostics=[error(Location("run"), message, "reconfigure.timeout")]
+                return self._refused(
+                    Outcome(
+                        request,
+                        False,
+                        plan,
+                        diagnostics=[error(Location("run"), message, "reconfigure.timeout")],
+                    )
                 )
             commit.done.wait()
             return self._committed(plan, commit, began)
@@ -256,13 +265,20 @@ class Binder:
         try:
             plan = self.reconfigurer.plan(self.active, request)
         except Refused as refused:
-            return Outcome(
-                request, False, diagnostics=refused.diagnostics, breaks_relations=refused.breaks_relations
+            return self._refused(
+                Outcome(
+                    request, False, diagnostics=refused.diagnostics, breaks_relations=refused.breaks_relations
+                )
             )
         try:
             return plan, self._prepare(plan)
         except MotivmlError as failed:
-            return Outcome(request, False, plan, diagnostics=failed.diagnostics)
+            return self._refused(Outcome(request, False, plan, diagnostics=failed.diagnostics))
+
+    def _refused(self, outcome: Outcome) -> Outcome:
+        """Every refusal goes into the run's log as it happens, with its reason."""
+        self.runtime.note(f"refused {outcome.request}: {outcome.reason}")
+        return outcome
 
     def _committed(self, plan: Plan, commit: Commit, began: float) -> Outcome:
         """After the commit: stop the plugins that left, take the new active set."""

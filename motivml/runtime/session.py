@@ -89,6 +89,7 @@ class Session:
         self.stopped_by: int | None = None  # the first signal that ended the run
         self._answers: list[tuple[float, int, Request, Outcome | Future[Outcome]]] = []
         self._reported = 0
+        self._noted = 0
         self._began = 0.0
         self._previous: dict[
             int, signal.Handlers | Callable[[int, FrameType | None], object] | int | None
@@ -179,6 +180,12 @@ class Session:
         changes = self.runtime.changes[self._reported :]
         self._reported += len(changes)
         return changes
+
+    def new_notes(self) -> list[tuple[float, int, str]]:
+        """The log lines (plugins' log(), refusals, faults, coordination) since the last call."""
+        notes = self.runtime.notes[self._noted :]
+        self._noted += len(notes)
+        return notes
 
     def feed(self) -> Feed:
         snapshot = self.runtime.status()
