@@ -132,7 +132,7 @@ def configure_command(
     """
     from ..binding.codegen import late_or_dynamic, outputs
     from ..binding.resolve import resolve
-    from ..documents.writing import write_if_changed
+    from ..documents.writing import write_generation
     from ..plugins.manifests import discover
     from ..plugins.manifests import missing as missing_plugins
     from ..validate import validate
@@ -158,7 +158,7 @@ def configure_command(
             sys.exit(1)
         resolved = resolve(model, config, prefer)
         folder = Path(output) if output else Path("build") / robot.name / variant
-        written = write_if_changed(folder, outputs(resolved, prefix, plugins, robot.path))
+        written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path))
     except MotivmlError as exc:
         fail(exc)
     for d in missing_plugins(model, late_or_dynamic(resolved), plugins):

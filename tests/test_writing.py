@@ -1,0 +1,139 @@
+"""Generated files: one complete generation or the previous one, whatever happens meanwhile."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from motivml.documents import writing
+from motivml.documents.writing import write_generation
+from motivml.errors import EnvironmentProblem
+
+ROOT = Path(__file__).resolve().parent.parent
+FIRST = {"a.h": "first a\n", "b.h": "first b\n", "lock": "first\n"}
+SECOND = {"a.h": "second a\n", "b.h": "second b\n", "lock": "second\n"}
+
+
+def contents(folder: Path) -> dict[str, str]:
+    return {p.name: p.read_text() for p in folder.iterdir() if p.is_file()}
+
+
+def test_a_generation_replaces_the_files_and_keeps_unchanged_ones_untouched(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    assert write_generation(out, FIRST) == dict.fromkeys(FIRST, True)
+    stamp = (out / "lock").stat().st_mtime_ns
+    assert write_generation(out, FIRST) == dict.fromkeys(FIRST, False)  # nothing to do
+    changed = write_generation(out, {**FIRST, "a.h": "new a\n"})
+    assert changed == {"a.h": True, "b.h": False, "lock": False}
+    assert contents(out) == {**FIRST, "a.h": "new a\n"} and (out / "lock").stat().st_mtime_ns == stamp
+    assert out.is_symlink() and len(os.listdir(tmp_path / ".out.generations")) == 1  # the old one is gone
+
+
+def test_a_real_folder_becomes_the_first_generation_with_what_else_it_holds(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine\n")
+    (out / "pictures").mkdir()
+    (out / "pictures" / "a.svg").write_text("<svg/>")
+    write_generation(out, FIRST)
+    write_generation(out, SECOND)
+    assert contents(out) == {**SECOND, "notes.txt": "mine\n"}
+    assert (out / "pictures" / "a.svg").read_text() == "<svg/>"
+
+
+@pytest.mark.parametrize("crash_at", ["_write_new", "_fsync_dir", "_link", "_remove_stale"])
+def test_a_writer_killed_anywhere_leaves_one_complete_generation(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, crash_at: str
+) -> None:
+    """The crash is an exception that no code of ours catches, as kill -9 would be."""
+    out = tmp_path / "out"
+    write_generation(out, FIRST)
+
+    class Killed(BaseException):
+        pass
+
+    real = getattr(writing, crash_at)
+    calls = []
+
+    def dies(*args: object, **kwargs: object) -> object:
+        calls.append(crash_at)
+        if len(calls) == 2 or crash_at in ("_link", "_remove_stale"):
+            raise Killed
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(writing, crash_at, dies)
+    with pytest.raises(Killed):
+        write_generation(out, SECOND)
+    assert contents(out) in (FIRST, SECOND)  # whole, never a mix
+    monkeypatch.undo()
+    write_generation(out, SECOND)  # the next run cleans up after the killed one
+    assert contents(out) == SECOND
+    assert len(os.listdir(tmp_path / ".out.generations")) == 1
+    assert not [p for p in os.listdir(tmp_path) if ".link-" in p]
+
+
+def test_what_is_in_the_way_is_refused_and_nothing_changes(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    write_generation(out, FIRST)
+    (out / "b.h").unlink()
+    (out / "b.h").mkdir()
+    with pytest.raises(EnvironmentProblem, match="something other than a file is in the way"):
+        write_generation(out, SECOND)
+    assert (out / "b.h").is_dir() and (out / "lock").read_text() == "first\n"
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (tmp_path / "linked").symlink_to(elsewhere)
+    with pytest.raises(EnvironmentProblem, match="which motivml did not write"):
+        write_generation(tmp_path / "linked", FIRST)
+    assert os.listdir(elsewhere) == []
+
+
+WRITER = """
+import sys
+from pathlib import Path
+from motivml.documents.writing import write_generation
+name = sys.argv[2]
+for round in range(int(sys.argv[3])):
+    files = {f"{i}.txt": f"{name} {round}\\n" for i in range(20)}
+    write_generation(Path(sys.argv[1]), files)
+"""
+
+READER = """
+import sys, json
+from pathlib import Path
+out, seen = Path(sys.argv[1]), set()
+mixed = 0
+for _ in range(int(sys.argv[2])):
+    try:
+        snapshot = out.resolve()  # the folder as it is at one moment: one generation
+        texts = {p.read_text() for p in snapshot.iterdir()}
+    except OSError:  # the generation it listed was replaced under it: list again
+        continue
+    if len(texts) > 1:
+        mixed += 1
+    seen |= texts
+print(json.dumps({"mixed": mixed, "seen": len(seen)}))
+"""
+
+
+def test_concurrent_writers_take_turns_and_a_reader_never_sees_a_mix(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    write_generation(out, {f"{i}.txt": "start\n" for i in range(20)})
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    writers = [
+        subprocess.Popen([sys.executable, "-c", WRITER, str(out), name, "30"], env=env)
+        for name in ("lab", "field")
+    ]
+    reader = subprocess.run(
+        [sys.executable, "-c", READER, str(out), "400"], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert [w.wait(timeout=120) for w in writers] == [0, 0]
+    verdict = json.loads(reader.stdout)
+    assert verdict["mixed"] == 0
+    final = set(contents(out).values())
+    assert final in ({"lab 29\n"}, {"field 29\n"})  # the last writer's generation, whole
