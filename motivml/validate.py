@@ -17,11 +17,12 @@ from .architecture.family import architecture_bindings
 from .binding.check import analyse_model, check_variant
 from .binding.resolve import resolve
 from .coordination.document import VariantBindings, read_coordination
-from .documents.robot_folder import ARCHITECTURE_FILE
+from .documents.robot_folder import ARCHITECTURE_FILE, RobotFolder
 from .documents.schema import read_checked
 from .errors import Diagnostic, Severity, error
 from .language.model import Configuration, FeatureModel
 from .language.reader import load_configuration, load_model
+from .plugins.manifests import discover
 
 
 @dataclass
@@ -97,8 +98,10 @@ def validate(
     analyse: bool = True,
     architecture_path: str | Path | None = None,
     coordination_path: str | Path | None = None,
+    robot: RobotFolder | None = None,
 ) -> list[Report]:
-    """The model's report, one per configuration, the architecture's and the coordination's.
+    """The model's report, one per configuration, the architecture's, the coordination's, and
+    with `robot` (a folder with robot.json) the plugin manifests'.
 
     The model is read once; the other documents are checked only against a sound model.
     """
@@ -118,7 +121,16 @@ def validate(
                 r.config for r in reports[1 : 1 + len(config_paths)] if r.valid and r.config is not None
             ]
             reports.append(validate_coordination(model, coordination_path, architecture, variants))
+        if robot is not None and robot.settings_path.is_file():
+            reports.append(validate_plugins(robot, model))
     return reports
+
+
+def validate_plugins(robot: RobotFolder, model: FeatureModel) -> Report:
+    """robot.json and the manifests of the plugin directories it declares, against the model."""
+    report = Report(str(robot.settings_path), "plugins", model=model)
+    report.diagnostics += discover(robot, model)[1]
+    return _sorted(report)
 
 
 def validate_coordination(
@@ -131,7 +143,9 @@ def validate_coordination(
     if doc is None:
         return report
     architecture_invalid = architecture is None and (Path(path).parent / ARCHITECTURE_FILE).is_file()
-    coordination, found = read_coordination(doc, model, architecture, architecture_invalid=architecture_invalid)
+    coordination, found = read_coordination(
+        doc, model, architecture, architecture_invalid=architecture_invalid
+    )
     if architecture_invalid:
         found.append(
             error(
@@ -157,5 +171,3 @@ def _sorted(report: Report) -> Report:
     """Errors before warnings; within each, the order of discovery (best first)."""
     report.diagnostics.sort(key=lambda d: d.severity is not Severity.ERROR)
     return report
-
-

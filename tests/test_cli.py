@@ -23,11 +23,12 @@ def run(*args: str) -> tuple[int, str]:
 def test_valid_variant_exit_0() -> None:
     code, output = run("validate", str(SIMPLEBOT), "--variant", "lab")
     assert code == 0
-    variant, architecture = output.strip().splitlines()
+    variant, architecture, plugins = output.strip().splitlines()
     assert variant.startswith("valid: ") and variant.endswith("lab.json, 0 errors, 0 warnings")
     assert architecture.startswith("valid: ") and architecture.endswith(
         "architecture.json, 0 errors, 0 warnings"
     )
+    assert plugins.startswith("valid: ") and plugins.endswith("robot.json, 0 errors, 0 warnings")
 
 
 def test_invalid_variant_exit_1_with_located_message() -> None:
@@ -38,7 +39,7 @@ def test_invalid_variant_exit_1_with_located_message() -> None:
         "broken_gridmap_dynamic.json:57:17: $.properties[7].props.mode: error: slam requires grid_map, but "
         "grid_map is configured Dynamic and slam is selected: a required feature must be Static (binding rule 3.1)"
     )
-    assert output.splitlines()[-2].startswith("invalid: ")  # then the architecture, valid
+    assert output.splitlines()[-3].startswith("invalid: ")  # then the architecture and plugins, valid
 
 
 def test_model_file_with_config_and_json_format() -> None:
@@ -70,8 +71,9 @@ def test_robot_folder_checks_model_and_every_variant() -> None:
     code, output = run("validate", str(SIMPLEBOT))
     verdicts = [line for line in output.splitlines() if line.startswith(("valid: ", "invalid: "))]
     assert code == 1
-    assert len(verdicts) == 6 and verdicts[0].startswith("valid: ") and "(19 features)" in verdicts[0]
-    assert verdicts[-1].endswith("architecture.json, 0 errors, 0 warnings")
+    assert len(verdicts) == 7 and verdicts[0].startswith("valid: ") and "(19 features)" in verdicts[0]
+    assert verdicts[-2].endswith("architecture.json, 0 errors, 0 warnings")
+    assert verdicts[-1].endswith("robot.json, 0 errors, 0 warnings")  # the plugin manifests
 
 
 def test_current_folder_is_the_default(monkeypatch: pytest.MonkeyPatch) -> None:

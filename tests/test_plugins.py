@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+import pytest
 from click.testing import CliRunner
 
 from motivml.cli import main
@@ -129,3 +130,31 @@ def test_a_bad_manifest_stops_configure_before_writing(tmp_path: Path) -> None:
     )
     assert result.exit_code == 1 and "leaves the plugin folder" in result.output
     assert not (tmp_path / "out").exists()
+
+
+def test_validate_checks_robot_json_and_manifests_with_a_suggestion(tmp_path: Path) -> None:
+    """What validate passes, configure and run accept: a manifest naming no feature fails here first."""
+    folder = robot(tmp_path, {"hector": dict(SLAM, feature="slm")})
+    result = CliRunner().invoke(main, ["validate", str(folder)])
+    assert result.exit_code == 1
+    assert (
+        "the plugin implements 'slm', which is not a feature of the model (did you mean 'slam'?)"
+        in result.output
+    )
+    assert f"invalid: {folder / 'robot.json'}: 1 error, 0 warnings in the plugins" in result.output
+
+
+@pytest.mark.parametrize("kind", ["directory", "broken link", "fifo"])
+def test_an_optional_document_that_is_not_a_file_is_an_environment_error(tmp_path: Path, kind: str) -> None:
+    import os
+
+    folder = robot(tmp_path, {"hector": SLAM})
+    path = folder / "architecture.json"
+    if kind == "directory":
+        path.mkdir()
+    elif kind == "broken link":
+        path.symlink_to(tmp_path / "nowhere.json")
+    else:
+        os.mkfifo(path)
+    result = CliRunner().invoke(main, ["validate", str(folder)])
+    assert result.exit_code == 3 and "architecture.json" in result.output and "Traceback" not in result.output

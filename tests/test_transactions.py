@@ -16,6 +16,7 @@ from click.testing import CliRunner
 from helpers import config, feature
 
 from motivml.cli import main
+from motivml.errors import DocumentError
 from motivml.plugins.python import PluginError
 from motivml.runtime.binder import Outcome
 from motivml.runtime.launch import Robot, launch
@@ -229,9 +230,11 @@ def test_two_plugins_with_one_module_name_are_refused(tmp_path: Path) -> None:
     manifest = folder / "plugins" / "b" / "plugin.json"
     manifest.write_text(manifest.read_text().replace("mod_b", "mod_a"))
     shutil.copy(folder / "plugins" / "a" / "mod_a.py", folder / "plugins" / "b" / "mod_a.py")
-    with pytest.raises(PluginError) as caught:
+    with pytest.raises(DocumentError) as caught:  # an invalid manifest: validate says so too
         launch(folder, "v")
     assert "module 'mod_a' is also the entry of" in caught.value.diagnostics[0].message
+    result = CliRunner().invoke(main, ["validate", str(folder)])
+    assert result.exit_code == 1 and "module 'mod_a' is also the entry of" in result.output
 
 
 def test_the_loop_keeps_ticking_while_a_plugin_prepares(tmp_path: Path) -> None:

@@ -13,8 +13,8 @@ from rich.console import Console
 from rich.markup import escape
 
 from ..binding import PREFERENCES
-from ..documents.robot_folder import ARCHITECTURE_FILE, COORDINATION_FILE, RobotFolder
-from ..errors import Diagnostic, MotivmlError
+from ..documents.robot_folder import RobotFolder
+from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
 from .common import fail, out, plural, print_diagnostic, printable, targets
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
@@ -44,19 +44,19 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
 
     try:
         model_path, configs, analyse = targets(target, config, variant)
-        architecture = model_path.parent / ARCHITECTURE_FILE if Path(target).is_dir() else None
-        if architecture is not None and not architecture.is_file():
-            architecture = None
-        coordination = model_path.parent / COORDINATION_FILE if Path(target).is_dir() else None
-        if coordination is not None and not coordination.is_file():
-            coordination = None
-        reports = validate(model_path, configs, partial, analyse, architecture, coordination)
+        folder = RobotFolder(Path(target)) if Path(target).is_dir() else None
+        architecture = _optional(folder.architecture_path) if folder else None
+        coordination = _optional(folder.coordination_path) if folder else None
+        robot = folder if folder and _optional(folder.settings_path) else None
+        reports = validate(model_path, configs, partial, analyse, architecture, coordination, robot)
     except MotivmlError as exc:
         if fmt == "json":
             _print_json(False, exc.diagnostics, [], [])
             sys.exit(exc.exit_code)
         fail(exc)
-    expected = 1 + len(configs) + (architecture is not None) + (coordination is not None)
+    expected = (
+        1 + len(configs) + (architecture is not None) + (coordination is not None) + (robot is not None)
+    )
     valid = all(r.valid for r in reports) and len(reports) == expected
     if fmt == "json":
         _print_json(
@@ -81,6 +81,18 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
             if report.kind != "model" or report.analysed or report.diagnostics:
                 _verdict(report, checked_variants=len(reports) > 1 or not configs)
     sys.exit(0 if valid else 1)
+
+
+def _optional(path: Path) -> Path | None:
+    """A robot folder's optional document: None when absent; refused when it is not a file."""
+    if not path.exists() and not path.is_symlink():
+        return None
+    if not path.is_file():
+        what = "a link to nothing" if not path.exists() else "not a regular file"
+        raise EnvironmentProblem(
+            error(Location(str(path)), f"is {what}: a robot folder's {path.name} is a file", "io")
+        )
+    return path
 
 
 def _print_json(

@@ -10,6 +10,7 @@ for the runtime.
 
 from __future__ import annotations
 
+import difflib
 from pathlib import Path
 
 from ..documents.loader import load_file
@@ -57,6 +58,7 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
     """Every declared plugin by feature id; errors for bad manifests, in a stable order."""
     folders, diagnostics = plugin_directories(robot)
     plugins: dict[str, Plugin] = {}
+    modules: dict[tuple[str, str], Path] = {}  # (kind, top-level entry module) -> its manifest
     for folder in folders:
         try:
             candidates = sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith("."))
@@ -83,10 +85,12 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
                 diagnostics.append(error(where, problem, rule, feature))
                 continue
             if feature not in model.index:
+                close = difflib.get_close_matches(feature, list(model.index), n=1, cutoff=0.75)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
                 diagnostics.append(
                     error(
                         doc.locate(("feature",)),
-                        f"the plugin implements {feature!r}, which is not a feature of the model",
+                        f"the plugin implements {feature!r}, which is not a feature of the model{hint}",
                         "plugins.unknown-feature",
                         feature,
                     )
@@ -102,6 +106,19 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
                     )
                 )
                 continue
+            if not KINDS[kind].path_is_file:  # module kinds share one namespace per robot
+                root = str(entry[KINDS[kind].path_key]).split(".")[0]
+                other = modules.setdefault((kind, root), manifest_path)
+                if other != manifest_path:
+                    diagnostics.append(
+                        error(
+                            doc.locate(("entry", KINDS[kind].path_key)),
+                            f"module {root!r} is also the entry of {other}: entry modules need distinct names",
+                            "plugins.load",
+                            feature,
+                        )
+                    )
+                    continue
             plugins[feature] = Plugin(
                 feature, kind, {k: str(v) for k, v in entry.items()}, candidate, manifest_path
             )
