@@ -10,6 +10,7 @@ Public functions:
     is_valid(model, config)              does a valid variant exist?
     count_valid_variants(model, config)  how many valid variants exist
     start_state_exists(model, selection) does the start state of section 4 exist?
+    active_set_satisfies_section_2(model, active)  may A be the active set at run time?
     start_states(model, selection)       every active set the start state may be
     preferred_start_state(model, selection)  the start state section 4 picks among them
     completion_cost(model, config, variant, prefer)  how far a variant is from the wishes
@@ -577,10 +578,18 @@ def _active_excludes(x: str, y: str) -> Rule:
 def _start_state_rules(model: _Model) -> list[Rule]:
     """Section 4: "encode the start state as a second set of variables a(f) in the same SAT
     instance (a(f) → s(f), s(f) ∧ E(f) → a(f), and section 2 in full over a)"."""
-    rules = [_root_active(model.root)]
+    rules = _active_set_rules(model)
     for f in model.features.values():
         rules.append(_active_only_if_selected(f.id))
         rules.append(_early_starts_active(f.id))
+    return rules
+
+
+def _active_set_rules(model: _Model) -> list[Rule]:
+    """Section 4: "At every moment A satisfies section 2 in full (exactly one active XOR
+    member, no two active excluded features, and so on)", over the variables a(f)."""
+    rules = [_root_active(model.root)]
+    for f in model.features.values():
         if f.parent is not None:
             rules.append(_active_child_needs_active_parent(f.id, f.parent))
         for c in model.ungrouped_mandatory_children(f.id):
@@ -645,6 +654,17 @@ def is_valid(model: dict, config: dict | None) -> bool:
 
 def count_valid_variants(model: dict, config: dict | None) -> int:
     return sum(1 for _ in valid_variants(model, config))
+
+
+def active_set_satisfies_section_2(model: dict, active: set[str] | frozenset[str]) -> bool:
+    """4 "At every moment A satisfies section 2 in full": is `active` (feature ids) such a
+    set?  Only section 2 over A is checked, not that A is part of some selection."""
+    parsed = _Model(model)
+    unknown = set(active) - set(parsed.features)
+    if unknown:
+        raise ValueError(f"active set names unknown features {sorted(unknown)}")
+    values = {_a(f): f in active for f in parsed.features}
+    return all(rule.holds({x: values[x] for x in rule.scope}) for rule in _active_set_rules(parsed))
 
 
 def start_states(model: dict, selection: dict[str, Binding]) -> Iterator[frozenset[str]]:

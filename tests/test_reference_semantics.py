@@ -457,3 +457,23 @@ def test_completion_cost_counts_the_wishes_in_order():
     assert ref.completion_cost(model, config, {"root": ref.SE, "a": ref.SL}) == (0, 0, 0)
     with pytest.raises(ValueError):
         ref.completion_cost(model, config, variant, ("fast",))
+
+
+def test_active_set_is_section_2_strictly():
+    model = root(
+        feature("a", group="XOR"),
+        feature("b", group="XOR"),
+        feature("c", mandatory=True, includes=["d"]),
+        feature("d", excludes=["e"]),
+        feature("e"),
+    )
+    ok = {"root", "a", "c", "d"}
+    assert ref.active_set_satisfies_section_2(model, ok)
+    assert not ref.active_set_satisfies_section_2(model, ok - {"root"})  # the root is always active
+    assert not ref.active_set_satisfies_section_2(model, ok | {"b"})  # exactly one XOR member
+    assert not ref.active_set_satisfies_section_2(model, ok - {"a"})
+    assert not ref.active_set_satisfies_section_2(model, ok - {"c"})  # a mandatory child
+    assert not ref.active_set_satisfies_section_2(model, ok - {"d"})  # what c includes
+    assert not ref.active_set_satisfies_section_2(model, ok | {"e"})  # d excludes e
+    with pytest.raises(ValueError):
+        ref.active_set_satisfies_section_2(model, {"root", "zz"})
