@@ -11,6 +11,7 @@ from typing import Any
 import pytest
 import reference_semantics as ref
 from click.testing import CliRunner
+from helpers import UPDATE_GOLDEN, assert_matches_golden
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_property_sat import configurations, models
@@ -40,11 +41,31 @@ def configure(*args: str) -> tuple[int, str]:
 def test_golden_files(tmp_path: Path, variant: str, name: str) -> None:
     code, output = configure(str(SIMPLEBOT), "--variant", variant, "-o", str(tmp_path))
     assert code == 0, output
-    golden = GOLDEN / "simplebot" / variant / name
-    if os.environ.get("MOTIVML_UPDATE_GOLDEN"):
-        golden.parent.mkdir(parents=True, exist_ok=True)
-        golden.write_bytes((tmp_path / name).read_bytes())
-    assert (tmp_path / name).read_text() == golden.read_text()
+    assert_matches_golden((tmp_path / name).read_bytes(), GOLDEN / "simplebot" / variant / name)
+
+
+def test_golden_check_fails_in_update_mode_until_nothing_changes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    golden = tmp_path / "out" / "features.h"
+    monkeypatch.delenv(UPDATE_GOLDEN, raising=False)
+    with pytest.raises(pytest.fail.Exception, match="no golden file"):
+        assert_matches_golden(b"new\n", golden)
+    assert not golden.exists()
+    monkeypatch.setenv(UPDATE_GOLDEN, "1")
+    with pytest.raises(pytest.fail.Exception, match="updated"):
+        assert_matches_golden(b"new\n", golden)
+    assert golden.read_bytes() == b"new\n"
+    stamp = golden.stat().st_mtime_ns
+    assert_matches_golden(b"new\n", golden)  # nothing changed: passes, nothing written
+    assert golden.stat().st_mtime_ns == stamp
+    with pytest.raises(pytest.fail.Exception, match=r"(?s)updated.*-new\n\+newer"):
+        assert_matches_golden(b"newer\n", golden)
+    assert golden.read_bytes() == b"newer\n"
+    monkeypatch.delenv(UPDATE_GOLDEN)
+    with pytest.raises(AssertionError, match=r"(?s)differs.*-newer\r?\n\+newer\r\n"):
+        assert_matches_golden(b"newer\r\n", golden)  # bytes, not text: line ends count
+    assert golden.read_bytes() == b"newer\n"
 
 
 def test_lock_validates_back(tmp_path: Path) -> None:
