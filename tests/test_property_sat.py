@@ -165,6 +165,7 @@ NOT_MINIMAL = (
     deadline=None,
     suppress_health_check=[HealthCheck.too_slow],
     phases=[Phase.explicit, Phase.generate],  # no shrinking while the failure is known
+    report_multiple_bugs=False,  # the first failure, as itself (not an exception group)
 )
 @given(st.data())
 def test_reported_conflicts_are_minimal(data: st.DataObject) -> None:
