@@ -1,9 +1,16 @@
-"""Small builders shared by the tests."""
+"""Small builders shared by the tests, and the golden-file check."""
 
 from __future__ import annotations
 
+import difflib
 import json
+import os
+from pathlib import Path
 from typing import Any
+
+import pytest
+
+UPDATE_GOLDEN = "MOTIVML_UPDATE_GOLDEN"
 
 
 def feature(fid: str, sub: list[dict[str, Any]] | None = None, **extra: Any) -> dict[str, Any]:
@@ -42,3 +49,35 @@ def config(*entries: tuple[Any, ...]) -> dict[str, Any]:
         else:
             properties.append({"id": entry[0], "props": {"time": entry[1], "mode": entry[2]}})
     return {"properties": properties}
+
+
+def assert_matches_golden(actual: bytes, golden: Path) -> None:
+    """`actual` must equal the golden file's bytes.
+
+    With MOTIVML_UPDATE_GOLDEN=1 in the environment, a golden file that differs (or is
+    missing) is rewritten with `actual`, and the test still fails, showing the difference
+    and asking for a re-run: an update run can never pass a changed output unseen, and the
+    new golden file is then checked like any other. An unchanged golden file is left alone.
+    """
+    expected = golden.read_bytes() if golden.exists() else None
+    if actual == expected:
+        return
+    was = [] if expected is None else expected.decode(errors="replace").splitlines(keepends=True)
+    diff = "".join(
+        difflib.unified_diff(
+            was, actual.decode(errors="replace").splitlines(keepends=True), f"{golden} (golden)", "(now)"
+        )
+    )
+    if os.environ.get(UPDATE_GOLDEN):
+        golden.parent.mkdir(parents=True, exist_ok=True)
+        golden.write_bytes(actual)
+        pytest.fail(
+            f"golden file {golden} updated ({UPDATE_GOLDEN} is set): review the change and "
+            f"re-run without {UPDATE_GOLDEN}\n{diff}",
+            pytrace=False,
+        )
+    if expected is None:
+        pytest.fail(
+            f"no golden file {golden}: create it with {UPDATE_GOLDEN}=1, then review it", pytrace=False
+        )
+    raise AssertionError(f"output differs from {golden} (to accept the change: {UPDATE_GOLDEN}=1)\n{diff}")

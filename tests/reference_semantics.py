@@ -10,6 +10,15 @@ Public functions:
     is_valid(model, config)              does a valid variant exist?
     count_valid_variants(model, config)  how many valid variants exist
     start_state_exists(model, selection) does the start state of section 4 exist?
+    active_set_satisfies_section_2(model, active)  may A be the active set at run time?
+    start_states(model, selection)       every active set the start state may be
+    preferred_start_state(model, selection)  the start state section 4 picks among them
+    completion_cost(model, config, variant, prefer)  how far a variant is from the wishes
+                                         `configure` completes a configuration with
+    model_statements(model), config_statements(model, config), consistent(model, statements)
+                                         the model and the configuration as separate facts
+                                         (the ones explanations name), and whether a chosen
+                                         set of them has a variant
 
 How it works.  Every sentence of sections 2, 3 and 4 becomes one `Rule`: a readable
 predicate over the few variables it mentions (its scope), built by one small function below
@@ -38,7 +47,7 @@ unknown keys, ...) raise ValueError.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -380,17 +389,22 @@ def _runtime_alternatives(a: str, b: str, why: str) -> Rule:
     return _rule(f"3.3 runtime alternatives ({why})", (a, b), holds)
 
 
-def _binding_allowed(f: _Feature) -> Rule:
+def _time_allowed(f: _Feature) -> Rule:
     # 3 "`bindingTimeAllowed`/`bindingModeAllowed` restrict the values (`Any` = no restriction)"
     def holds(v):
         x = v[f.id]
-        if not _s(x):
-            return True
-        time_ok = f.time_allowed == "Any" or _E(x) == (f.time_allowed == "Early")
-        mode_ok = f.mode_allowed == "Any" or _S(x) == (f.mode_allowed == "Static")
-        return time_ok and mode_ok
+        return not _s(x) or f.time_allowed == "Any" or _E(x) == (f.time_allowed == "Early")
 
-    return _rule("3 binding restriction", (f.id,), holds)
+    return _rule("3 binding time restriction", (f.id,), holds)
+
+
+def _mode_allowed(f: _Feature) -> Rule:
+    # 3 "`bindingTimeAllowed`/`bindingModeAllowed` restrict the values (`Any` = no restriction)"
+    def holds(v):
+        x = v[f.id]
+        return not _s(x) or f.mode_allowed == "Any" or _S(x) == (f.mode_allowed == "Static")
+
+    return _rule("3 binding mode restriction", (f.id,), holds)
 
 
 def _requirement_holds(vx: Binding, vy: Binding) -> bool:
@@ -464,7 +478,8 @@ def _configured(fid: str, entry: _Entry) -> Rule:
 def _variant_rules(model: _Model, config: dict[str, _Entry]) -> list[Rule]:
     rules = [_root_selected_static_early(model.root)]
     for f in model.features.values():
-        rules.append(_binding_allowed(f))
+        rules.append(_time_allowed(f))
+        rules.append(_mode_allowed(f))
         if f.parent is not None:
             rules.append(_child_needs_parent(f.id, f.parent))
             rules.append(_sub_feature(f.parent, f.id))
@@ -563,10 +578,18 @@ def _active_excludes(x: str, y: str) -> Rule:
 def _start_state_rules(model: _Model) -> list[Rule]:
     """Section 4: "encode the start state as a second set of variables a(f) in the same SAT
     instance (a(f) → s(f), s(f) ∧ E(f) → a(f), and section 2 in full over a)"."""
-    rules = [_root_active(model.root)]
+    rules = _active_set_rules(model)
     for f in model.features.values():
         rules.append(_active_only_if_selected(f.id))
         rules.append(_early_starts_active(f.id))
+    return rules
+
+
+def _active_set_rules(model: _Model) -> list[Rule]:
+    """Section 4: "At every moment A satisfies section 2 in full (exactly one active XOR
+    member, no two active excluded features, and so on)", over the variables a(f)."""
+    rules = [_root_active(model.root)]
+    for f in model.features.values():
         if f.parent is not None:
             rules.append(_active_child_needs_active_parent(f.id, f.parent))
         for c in model.ungrouped_mandatory_children(f.id):
@@ -631,3 +654,237 @@ def is_valid(model: dict, config: dict | None) -> bool:
 
 def count_valid_variants(model: dict, config: dict | None) -> int:
     return sum(1 for _ in valid_variants(model, config))
+
+
+def active_set_satisfies_section_2(model: dict, active: set[str] | frozenset[str]) -> bool:
+    """4 "At every moment A satisfies section 2 in full": is `active` (feature ids) such a
+    set?  Only section 2 over A is checked, not that A is part of some selection."""
+    parsed = _Model(model)
+    unknown = set(active) - set(parsed.features)
+    if unknown:
+        raise ValueError(f"active set names unknown features {sorted(unknown)}")
+    values = {_a(f): f in active for f in parsed.features}
+    return all(rule.holds({x: values[x] for x in rule.scope}) for rule in _active_set_rules(parsed))
+
+
+def start_states(model: dict, selection: dict[str, Binding]) -> Iterator[frozenset[str]]:
+    """Every active set A the start state of section 4 may be for `selection` (as in
+    `start_state_exists`): A ⊆ selected, every selected Early feature in A, A satisfying
+    section 2 in full and strictly.  Each set is yielded once."""
+    parsed = _Model(model)
+    unknown = set(selection) - set(parsed.features)
+    if unknown:
+        raise ValueError(f"selection names unknown features {sorted(unknown)}")
+    features = list(parsed.features)
+    order = features + [_a(f) for f in features]
+    domains = {f: (selection.get(f),) for f in features}
+    domains |= {_a(f): _ACTIVE_VALUES for f in features}
+    for assignment in _solve(order, domains, _start_state_rules(parsed)):
+        yield frozenset(f for f in features if assignment[_a(f)])
+
+
+def preferred_start_state(model: dict, selection: dict[str, Binding]) -> list[str] | None:
+    """The start state section 4 picks, as ids in definition (pre-)order; None if none exists.
+
+    4 "At start, A holds every Early feature and is completed to a valid configuration of
+    section 2 (fewest Late activations; ties broken by definition order: the feature that
+    comes first in a pre-order walk of the model is activated first)."  Among the sets with
+    the fewest Late features, the first Late feature (in pre-order) on which two sets differ
+    is active in the one preferred."""
+    order = list(_Model(model).features)
+    late = [f for f in order if f in selection and not _E(selection[f])]
+
+    def key(active: frozenset[str]) -> tuple[int, list[bool]]:
+        return sum(f in active for f in late), [f not in active for f in late]
+
+    best = min(start_states(model, selection), key=key, default=None)
+    return None if best is None else [f for f in order if f in best]
+
+
+PREFERENCES = ("late", "dynamic")
+
+
+def completion_cost(
+    model: dict, config: dict | None, variant: dict[str, Binding], prefer: tuple[str, ...] = ()
+) -> tuple[int, int, int]:
+    """How far `variant` (a completion of `config`) is from what `configure` wishes for;
+    the variant `configure` writes has the smallest cost, compared as a tuple.
+
+    4 "`configure` finds it: it completes undecided selections and `Any` bindings [...],
+    preferring the published defaults (Early, Static) unless told otherwise".  The wishes and
+    their order are those of guidelines/configuring-a-variant.md section 3, "each one before
+    the next": (1) "select as few of the undecided features as the model allows"; (2) "bind
+    open times Early" (Late with `--prefer late`); (3) "bind open modes Static" (Dynamic
+    with `--prefer dynamic`).  A feature with no entry is undecided; a time or mode is open
+    when the configuration leaves it to the configurator (no entry, or `Any`/absent).  The
+    root is the program itself (2.1), never counted."""
+    unknown = set(prefer) - set(PREFERENCES)
+    if unknown:
+        raise ValueError(f"unknown preferences {sorted(unknown)}")
+    parsed = _Model(model)
+    entries = _parse_config(config, parsed)
+    wanted_early = "late" not in prefer
+    wanted_static = "dynamic" not in prefer
+    undecided = times = modes = 0
+    for f, binding in variant.items():
+        if f == parsed.root:
+            continue
+        entry = entries.get(f)
+        undecided += entry is None
+        times += (entry is None or entry.time == "Any") and _E(binding) != wanted_early
+        modes += (entry is None or entry.mode == "Any") and _S(binding) != wanted_static
+    return undecided, times, modes
+
+
+# ---------------------------------------------------------------------------------------
+# Statements: the model and the configuration as separate facts
+# ---------------------------------------------------------------------------------------
+#
+# Section 4: `configure` "reports why no variant exists: each minimal set of conflicting
+# model/configuration facts (a minimal unsatisfiable subset)".  To check such a set, the
+# model and the configuration are cut into statements, each one sentence of the documents
+# with every rule of sections 2-4 that applies it:
+#
+#   ("root",)               the root feature: 2.1 selected, Static and Early, and active
+#   ("start",)              4: a start state exists (A ⊆ selected, every selected Early
+#                           feature in A, and each chosen statement below also over A)
+#   ("sub", c)              c is a sub-feature of its parent: 2.1 hierarchy, 3.2
+#   ("mandatory", c)        c is an ungrouped mandatory child: 2.2, 3.1 (Static parent), 3.2 unit
+#   ("group", p, label)     p's OR / XOR group: 2.2 some member is selected (active) with p
+#   ("alternatives", a, b)  a and b in one XOR group: 3.3, and never both active (4)
+#   ("includes", x, y)      2.3 and 3.1
+#   ("excludes", x, y)      2.3 and 3.3, and never both active (4)
+#   ("time-allowed", f), ("mode-allowed", f)    3: bindingTimeAllowed / bindingModeAllowed
+#   ("selected", f), ("deselected", f), ("time", f, "Early"|"Late"),
+#   ("mode", f, "Static"|"Dynamic")             1 and 3: what a configuration says
+#
+# An XOR group's "exactly one active member" (4) is its group statement (at least one)
+# together with its pairs of alternatives (at most one): all statements of a model and a
+# configuration together mean exactly what `is_valid` decides.  Statements left out of a
+# set are simply not in force: the features they mention are then unconstrained by them.
+
+
+def model_statements(model: dict) -> list[tuple[str, ...]]:
+    """Every statement of the model (see above), in definition order."""
+    parsed = _Model(model)
+    found: list[tuple[str, ...]] = [("root",), ("start",)]
+    for f in parsed.features.values():
+        if f.time_allowed != "Any":
+            found.append(("time-allowed", f.id))
+        if f.mode_allowed != "Any":
+            found.append(("mode-allowed", f.id))
+        if f.parent is not None:
+            found.append(("sub", f.id))
+        found += [("mandatory", c) for c in parsed.ungrouped_mandatory_children(f.id)]
+        for label in ("OR", "XOR"):
+            if parsed.group_members(f.id, label):
+                found.append(("group", f.id, label))
+        found += [
+            ("alternatives", a, b) for a, b in itertools.combinations(parsed.group_members(f.id, "XOR"), 2)
+        ]
+        found += [("includes", f.id, y) for y in dict.fromkeys(f.includes)]
+        found += [("excludes", f.id, y) for y in dict.fromkeys(f.excludes)]
+    return found
+
+
+def config_statements(model: dict, config: dict | None) -> list[tuple[str, ...]]:
+    """Every statement of the configuration: its entries' selections and fixed props."""
+    found: list[tuple[str, ...]] = []
+    for fid, entry in _parse_config(config, _Model(model)).items():
+        if not entry.selected:  # "Props of a deselected feature are irrelevant"
+            found.append(("deselected", fid))
+            continue
+        found.append(("selected", fid))
+        if entry.time != "Any":
+            found.append(("time", fid, entry.time))
+        if entry.mode != "Any":
+            found.append(("mode", fid, entry.mode))
+    return found
+
+
+def consistent(model: dict, statements: Collection[tuple[str, ...]]) -> bool:
+    """Is there an assignment (a selection with bindings, and with ("start",) an active
+    set) satisfying every rule of the given statements and nothing else?"""
+    parsed = _Model(model)
+    chosen = set(statements)
+    start = ("start",) in chosen
+    rules: list[Rule] = []
+    for statement in chosen:
+        rules += _statement_rules(parsed, statement, start)
+    if start and ("root",) in chosen:
+        rules.append(_root_active(parsed.root))
+    features = list(parsed.features)
+    order = features + ([_a(f) for f in features] if start else [])
+    domains: dict[str, tuple] = {f: _VARIANT_VALUES for f in features}
+    domains |= {_a(f): _ACTIVE_VALUES for f in features} if start else {}
+    return next(_solve(order, domains, rules), None) is not None
+
+
+def _statement_rules(model: _Model, statement: tuple[str, ...], start: bool) -> list[Rule]:
+    """The rules of one statement; with `start`, its rules over the active set too."""
+    kind, *args = statement
+    known = set(model.features)
+    if not set(args[:1]) <= known or (
+        kind in ("includes", "excludes", "alternatives") and args[1] not in known
+    ):
+        raise ValueError(f"statement {statement!r} names an unknown feature")
+    f = args[0] if args else None
+    parent = model.features[f].parent if f is not None else None
+    if kind == "root":
+        return [_root_selected_static_early(model.root)]
+    if kind == "start":
+        return [r for x in model.features for r in (_active_only_if_selected(x), _early_starts_active(x))]
+    if kind == "time-allowed":
+        return [_time_allowed(model.features[f])]
+    if kind == "mode-allowed":
+        return [_mode_allowed(model.features[f])]
+    if kind == "sub" and parent is not None:
+        rules = [_child_needs_parent(f, parent), _sub_feature(parent, f)]
+        return rules + ([_active_child_needs_active_parent(f, parent)] if start else [])
+    if kind == "mandatory" and parent is not None:
+        rules = [
+            _mandatory_child_selected(parent, f),
+            _static_parent_requires_mandatory_child(parent, f),
+            _dynamic_binding_unit(parent, f),
+        ]
+        return rules + ([_active_mandatory_child(parent, f)] if start else [])
+    if kind == "group":
+        label = args[1]
+        members = model.group_members(f, label)
+        if not members:
+            raise ValueError(f"{f!r} has no {label} group")
+        rules = [_group_has_selected_member(f, members, label)]
+        return rules + ([_active_group_has_member(f, members, label)] if start else [])
+    if kind == "alternatives":
+        rules = [_runtime_alternatives(f, args[1], "XOR group")]
+        return rules + ([_never_both_active(f, args[1], "XOR group")] if start else [])
+    if kind == "includes":
+        rules = [_includes_selects(f, args[1]), _includes_requires(f, args[1])]
+        return rules + ([_active_includes(f, args[1])] if start else [])
+    if kind == "excludes":
+        rules = [_runtime_alternatives(f, args[1], "excludes")]
+        return rules + ([_active_excludes(f, args[1])] if start else [])
+    if kind in ("selected", "deselected"):
+        return [_rule(f"1 {kind}", (f,), lambda v: _s(v[f]) == (kind == "selected"))]
+    if kind == "time" and args[1] in ("Early", "Late"):
+        early = args[1] == "Early"
+        return [_rule("1 props.time", (f,), lambda v: not _s(v[f]) or _E(v[f]) == early)]
+    if kind == "mode" and args[1] in ("Static", "Dynamic"):
+        static = args[1] == "Static"
+        return [_rule("1 props.mode", (f,), lambda v: not _s(v[f]) or _S(v[f]) == static)]
+    raise ValueError(f"not a statement: {statement!r}")
+
+
+def _active_group_has_member(parent: str, members: list[str], label: str) -> Rule:
+    # 2.2 over a: "OR group: s(parent) → s(m1) ∨ … ∨ s(mk)"; for an XOR group this is the
+    # "at least one" half of "exactly one active XOR member" (4), the pairs are the other.
+    return _rule(
+        f"2.2 {label} group has an active member",
+        (_a(parent), *map(_a, members)),
+        lambda v: _implies(v[_a(parent)], any(v[_a(m)] for m in members)),
+    )
+
+
+def _never_both_active(a: str, b: str, why: str) -> Rule:
+    # 4 "at most one of them is *active* at any moment"; "exactly one active XOR member"
+    return _rule(f"4 never both active ({why})", (_a(a), _a(b)), lambda v: not (v[_a(a)] and v[_a(b)]))

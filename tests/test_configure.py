@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 from pathlib import Path
@@ -10,6 +11,7 @@ from typing import Any
 import pytest
 import reference_semantics as ref
 from click.testing import CliRunner
+from helpers import UPDATE_GOLDEN, assert_matches_golden
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_property_sat import configurations, models
@@ -39,11 +41,31 @@ def configure(*args: str) -> tuple[int, str]:
 def test_golden_files(tmp_path: Path, variant: str, name: str) -> None:
     code, output = configure(str(SIMPLEBOT), "--variant", variant, "-o", str(tmp_path))
     assert code == 0, output
-    golden = GOLDEN / "simplebot" / variant / name
-    if os.environ.get("MOTIVML_UPDATE_GOLDEN"):
-        golden.parent.mkdir(parents=True, exist_ok=True)
-        golden.write_bytes((tmp_path / name).read_bytes())
-    assert (tmp_path / name).read_text() == golden.read_text()
+    assert_matches_golden((tmp_path / name).read_bytes(), GOLDEN / "simplebot" / variant / name)
+
+
+def test_golden_check_fails_in_update_mode_until_nothing_changes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    golden = tmp_path / "out" / "features.h"
+    monkeypatch.delenv(UPDATE_GOLDEN, raising=False)
+    with pytest.raises(pytest.fail.Exception, match="no golden file"):
+        assert_matches_golden(b"new\n", golden)
+    assert not golden.exists()
+    monkeypatch.setenv(UPDATE_GOLDEN, "1")
+    with pytest.raises(pytest.fail.Exception, match="updated"):
+        assert_matches_golden(b"new\n", golden)
+    assert golden.read_bytes() == b"new\n"
+    stamp = golden.stat().st_mtime_ns
+    assert_matches_golden(b"new\n", golden)  # nothing changed: passes, nothing written
+    assert golden.stat().st_mtime_ns == stamp
+    with pytest.raises(pytest.fail.Exception, match=r"(?s)updated.*-new\n\+newer"):
+        assert_matches_golden(b"newer\n", golden)
+    assert golden.read_bytes() == b"newer\n"
+    monkeypatch.delenv(UPDATE_GOLDEN)
+    with pytest.raises(AssertionError, match=r"(?s)differs.*-newer\r?\n\+newer\r\n"):
+        assert_matches_golden(b"newer\r\n", golden)  # bytes, not text: line ends count
+    assert golden.read_bytes() == b"newer\n"
 
 
 def test_lock_validates_back(tmp_path: Path) -> None:
@@ -93,44 +115,90 @@ def test_no_variant_raises_with_the_validate_explanation() -> None:
     assert info.value.diagnostics[0].rule == "3.1"
 
 
-def cost(
-    model: dict[str, Any], config: dict[str, Any], variant: dict[str, tuple[bool, bool]], prefer: set[str]
-) -> tuple[int, int, int]:
-    """The lexicographic cost configure minimises, computed on a brute-force variant."""
-    entries = {e["id"]: e for e in config["properties"]}
-    root = model["id"]
-    undecided = times = modes = 0
-    for fid, (early, static) in variant.items():
-        if fid == root:
+@st.composite
+def completable_configurations(draw: st.DrawFn, model: dict[str, Any]) -> dict[str, Any]:
+    """Part of a valid variant the reference finds, so that a completion exists and has
+    choices left: each feature's entry is left out, or says its selection, and its time and
+    mode each either as in the variant or Any."""
+    variants = list(itertools.islice(ref.valid_variants(model, None), 5000))
+    if not variants:
+        return draw(configurations(model))
+    variant = variants[draw(st.integers(0, len(variants) - 1))]
+    properties: list[dict[str, Any]] = []
+    stack = list(model.get("sub", []))
+    while stack:
+        node = stack.pop()
+        stack.extend(node.get("sub", []))
+        if draw(st.booleans()):
+            continue  # undecided
+        binding = variant.get(node["id"])
+        if binding is None:
+            properties.append({"id": node["id"], "selected": False})
             continue
-        entry = entries.get(fid)
-        props = entry.get("props", {}) if entry else {}
-        if entry is None:
-            undecided += 1
-        if props.get("time", "Any") == "Any" and early == ("late" in prefer):
-            times += 1
-        if props.get("mode", "Any") == "Any" and static == ("dynamic" in prefer):
-            modes += 1
-    return undecided, times, modes
+        early, static = binding
+        time = draw(st.sampled_from(["Early" if early else "Late", "Any"]))
+        mode = draw(st.sampled_from(["Static" if static else "Dynamic", "Any"]))
+        properties.append({"id": node["id"], "props": {"time": time, "mode": mode}})
+    return {"properties": properties}
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
 @given(data=st.data(), prefer=st.sets(st.sampled_from(["late", "dynamic"])))
 def test_resolution_is_valid_and_optimal(data: st.DataObject, prefer: set[str]) -> None:
-    model = data.draw(models(max_features=8))
-    config = data.draw(configurations(model))
+    """resolve's variant is one of the completions the reference enumerates, and none of
+    them meets configure's wishes better (reference_semantics.completion_cost).  Ties are
+    not broken by the spec, so only the cost is compared, not the variant."""
+    model = data.draw(models(max_features=7))
+    config = data.draw(st.one_of(completable_configurations(model), configurations(model)))
     feature_model, _ = read_model(parse(json.dumps(model), "model.json"))
     configuration, _ = read_configuration(parse(json.dumps(config), "c.json"), feature_model, partial=True)
     variants = list(ref.valid_variants(model, config))
+    wishes = tuple(sorted(prefer))
     if not variants:
         with pytest.raises(NoVariant):
             resolve(feature_model, configuration, prefer)
         return
     resolved = resolve(feature_model, configuration, prefer)
     chosen = {d.feature.id: (d.early, d.static) for d in resolved.decisions if d.selected}
+    assert chosen in variants
     lock = json.loads(outputs(resolved)["variant.lock.json"])
-    assert ref.is_valid(model, lock)
-    assert cost(model, config, chosen, prefer) == min(cost(model, config, v, prefer) for v in variants)
+    assert list(ref.valid_variants(model, lock)) == [chosen]
+    best = min(ref.completion_cost(model, config, v, wishes) for v in variants)
+    assert ref.completion_cost(model, config, chosen, wishes) == best
+
+
+def test_fewer_undecided_features_come_before_the_time_wish() -> None:
+    """The root's OR group needs w, or u with v. w is Early only and requires p and q, which
+    then cannot be Late; u and v leave them free. With --prefer late the wishes are
+    lexicographic: one undecided feature (w) beats two (u, v), whatever the times cost."""
+
+    def node(fid: str, time: str = "Any", group: str = "", includes: tuple[str, ...] = ()) -> dict[str, Any]:
+        constraints = {
+            "bindingTimeAllowed": time,
+            "bindingModeAllowed": "Any",
+            "featuresIncluded": list(includes),
+        }
+        return {"id": fid, "name": fid, "group": group, "isMandatory": False, "constraints": constraints}
+
+    model = {
+        "id": "r",
+        "name": "R",
+        "sub": [
+            node("w", "Early", "OR", ("p", "q")),
+            node("u", "Any", "OR", ("v",)),
+            node("v"),
+            node("p"),
+            node("q"),
+        ],
+    }
+    config = {"properties": [{"id": "p"}, {"id": "q"}]}
+    variants = list(ref.valid_variants(model, config))
+    costs = sorted((ref.completion_cost(model, config, v, ("late",)), sorted(v)) for v in variants)
+    assert costs[0] == ((1, 3, 0), ["p", "q", "r", "w"]) and costs[1][0] > costs[0][0]
+    feature_model, _ = read_model(parse(json.dumps(model), "model.json"))
+    configuration, _ = read_configuration(parse(json.dumps(config), "c.json"), feature_model, partial=True)
+    resolved = resolve(feature_model, configuration, {"late"})
+    assert sorted(d.feature.id for d in resolved.selected()) == ["p", "q", "r", "w"]
 
 
 def test_ids_differing_only_in_case_are_refused(tmp_path: Path) -> None:

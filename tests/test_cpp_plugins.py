@@ -7,18 +7,17 @@ import json
 import shutil
 import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
+import binder_sync
 import pytest
 
 from motivml.documents.robot_folder import Plugin
 from motivml.plugins.api import PluginContext
 from motivml.plugins.python import PluginError
 from motivml.runtime.launch import Robot, launch
-from motivml.runtime.requests import Request
 
 ROOT = Path(__file__).resolve().parent.parent
 GESTURES = ROOT / "plugins" / "cpp" / "gestures"
@@ -107,12 +106,7 @@ def field(extension: ModuleType) -> Iterator[Robot]:
 
 
 def ask(robot: Robot, text: str) -> bool:
-    action, *features = text.split()
-    future = robot.binder.submit(Request(action, tuple(features)))
-    while not future.done():
-        robot.runtime.tick()
-        time.sleep(0.0001)
-    return future.result().accepted
+    return binder_sync.ask(robot, text).accepted
 
 
 def test_gesture_plugins_load_step_and_unload_in_the_running_robot(field: Robot) -> None:

@@ -6,6 +6,7 @@ import json
 from typing import Any
 
 import pytest
+import reference_semantics as ref
 from helpers import config, feature
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -17,7 +18,6 @@ from motivml.language.reader import read_configuration, read_model
 from motivml.runtime.reconfigure import Plan, Reconfigurer, Refused
 from motivml.runtime.requests import Request
 from tests.test_property_sat import configurations, models
-from tests.test_start_state import satisfies_section_2
 
 ANY = {"time": "Any", "mode": "Any"}
 MODEL = feature(
@@ -155,9 +155,13 @@ def test_a_refusal_changes_nothing(robot: tuple[Reconfigurer, set[str]]) -> None
 
 # --------------------------------------------------------------------------- brute force
 class Reference:
-    """Section 4's reconfiguration rules read directly, with section 2 checked by enumeration."""
+    """Section 4's reconfiguration rules read directly; section 2 over the active set is the
+    brute-force reference's (reference_semantics.active_set_satisfies_section_2)."""
 
-    def __init__(self, model: FeatureModel, selected: dict[str, tuple[bool, bool]]) -> None:
+    def __init__(
+        self, raw: dict[str, Any], model: FeatureModel, selected: dict[str, tuple[bool, bool]]
+    ) -> None:
+        self.raw = raw
         self.model = model
         self.selected = selected  # id -> (early, static) for selected features
 
@@ -194,7 +198,7 @@ class Reference:
             parent = self.model[f].parent
             if parent is not None and self.model.features[parent].id not in after:
                 return None
-        return after if satisfies_section_2(self.model, {self.model.index[f] for f in after}) else None
+        return after if ref.active_set_satisfies_section_2(self.raw, after) else None
 
 
 @st.composite
@@ -248,7 +252,7 @@ def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataO
     selected = {d.feature.id: (d.early, d.static) for d in variant.selected()}
     if len(selected) == 1:
         return  # only the root: nothing can change
-    reference = Reference(model, selected)
+    reference = Reference(raw, model, selected)
     active = {f.id for f in start_state(variant)}
     ids = [f.id for f in model.features]
     with Reconfigurer(variant) as reconfigurer:
@@ -284,4 +288,4 @@ def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataO
                 assert set(plan.unloads) == plan.before - plan.after | (set(plan.unloads) & plan.after)
                 assert set(plan.loads) == plan.after - (plan.before - set(plan.unloads))
                 active = set(plan.after)
-                assert satisfies_section_2(model, {model.index[f] for f in active})
+                assert ref.active_set_satisfies_section_2(raw, active)

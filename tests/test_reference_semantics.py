@@ -353,3 +353,127 @@ def test_solver_matches_exhaustive_enumeration(seed):
     assert sorted(ref.valid_variants(model, config), key=key) == expected
     assert ref.count_valid_variants(model, config) == len(expected)
     assert ref.is_valid(model, config) is bool(expected)
+
+
+# ---------------------------------------------------------------------------------------
+# Statements, start states, completion costs
+# ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(80))
+def test_all_statements_together_mean_validity(seed):
+    rng = random.Random(seed)
+    model = random_model(rng, rng.randint(2, 5), any_bindings=rng.random() < 0.5)
+    config = random_config(rng, model)
+    statements = ref.model_statements(model) + ref.config_statements(model, config)
+    assert ref.consistent(model, statements) is ref.is_valid(model, config)
+
+
+def test_statements_left_out_are_not_in_force():
+    model = root(feature("a", includes=["b"]), feature("b"))
+    config = {"properties": [{"id": "a"}, {"id": "b", "props": {"mode": "Dynamic"}}]}
+    statements = ref.model_statements(model) + ref.config_statements(model, config)
+    assert ("includes", "a", "b") in statements and ("mode", "b", "Dynamic") in statements
+    assert not ref.consistent(model, statements)
+    assert ref.consistent(model, [s for s in statements if s != ("includes", "a", "b")])
+    # 3.1 alone: a selected a requires a Static b; b Dynamic only if not selected.
+    conflict = [("includes", "a", "b"), ("selected", "a"), ("mode", "b", "Dynamic")]
+    assert not ref.consistent(model, conflict)
+    assert ref.consistent(model, conflict[:2]) and ref.consistent(model, conflict[1:])
+
+
+def test_xor_exactly_one_active_is_the_group_and_its_pairs():
+    # Both Dynamic Late under the root: selectable together, one active at start.
+    model = root(feature("a", group="XOR"), feature("b", group="XOR"))
+    config = complete_config("DL", "DL")
+    facts = ref.config_statements(model, config) + [("root",), ("start",), ("sub", "a"), ("sub", "b")]
+    assert ref.consistent(model, facts + [("group", "root", "XOR"), ("alternatives", "a", "b")])
+    early = ref.config_statements(model, complete_config("DE", "DE"))
+    assert not ref.consistent(model, early + [("start",), ("alternatives", "a", "b")])
+    assert ref.consistent(model, early + [("start",)])
+    # The group statement makes one of them active: with a third, Early, alternative that
+    # excludes both, no start state is left.
+    three = root(feature("a", group="XOR"), feature("b", group="XOR"), feature("c", excludes=["a", "b"]))
+    facts = ref.config_statements(three, complete_config("DL", "DL")) + [
+        ("selected", "c"),
+        ("time", "c", "Early"),
+    ]
+    facts += [("root",), ("start",), ("excludes", "c", "a"), ("excludes", "c", "b")]
+    assert ref.consistent(three, facts)
+    assert not ref.consistent(three, facts + [("group", "root", "XOR")])
+
+
+def test_unknown_statements_raise():
+    model = root(feature("a"))
+    for bad in [("nope",), ("selected", "zz"), ("time", "a", "Soon"), ("group", "root", "OR")]:
+        with pytest.raises(ValueError):
+            ref.consistent(model, [bad])
+
+
+def test_start_state_fewest_late_then_first_in_definition_order():
+    # XOR {a, b, c} of Late Dynamic features under the root: one of them must be active,
+    # the first one is.  d (Late, optional) stays inactive.
+    model = root(
+        feature("a", group="XOR"), feature("b", group="XOR"), feature("c", group="XOR"), feature("d")
+    )
+    selection = {"root": ref.SE, "a": ref.DL, "b": ref.DL, "c": ref.DL, "d": ref.SL}
+    assert sorted(map(sorted, ref.start_states(model, selection))) == [
+        ["a", "d", "root"],
+        ["a", "root"],
+        ["b", "d", "root"],
+        ["b", "root"],
+        ["c", "d", "root"],
+        ["c", "root"],
+    ]
+    assert ref.preferred_start_state(model, selection) == ["root", "a"]
+    # b Early: it must be active, and then neither a nor c can be.
+    assert ref.preferred_start_state(model, {**selection, "b": ref.DE}) == ["root", "b"]
+    # An OR group of Late features: one member (the first) rather than two.
+    either = root(feature("a", group="OR"), feature("b", group="OR"))
+    assert ref.preferred_start_state(either, {"root": ref.SE, "a": ref.SL, "b": ref.SL}) == ["root", "a"]
+    # Fewest Late activations beat definition order: a needs b and c, d alone is enough.
+    heavy = root(
+        feature("a", group="OR", includes=["b"]),
+        feature("d", group="OR"),
+        feature("b", includes=["c"]),
+        feature("c"),
+    )
+    late = {"root": ref.SE, "a": ref.SL, "b": ref.SL, "c": ref.SL, "d": ref.SL}
+    assert ref.preferred_start_state(heavy, late) == ["root", "d"]
+    assert ref.preferred_start_state(heavy, {**late, "d": ref.DL, "c": ref.SE}) == ["root", "d", "c"]
+    # No start state: two excluded Early features.
+    excl = root(feature("a", excludes=["b"]), feature("b"))
+    assert ref.preferred_start_state(excl, {"root": ref.SE, "a": ref.DE, "b": ref.DE}) is None
+
+
+def test_completion_cost_counts_the_wishes_in_order():
+    model = root(feature("a"), feature("b"))
+    config = {"properties": [{"id": "a", "props": {"time": "Late", "mode": "Any"}}]}
+    variant = {"root": ref.SE, "a": ref.DL, "b": ref.SL}
+    # b undecided and selected; b's time Late (open) and a's fixed; a's mode Dynamic (open).
+    assert ref.completion_cost(model, config, variant) == (1, 1, 1)
+    assert ref.completion_cost(model, config, variant, ("late",)) == (1, 0, 1)
+    assert ref.completion_cost(model, config, variant, ("late", "dynamic")) == (1, 0, 1)
+    assert ref.completion_cost(model, config, {"root": ref.SE, "a": ref.SL}) == (0, 0, 0)
+    with pytest.raises(ValueError):
+        ref.completion_cost(model, config, variant, ("fast",))
+
+
+def test_active_set_is_section_2_strictly():
+    model = root(
+        feature("a", group="XOR"),
+        feature("b", group="XOR"),
+        feature("c", mandatory=True, includes=["d"]),
+        feature("d", excludes=["e"]),
+        feature("e"),
+    )
+    ok = {"root", "a", "c", "d"}
+    assert ref.active_set_satisfies_section_2(model, ok)
+    assert not ref.active_set_satisfies_section_2(model, ok - {"root"})  # the root is always active
+    assert not ref.active_set_satisfies_section_2(model, ok | {"b"})  # exactly one XOR member
+    assert not ref.active_set_satisfies_section_2(model, ok - {"a"})
+    assert not ref.active_set_satisfies_section_2(model, ok - {"c"})  # a mandatory child
+    assert not ref.active_set_satisfies_section_2(model, ok - {"d"})  # what c includes
+    assert not ref.active_set_satisfies_section_2(model, ok | {"e"})  # d excludes e
+    with pytest.raises(ValueError):
+        ref.active_set_satisfies_section_2(model, {"root", "zz"})

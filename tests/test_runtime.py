@@ -528,24 +528,45 @@ def test_a_mixed_module_without_a_goal_oscillates_around_zero(tmp_path: Path) ->
 
 
 def test_ctrl_c_ends_the_run_with_its_summary() -> None:
+    """Ctrl-C is sent once the run is seen running (no guess at how long starting takes):
+    a request scheduled early in the run is printed when it takes effect, and the loop
+    that applies it starts after the Ctrl-C handler is in place."""
+    import re
     import signal
     import subprocess
     import sys
-    import time
 
-    command = [sys.executable, "-m", "motivml.cli", "run", str(EXAMPLES / "quadruped"), "--variant", "trot"]
+    command = [sys.executable, "-m", "motivml.cli", "run", str(EXAMPLES / "quadruped")]
+    command += [
+        "--variant",
+        "gaits_at_run_time",
+        "--no-live",
+        "--no-control",
+        "--at",
+        "0.05",
+        "swap trot pace",
+    ]
     process = subprocess.Popen(
-        [*command, "--duration", "30", "--no-live"],
+        [*command, "--duration", "60"],  # ends by itself if nothing below happens: a hang guard
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
-    time.sleep(3.0)
+    assert process.stdout is not None
+    before = []
+    for line in process.stdout:  # blocks until the run prints
+        before.append(line)
+        if re.fullmatch(r"\d\d:\d\d:\d\d\.\d{3} tick \d+: swap trot pace\n", line):
+            break
+    else:
+        raise AssertionError("the run ended before the swap was reported:\n" + "".join(before))
     process.send_signal(signal.SIGINT)
-    output, _ = process.communicate(timeout=30)
-    assert process.returncode == 130, output
-    assert "TrotGenerator" in output and "Hz achieved" in output.splitlines()[-1]
+    with process.stdout:
+        output = process.stdout.read()  # to the end, also what the loop above read ahead
+    process.wait(timeout=60)
+    assert process.returncode == 130, "".join(before) + output
+    assert "PaceGenerator" in output and "Hz achieved" in output.splitlines()[-1]
 
 
 def test_the_live_view_shows_the_rate_and_every_component() -> None:

@@ -4,21 +4,21 @@ from __future__ import annotations
 
 import json
 import shutil
+import sys
 import threading
-import time
+import types
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pytest
+from binder_sync import HANG_GUARD, Handover, ask
 from click.testing import CliRunner
 from helpers import config, feature
 
 from motivml.cli import main
 from motivml.errors import DocumentError
 from motivml.plugins.python import PluginError
-from motivml.runtime.binder import Outcome
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import RealClock
 from motivml.runtime.requests import Request
@@ -26,18 +26,6 @@ from motivml.runtime.requests import Request
 ROOT = Path(__file__).resolve().parent.parent
 DL = ("Late", "Dynamic")
 ANY = {"time": "Any", "mode": "Any"}
-
-
-def ask(robot: Robot, text: str) -> Outcome:
-    """Submit a request and tick (simulated time) until the binder answers."""
-    action, *features = text.split()
-    future = robot.binder.submit(Request(action, tuple(features)))
-    for _ in range(10_000):
-        if future.done():
-            break
-        robot.runtime.tick()
-        time.sleep(0.0001)
-    return future.result(timeout=5)
 
 
 @pytest.fixture
@@ -161,18 +149,27 @@ def test_a_dynamic_plugin_that_raises_is_unloaded_and_the_loop_goes_on(tmp_path:
     robot = launch(folder, "v")
     try:
         assert ask(robot, "load d").accepted
-        for _ in range(2000):
-            robot.runtime.tick()
-            if "alt" not in robot.binder.active:
-                break
-            time.sleep(0.0005)
+        with Handover(robot) as handover:
+            for _ in range(10):  # a raises in its 6th step
+                robot.runtime.tick()
+                if robot.runtime.faults:
+                    break
+            assert robot.runtime.faults
+            # the binder's worker unloads a's feature: a change handed to the loop...
+            assert handover.handed.wait(HANG_GUARD)
+            robot.runtime.tick()  # ... committed by the next tick, then noted
+            assert handover.wait_for_note(
+                lambda text: "after the fault of a" in text or "after its fault" in text
+            )
         fault = robot.runtime.faults[0]
         assert (fault.feature, fault.static) == ("a", False)
         assert fault.error == "ValueError: lost track (at mod_a.py:10)"
         # a is the only active member of alt's XOR group, so alt goes with it
         assert robot.binder.active == {"bot", "d"} and set(robot.runtime.plugins) == {"d"}
         assert any("unloaded alt after the fault of a" in text for _, _, text in robot.runtime.notes)
-        assert robot.runtime.failure is None and robot.runtime.plugins["d"].instance.steps > 5
+        steps = robot.runtime.plugins["d"].instance.steps
+        robot.runtime.run(0.01)
+        assert robot.runtime.failure is None and robot.runtime.plugins["d"].instance.steps == steps + 10
     finally:
         robot.close()
 
@@ -237,22 +234,40 @@ def test_two_plugins_with_one_module_name_are_refused(tmp_path: Path) -> None:
     assert result.exit_code == 1 and "module 'mod_a' is also the entry of" in result.output
 
 
-def test_the_loop_keeps_ticking_while_a_plugin_prepares(tmp_path: Path) -> None:
-    folder = make_robot(tmp_path, {"a": {}, "d": {"start": "import time; time.sleep(0.3)"}})
+def test_the_loop_keeps_ticking_while_a_plugin_prepares(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """d's start() holds until the test lets it go: meanwhile the loop (real clock, its own
+    thread) goes on ticking and the request stays pending; then the change commits at a
+    later tick. Events, not durations: nothing depends on how fast the machine is."""
+    gate = types.ModuleType("motivml_test_gate")
+    gate.started, gate.release = threading.Event(), threading.Event()  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, gate.__name__, gate)
+    hold = "import motivml_test_gate as gate; gate.started.set(); gate.release.wait(30)"
+    folder = make_robot(tmp_path, {"a": {}, "d": {"start": hold}})
     robot = launch(folder, "v")
+    runtime = robot.runtime
+    target: list[int] = []
+    ticked = threading.Event()
+    runtime.hooks.append(lambda: ticked.set() if target and runtime.ticks >= target[0] else None)
+    loop = threading.Thread(target=runtime.run, args=(60.0, RealClock()))
     try:
-        stats: list[Any] = []
-        loop = threading.Thread(target=lambda: stats.append(robot.runtime.run(1.5, RealClock())))
         loop.start()
-        time.sleep(0.2)
-        before = robot.runtime.ticks
-        outcome = robot.binder.request(Request("load", ("d",)))
-        during = robot.runtime.ticks - before
-        loop.join()
-        assert outcome.accepted and outcome.latency >= 0.3
-        assert during > 0.3 * robot.runtime.rate / 4  # the loop went on (a stall would leave ~0 ticks)
+        future = robot.binder.submit(Request("load", ("d",)), timeout=None)
+        assert gate.started.wait(HANG_GUARD)  # d is being prepared, on the binder's thread
+        target.append(runtime.ticks + 50)
+        assert ticked.wait(HANG_GUARD)  # fifty ticks later...
+        assert not future.done() and "d" not in runtime.plugins  # ... d is still being prepared
+        gate.release.set()
+        outcome = future.result(HANG_GUARD)
+        assert outcome.accepted and outcome.change is not None and outcome.change.tick >= target[0]
+        assert "d" in runtime.plugins
     finally:
+        gate.release.set()
+        runtime.stop()
+        loop.join(HANG_GUARD)
         robot.close()
+    assert not loop.is_alive()
 
 
 def test_scheduled_requests_make_a_deterministic_session() -> None:
