@@ -143,7 +143,13 @@ def references(architecture: Architecture) -> list[Reference]:
     return found
 
 
-class _Checker:
+class _ArchitectureChecker:
+    """What an architecture document must be beyond its schema, against itself and the model:
+    ids, features, references, types and dimensions, kinds, goal cycles.
+
+    Every problem is collected in `found`, located.
+    """
+
     def __init__(self, doc: Document, model: FeatureModel) -> None:
         self.doc = doc
         self.model = model
@@ -565,7 +571,7 @@ def read_architecture(doc: Document, model: FeatureModel) -> tuple[Architecture 
     problems = check_document(doc, ARCHITECTURE, "an architecture document")
     if problems:
         return None, problems
-    checker = _Checker(doc, model)
+    checker = _ArchitectureChecker(doc, model)
     checker.run()
     if checker.found:
         return None, checker.found

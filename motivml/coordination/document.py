@@ -91,7 +91,13 @@ class VariantBindings:
     bindings: dict[str, str]  # selected feature id -> "SE", "SL", "DE" or "DL"
 
 
-class _Checker:
+class _CoordinationChecker:
+    """What a coordination document must be beyond its schema: its states, and its references
+    to the model's features, the architecture's elements and the variant's bindings.
+
+    Every problem is collected in `found`, located.
+    """
+
     def __init__(
         self,
         doc: Document,
@@ -387,7 +393,7 @@ def read_coordination(
     problems = check_document(doc, COORDINATION, "a coordination document")
     if problems:
         return None, problems
-    checker = _Checker(doc, model, architecture, variant, architecture_invalid)
+    checker = _CoordinationChecker(doc, model, architecture, variant, architecture_invalid)
     coordination = checker.run()
     errors = [d for d in checker.found if d.severity.value == "error"]
     return (None if errors or checker.unchecked else coordination), checker.found
