@@ -2,11 +2,12 @@
 
 `build(architecture, active)` instantiates exactly the elements of the active features:
 spaces (numpy vectors, from their initial values), mappings (the functions of
-architecture.json, adaptive ones with their learner), one module instance per adaptive
-module and one `Component` per adaptive component, wired to its spaces. It orders the
-components so that a component whose output is another's goal steps first within a tick
-(the document forbids cycles among goal connections), and the free mappings (those on no
-port) after them, each after the mappings it reads from.
+architecture.json, an `AdaptiveMappingInstance` with its learner for an adaptive one), one
+`ModuleInstance` per adaptive module and one `ComponentInstance` per adaptive component,
+wired to its spaces through `PortInstance`s. It orders the components so that a component
+whose output is another's goal steps first within a tick (the document forbids cycles
+among goal connections), and the free mappings (those on no port) after them, each after
+the mappings it reads from.
 
 What a tick means for each element (the runtime calls `Assembly.tick`):
 
@@ -59,7 +60,7 @@ def make_function(mapping: dict[str, Any], inputs: int, outputs: int) -> Functio
     spec = mapping.get("function")
     if mapping["kind"] == "adaptiveMapping":
         teacher = make_function({"kind": "mapping", "function": spec}, inputs, outputs) if spec else None
-        return AdaptiveMapping(mapping["learner"], inputs, outputs, teacher)
+        return AdaptiveMappingInstance(mapping["learner"], inputs, outputs, teacher)
     if spec is None:
         return lambda x: x.copy()
     if spec["type"] == "scale":
@@ -102,8 +103,8 @@ def planar_arm_ik(links: Vector, position: Vector) -> Vector:
     return np.array(angles)
 
 
-class AdaptiveMapping:
-    """A learned mapping: predicts with its learner, and learns from a teacher if it has one.
+class AdaptiveMappingInstance:
+    """A running adaptive mapping: predicts with its learner, and learns from a teacher if it has one.
 
     A sample is an evaluation whose input has moved since the last sample: holding still
     teaches nothing new, and would only pull the learner towards one point. online (the
@@ -147,8 +148,8 @@ class AdaptiveMapping:
 
 # ------------------------------------------------------------------------------ modules
 @dataclass
-class Module:
-    """An adaptive module: its dynamical systems side by side, and its lifecycle."""
+class ModuleInstance:
+    """A running adaptive module: its dynamical systems side by side, and its lifecycle."""
 
     id: str
     systems: list[PointAttractor | DiscreteDMP | CoupledOscillators]
@@ -240,7 +241,7 @@ class Module:
         self.learned += 1
 
 
-def make_module(spec: dict[str, Any]) -> Module:
+def make_module(spec: dict[str, Any]) -> ModuleInstance:
     systems: list[PointAttractor | DiscreteDMP | CoupledOscillators] = []
     for system in spec["systems"]:
         n = system["dimension"]
@@ -267,14 +268,16 @@ def make_module(spec: dict[str, Any]) -> Module:
                     phases=phases,
                 )
             )
-    module = Module(spec["id"], systems, [s["dimension"] for s in spec["systems"]])
+    module = ModuleInstance(spec["id"], systems, [s["dimension"] for s in spec["systems"]])
     module.set_state(spec.get("state", "executing"))
     return module
 
 
 # --------------------------------------------------------------------------- components
 @dataclass
-class Port:
+class PortInstance:
+    """A component's built port: the space it reads or writes, and the function on the way."""
+
     space: str
     function: Function | None
 
@@ -284,14 +287,16 @@ class Port:
 
 
 @dataclass
-class Component:
+class ComponentInstance:
+    """A running adaptive component: its module, ports, rate divider and criterion's verdict."""
+
     id: str
     kind: str
     feature: str
-    module: Module
-    output: Port
-    goal: Port | None
-    feedback: Port | None
+    module: ModuleInstance
+    output: PortInstance
+    goal: PortInstance | None
+    feedback: PortInstance | None
     criterion: dict[str, Any] | None
     divider: int  # steps every `divider` ticks
     dt: float
@@ -378,13 +383,13 @@ class Assembly:
 
     values: dict[str, Vector]
     spaces: dict[str, dict[str, Any]]
-    components: list[Component]
-    modules: dict[str, Module]
+    components: list[ComponentInstance]
+    modules: dict[str, ModuleInstance]
     mappings: list[tuple[str, str, str, Function]]  # (id, from, to, function), in order
-    adaptive: dict[str, AdaptiveMapping]
-    writers: dict[str, list[Component]]
+    adaptive: dict[str, AdaptiveMappingInstance]
+    writers: dict[str, list[ComponentInstance]]
     functions: dict[str, Function]  # every mapping's function by id (kept across changes)
-    fresh: list[Component]  # components built new, to prime before their first step
+    fresh: list[ComponentInstance]  # components built new, to prime before their first step
     features: set[str]  # the active features it was built for
 
     def goal_changed(self, space: str) -> None:
@@ -500,7 +505,7 @@ def build(
         return False
 
     functions: dict[str, Function] = {}
-    adaptive: dict[str, AdaptiveMapping] = {}
+    adaptive: dict[str, AdaptiveMappingInstance] = {}
     for element, mapping in arch.mappings.items():
         if need("mappings", element, ("from",), "spaces", mapping["from"]) and need(
             "mappings", element, ("to",), "spaces", mapping["to"]
@@ -508,14 +513,14 @@ def build(
             inputs, outputs = (arch.spaces[mapping[k]]["dimension"] for k in ("from", "to"))
             kept = kept_functions.get(element)
             functions[element] = kept if kept is not None else make_function(mapping, inputs, outputs)
-            if isinstance(functions[element], AdaptiveMapping):
+            if isinstance(functions[element], AdaptiveMappingInstance):
                 adaptive[element] = functions[element]  # type: ignore[assignment]
 
-    modules: dict[str, Module] = {}
-    components: dict[str, Component] = {}
+    modules: dict[str, ModuleInstance] = {}
+    components: dict[str, ComponentInstance] = {}
     for element, spec in arch.components.items():
         ok = need("components", element, ("module",), "modules", spec["module"])
-        ports: dict[str, Port | None] = {}
+        ports: dict[str, PortInstance | None] = {}
         for port in ("goal", "feedback", "output"):
             connection = spec.get(port)
             if connection is None:
@@ -525,7 +530,7 @@ def build(
             through = connection.get("through")
             if through is not None:
                 ok = need("components", element, (port, "through"), "mappings", through) and ok
-            ports[port] = Port(connection["space"], functions.get(through) if through else None)
+            ports[port] = PortInstance(connection["space"], functions.get(through) if through else None)
         if not ok:
             continue
         if element in kept_components:
@@ -560,7 +565,7 @@ def build(
                     )
         output = ports["output"]
         assert output is not None  # required by the schema
-        components[element] = Component(
+        components[element] = ComponentInstance(
             element,
             spec["kind"],
             spec["feature"],
@@ -586,7 +591,7 @@ def build(
         for k, s in arch.spaces.items()
     }
     fresh = [c for k, c in components.items() if k not in kept_components]
-    writers: dict[str, list[Component]] = {}
+    writers: dict[str, list[ComponentInstance]] = {}
     for component in components.values():
         writers.setdefault(component.output.space, []).append(component)
     goal_of = {
