@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import Diagnostic, Location, MotivmlError, error, warning
+from ..errors import Diagnostic, MotivmlError, error, warning
 from .document import Architecture
 from .dynamics import CoupledOscillators, DiscreteDMP, PointAttractor
 from .elements import (
@@ -510,14 +510,6 @@ def build(
     arch = architecture.elements_of(active)
     problems: list[Diagnostic] = []
     warnings: list[Diagnostic] = []
-    positions = {
-        (section, item["id"]): i
-        for section in ("spaces", "mappings", "modules", "components")
-        for i, item in enumerate(whole.source.root.get(section, []))
-    }
-
-    def where(section: str, element: str, *keys: str | int) -> Location:
-        return whole.source.locate((section, positions[(section, element)], *keys))
 
     def need(
         user: Mapping | Component, keys: tuple[str, ...], kind: str, used: Space | Mapping | Module
@@ -527,7 +519,7 @@ def build(
             return True
         problems.append(
             error(
-                where("mappings" if isinstance(user, Mapping) else "components", user.id, *keys),
+                whole.locate("mappings" if isinstance(user, Mapping) else "components", user.id, *keys),
                 f"{user.id} of feature {user.feature} needs {kind} {used.id} of feature {used.feature}, which is not active",
                 "build.inactive",
                 user.feature,
@@ -574,7 +566,7 @@ def build(
         if component_rate > rate or abs(rate / divider - component_rate) > 1e-9 * rate:
             warnings.append(
                 warning(
-                    where("components", element, "rate"),
+                    whole.locate("components", element, "rate"),
                     f"{element} asks for {component_rate:g} Hz; the loop runs at {rate:g} Hz, so it steps at {rate / divider:g} Hz",
                     "build.rate",
                     spec.feature,
@@ -587,7 +579,9 @@ def build(
                 if system.alpha * (divider / rate) / tau >= 2.0:
                     problems.append(
                         error(
-                            where("components", element, "rate" if spec.rate is not None else "module"),
+                            whole.locate(
+                                "components", element, "rate" if spec.rate is not None else "module"
+                            ),
                             f"{element} steps every {divider / rate:g} s, too coarse for module {module.id} "
                             f"(alpha {system.alpha:g}{f', duration {tau:g} s' if tau != 1.0 else ''}): the "
                             f"integration diverges unless alpha * step / duration < 2",

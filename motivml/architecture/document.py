@@ -84,6 +84,7 @@ class Architecture:
     modules: dict[str, Module]
     components: dict[str, Component]
     source: Document
+    positions: dict[tuple[str, str], int]  # (section, id) -> index in the document's section
 
     def elements_of(self, features: set[str]) -> Architecture:
         """The elements brought by the given (active) features.
@@ -96,7 +97,12 @@ class Architecture:
             return {k: v for k, v in section.items() if v.feature in features}
 
         return Architecture(
-            keep(self.spaces), keep(self.mappings), keep(self.modules), keep(self.components), self.source
+            keep(self.spaces),
+            keep(self.mappings),
+            keep(self.modules),
+            keep(self.components),
+            self.source,
+            self.positions,
         )
 
     def elements(self) -> Iterator[Element]:
@@ -106,10 +112,9 @@ class Architecture:
         yield from self.modules.values()
         yield from self.components.values()
 
-    def locate(self, section: str, element: str, *keys: str) -> Location:
+    def locate(self, section: str, element: str, *keys: str | int) -> Location:
         """Where an element, or one of its keys, stands in the document's text."""
-        index = next(i for i, item in enumerate(self.source.root.get(section, [])) if item["id"] == element)
-        return self.source.locate((section, index, *keys))
+        return self.source.locate((section, self.positions[(section, element)], *keys))
 
 
 @dataclass(frozen=True)
@@ -606,7 +611,10 @@ def _elements(doc: Document) -> Architecture:
     components = {
         item["id"]: _component(item, spaces, mappings, modules) for item in root.get("components", [])
     }
-    return Architecture(spaces, mappings, modules, components, doc)
+    positions = {
+        (section, item["id"]): i for section in SECTIONS for i, item in enumerate(root.get(section, []))
+    }
+    return Architecture(spaces, mappings, modules, components, doc, positions)
 
 
 def _vector(numbers: list[float]) -> Vector:
