@@ -30,10 +30,11 @@ import shutil
 import subprocess
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Protocol
 from xml.sax.saxutils import escape, quoteattr
 
 from .architecture.document import Architecture
+from .architecture.elements import Element, Module
 from .errors import EnvironmentProblem, Location, error
 from .language.model import Feature, FeatureModel
 
@@ -46,7 +47,6 @@ _UNSELECTED = _FADED | {"style": "rounded,dashed,filled", "fillcolor": "#f2f2f2"
 _GROUP = {"shape": "invtriangle", "style": "filled", "width": "0.3", "height": "0.25", "fixedsize": "true"}
 _REQUIRES = {"style": "dashed", "constraint": "false", "color": "#2166ac"}
 _EXCLUDES = _REQUIRES | {"color": "#b2182b", "dir": "both", "arrowhead": "tee", "arrowtail": "tee"}
-_PORTS = ("goal", "feedback", "output")
 _MAPPING_SHAPES = {"mapping": "diamond", "transformation": "Mdiamond", "adaptiveMapping": "diamond"}
 # Characters XML 1.0 cannot carry (and that have no business in a label): shown as U+FFFD.
 _ILLEGAL = [*range(0x09), 0x0B, 0x0C, *range(0x0E, 0x20), 0x7F, *range(0xD800, 0xE000), 0xFFFE, 0xFFFF]
@@ -247,77 +247,78 @@ def feature_model_graphml(model: FeatureModel, variant: VariantLike | None = Non
     return _to_graphml(_feature_graph(model, variant))
 
 
-def _systems(module: dict[str, Any]) -> str:
-    return " + ".join(f"{s['type']}({s['dimension']})" for s in module["systems"])
+def _systems(module: Module) -> str:
+    return " + ".join(f"{s.type}({s.dimension})" for s in module.systems)
 
 
-def _learners(module: dict[str, Any]) -> list[str]:
-    return [f"learns: {x['type']} {x.get('mode', '')}".strip() for x in module.get("learners", ())]
+def _learners(module: Module) -> list[str]:
+    return [f"learns: {x.type} {x.mode or ''}".strip() for x in module.learners]
 
 
-def _element(element: dict[str, Any], kind: str, **more: Value) -> dict[str, Value]:
-    return dict(label=element["id"], kind=kind, feature=element["feature"], **more)
+def _element(element: Element, kind: str, **more: Value) -> dict[str, Value]:
+    return dict(label=element.id, kind=kind, feature=element.feature, **more)
 
 
 def _architecture_graph(arch: Architecture, features: Iterable[str] | None) -> _Graph:
     if features is not None:
         arch = arch.elements_of(set(features))
     graph = _Graph("architecture", {"rankdir": "LR"})
-    used = {c["module"] for c in arch.components.values()}
+    used = {c.module.id for c in arch.components.values()}
     ports = [
-        (p, c[p]["through"]) for c in arch.components.values() for p in _PORTS if "through" in c.get(p, {})
+        (name, port.through.id)
+        for c in arch.components.values()
+        for name, port in c.ports()
+        if port.through is not None
     ]
     reads, writes = {m for p, m in ports if p != "output"}, {m for p, m in ports if p == "output"}
     for space in arch.spaces.values():
-        unit = space.get("unit", "")
-        shape = f"{space['type']}({space['dimension']})" + (f" [{unit}]" if unit else "")
-        data = _element(space, "space", type=space["type"], dimension=int(space["dimension"]), unit=unit)
-        label = _lines(space["id"], shape)
-        graph.nodes.append(_Node(space["id"], label, {"shape": "ellipse"}, data, space["feature"]))
+        unit = space.unit or ""
+        shape = f"{space.type}({space.dimension})" + (f" [{unit}]" if unit else "")
+        data = _element(space, "space", type=space.type, dimension=int(space.dimension), unit=unit)
+        label = _lines(space.id, shape)
+        graph.nodes.append(_Node(space.id, label, {"shape": "ellipse"}, data, space.feature))
     for mapping in arch.mappings.values():
-        function = mapping.get("function", {}).get("type", "")
-        learner = mapping.get("learner", {}).get("type", "")
-        kind = " · ".join(x for x in (mapping["kind"], learner, function) if x)
-        dot = {"shape": _MAPPING_SHAPES[mapping["kind"]]}
-        dot |= {"peripheries": "2"} if mapping["kind"] == "adaptiveMapping" else {}
-        data = _element(mapping, "mapping", type=mapping["kind"], function=function)
-        data |= {"from": mapping["from"], "to": mapping["to"]}
-        graph.nodes.append(_Node(mapping["id"], _lines(mapping["id"], kind), dot, data, mapping["feature"]))
-        free = mapping["id"] not in reads | writes  # a port's mapping converts on the port only
-        if free or mapping["id"] in reads:
-            graph.edges.append(_Edge(mapping["from"], mapping["id"], {}, {"kind": "from"}))
-        if free or mapping["id"] in writes:
-            graph.edges.append(_Edge(mapping["id"], mapping["to"], {}, {"kind": "to"}))
+        function = mapping.function.type if mapping.function is not None else ""
+        learner = mapping.learner.type if mapping.learner is not None else ""
+        kind = " · ".join(x for x in (mapping.kind, learner, function) if x)
+        dot = {"shape": _MAPPING_SHAPES[mapping.kind]}
+        dot |= {"peripheries": "2"} if mapping.kind == "adaptiveMapping" else {}
+        data = _element(mapping, "mapping", type=mapping.kind, function=function)
+        data |= {"from": mapping.source.id, "to": mapping.target.id}
+        graph.nodes.append(_Node(mapping.id, _lines(mapping.id, kind), dot, data, mapping.feature))
+        free = mapping.id not in reads | writes  # a port's mapping converts on the port only
+        if free or mapping.id in reads:
+            graph.edges.append(_Edge(mapping.source.id, mapping.id, {}, {"kind": "from"}))
+        if free or mapping.id in writes:
+            graph.edges.append(_Edge(mapping.id, mapping.target.id, {}, {"kind": "to"}))
     for module in arch.modules.values():
         data = _element(module, "module", systems=_systems(module), learners=", ".join(_learners(module)))
-        label = _lines(module["id"], _systems(module), *_learners(module))
+        label = _lines(module.id, _systems(module), *_learners(module))
         graph.nodes.append(
-            _Node(module["id"], label, {"shape": "component"}, data, module["feature"])
-            if module["id"] not in used
-            else _Node(module["id"], "", {}, data, only="graphml")  # drawn inside its component
+            _Node(module.id, label, {"shape": "component"}, data, module.feature)
+            if module.id not in used
+            else _Node(module.id, "", {}, data, only="graphml")  # drawn inside its component
         )
     for component in arch.components.values():
-        cid, runs = component["id"], arch.modules.get(component["module"])
-        rate = f" @ {component['rate']:g} Hz" if "rate" in component else ""
-        fields = [_record(cid, component["kind"] + rate)]
-        if runs is None:
-            fields.append(_record(f"module {component['module']}", "(not present)"))
+        cid, runs = component.id, component.module
+        rate = f" @ {component.rate:g} Hz" if component.rate is not None else ""
+        fields = [_record(cid, component.kind + rate)]
+        if runs.id not in arch.modules:  # its feature is left out
+            fields.append(_record(f"module {runs.id}", "(not present)"))
         else:
-            fields.append(_record(runs["id"], _systems(runs), *_learners(runs)))
-        if criterion := component.get("criterion"):
-            fields.append(_record(f"{criterion['type']} ≤ {criterion['tolerance']:g}"))
-        data = _element(component, "component", type=component["kind"], module=component["module"])
-        data |= {"rate": float(component["rate"])} if rate else {}
+            fields.append(_record(runs.id, _systems(runs), *_learners(runs)))
+        if (criterion := component.criterion) is not None:
+            fields.append(_record(f"{criterion.type} ≤ {criterion.tolerance:g}"))
+        data = _element(component, "component", type=component.kind, module=runs.id)
+        data |= {"rate": float(component.rate)} if component.rate is not None else {}
         dot = {"shape": "record", "style": "rounded"}
-        graph.nodes.append(_Node(cid, "|".join(fields), dot, data, component["feature"]))
-        graph.edges.append(_Edge(cid, component["module"], {}, {"kind": "runs"}, only="graphml"))
-        for port in _PORTS:
-            if (connection := component.get(port)) is None:
-                continue
-            end = connection.get("through") or connection["space"]
-            style = {"style": "dashed"} if port == "feedback" else {}
-            source, target = (cid, end) if port == "output" else (end, cid)
-            graph.edges.append(_Edge(source, target, style, {"kind": port, "label": port}))
+        graph.nodes.append(_Node(cid, "|".join(fields), dot, data, component.feature))
+        graph.edges.append(_Edge(cid, runs.id, {}, {"kind": "runs"}, only="graphml"))
+        for name, port in component.ports():
+            end = port.through.id if port.through is not None else port.space.id
+            style = {"style": "dashed"} if name == "feedback" else {}
+            source, target = (cid, end) if name == "output" else (end, cid)
+            graph.edges.append(_Edge(source, target, style, {"kind": name, "label": name}))
     present = {node.id for node in graph.nodes}
     absent: dict[str, _Node] = {}
     for edge in graph.edges:  # references to elements of features left out: placeholders

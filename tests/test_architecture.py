@@ -11,6 +11,15 @@ import pytest
 from click.testing import CliRunner
 
 from motivml.architecture.document import read_architecture
+from motivml.architecture.elements import (
+    Criterion,
+    DMPParameters,
+    Learner,
+    OscillatorParameters,
+    Port,
+    Scale,
+    Space,
+)
 from motivml.cli import main
 from motivml.documents.loader import parse
 from motivml.language.reader import read_model
@@ -234,6 +243,29 @@ def test_goal_cycles_are_refused_with_the_chain() -> None:
     assert problems(document) == [
         "$.components[0].goal: components wait on each other's output within a tick: reacher -> reacher"
     ]
+
+
+def test_a_checked_document_becomes_typed_elements() -> None:
+    """Elements hold each other, not ids; what the document leaves out is a default or None."""
+    model, _ = read_model(parse(json.dumps(MODEL), "model.json"))
+    architecture, _ = read_architecture(parse(json.dumps(VALID), "architecture.json"), model)
+    assert architecture is not None
+    spaces, mappings, modules = architecture.spaces, architecture.mappings, architecture.modules
+    reacher, walker = architecture.components["reacher"], architecture.components["walker"]
+    assert reacher.module is modules["reach_dmp"] and reacher.output.space is spaces["command"]
+    assert reacher.goal == Port(spaces["pose_goal"], mappings["ik"])
+    assert reacher.feedback == Port(spaces["joints"])
+    assert (reacher.rate, reacher.criterion, reacher.sequence) == (100, Criterion("convergence", 0.01), ())
+    assert [name for name, _ in walker.ports()] == ["output"] and walker.rate is None
+    ik = mappings["ik"]
+    assert (ik.kind, ik.source, ik.target) == ("adaptiveMapping", spaces["pose_goal"], spaces["joint_goal"])
+    assert ik.learner == Learner("elm") and ik.function is None and ik.teacher is None
+    assert mappings["scale"].function == Scale(0.5)
+    assert modules["reach_dmp"].systems == (DMPParameters(7),)
+    assert modules["reach_dmp"].learners == (Learner("ridge", "offline"),)
+    assert modules["cpg"].systems == (OscillatorParameters(4),) and modules["cpg"].state == "executing"
+    assert spaces["pose_goal"] == Space("pose_goal", "Pose", 6, "reaching", "m, rad")
+    assert [e.id for e in architecture.elements()][-4:] == ["reach_dmp", "cpg", "reacher", "walker"]
 
 
 def test_elements_of_active_features() -> None:

@@ -1,1 +1,1 @@
-"""The motion architecture: its document, checks, dynamical systems, learners and the builder."""
+"""The motion architecture: typed elements, the document and its checks, dynamics, learners, the builder."""

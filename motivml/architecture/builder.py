@@ -2,11 +2,12 @@
 
 `build(architecture, active)` instantiates exactly the elements of the active features:
 spaces (numpy vectors, from their initial values), mappings (the functions of
-architecture.json, adaptive ones with their learner), one module instance per adaptive
-module and one `Component` per adaptive component, wired to its spaces. It orders the
-components so that a component whose output is another's goal steps first within a tick
-(the document forbids cycles among goal connections), and the free mappings (those on no
-port) after them, each after the mappings it reads from.
+architecture.json, an `AdaptiveMappingInstance` with its learner for an adaptive one), one
+`ModuleInstance` per adaptive module and one `ComponentInstance` per adaptive component,
+wired to its spaces through `PortInstance`s. It orders the components so that a component
+whose output is another's goal steps first within a tick (the document forbids cycles
+among goal connections), and the free mappings (those on no port) after them, each after
+the mappings it reads from.
 
 What a tick means for each element (the runtime calls `Assembly.tick`):
 
@@ -32,9 +33,8 @@ refused with a located `BuildError`, never half built.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -42,6 +42,23 @@ from numpy.typing import NDArray
 from ..errors import Diagnostic, MotivmlError, error, warning
 from .document import Architecture
 from .dynamics import CoupledOscillators, DiscreteDMP, PointAttractor
+from .elements import (
+    PORTS,
+    Component,
+    ComponentKind,
+    Criterion,
+    DMPParameters,
+    Learner,
+    Linear,
+    Mapping,
+    MappingFunction,
+    Module,
+    PlanarArmIK,
+    PointAttractorParameters,
+    PortName,
+    Scale,
+    Space,
+)
 from .learners import ExtremeLearningMachine, LinearRLS
 
 Vector = NDArray[np.float64]
@@ -54,23 +71,31 @@ class BuildError(MotivmlError):
 
 
 # ----------------------------------------------------------------------------- mappings
-def make_function(mapping: dict[str, Any], inputs: int, outputs: int) -> Function:
+def make_function(mapping: Mapping) -> Function:
     """What a mapping computes, as a function of numpy vectors."""
-    spec = mapping.get("function")
-    if mapping["kind"] == "adaptiveMapping":
-        teacher = make_function({"kind": "mapping", "function": spec}, inputs, outputs) if spec else None
-        return AdaptiveMapping(mapping["learner"], inputs, outputs, teacher)
-    if spec is None:
+    inputs, outputs = mapping.source.dimension, mapping.target.dimension
+    if mapping.kind == "adaptiveMapping":
+        assert mapping.learner is not None  # the document's checks see to it
+        teacher = mapping.teacher
+        taught = _compute(teacher, outputs) if teacher is not None else None
+        return AdaptiveMappingInstance(mapping.learner, inputs, outputs, taught)
+    return _compute(mapping.function, outputs)
+
+
+def _compute(function: MappingFunction | None, outputs: int) -> Function:
+    if function is None:
         return lambda x: x.copy()
-    if spec["type"] == "scale":
-        factor = np.asarray(spec["factor"], dtype=float)
+    if isinstance(function, Scale):
+        factor = np.asarray(function.factor, dtype=float)
         return lambda x: factor * x
-    if spec["type"] == "linear":
-        matrix = np.asarray(spec["matrix"], dtype=float)
-        offset = np.asarray(spec.get("offset", np.zeros(outputs)), dtype=float)
+    if isinstance(function, Linear):
+        matrix = np.asarray(function.matrix, dtype=float)
+        offset = np.asarray(
+            function.offset if function.offset is not None else np.zeros(outputs), dtype=float
+        )
         return lambda x: np.asarray(matrix @ x + offset)
-    links = np.asarray(spec["links"], dtype=float)
-    if spec["type"] == "planarArmIK":
+    links = np.asarray(function.links, dtype=float)
+    if isinstance(function, PlanarArmIK):
         return lambda x: planar_arm_ik(links, x)
     return lambda x: planar_arm(links, x)
 
@@ -102,8 +127,8 @@ def planar_arm_ik(links: Vector, position: Vector) -> Vector:
     return np.array(angles)
 
 
-class AdaptiveMapping:
-    """A learned mapping: predicts with its learner, and learns from a teacher if it has one.
+class AdaptiveMappingInstance:
+    """A running adaptive mapping: predicts with its learner, and learns from a teacher if it has one.
 
     A sample is an evaluation whose input has moved since the last sample: holding still
     teaches nothing new, and would only pull the learner towards one point. online (the
@@ -114,13 +139,13 @@ class AdaptiveMapping:
 
     BATCH = 100
 
-    def __init__(self, learner: dict[str, Any], inputs: int, outputs: int, teacher: Function | None) -> None:
+    def __init__(self, learner: Learner, inputs: int, outputs: int, teacher: Function | None) -> None:
         self.model: ExtremeLearningMachine | LinearRLS = (
-            ExtremeLearningMachine(inputs, outputs, hidden=int(learner.get("hidden", 60)))
-            if learner["type"] == "elm"
+            ExtremeLearningMachine(inputs, outputs, hidden=int(learner.hidden))  # JSON may say 60.0
+            if learner.type == "elm"
             else LinearRLS(inputs, outputs)
         )
-        self.offline = learner.get("mode") == "offline"
+        self.offline = learner.mode == "offline"
         self.teacher = teacher
         self.samples = 0
         self.error = float("nan")
@@ -147,8 +172,8 @@ class AdaptiveMapping:
 
 # ------------------------------------------------------------------------------ modules
 @dataclass
-class Module:
-    """An adaptive module: its dynamical systems side by side, and its lifecycle."""
+class ModuleInstance:
+    """A running adaptive module: its dynamical systems side by side, and its lifecycle."""
 
     id: str
     systems: list[PointAttractor | DiscreteDMP | CoupledOscillators]
@@ -240,41 +265,45 @@ class Module:
         self.learned += 1
 
 
-def make_module(spec: dict[str, Any]) -> Module:
+def make_module(spec: Module) -> ModuleInstance:
     systems: list[PointAttractor | DiscreteDMP | CoupledOscillators] = []
-    for system in spec["systems"]:
-        n = system["dimension"]
-        if system["type"] == "pointAttractor":
-            systems.append(PointAttractor(np.zeros(n), np.zeros(n), alpha=system.get("alpha", 25.0)))
-        elif system["type"] == "dmp":
-            dmp = DiscreteDMP(n, basis=system.get("basis", 30), alpha=system.get("alpha", 25.0))
-            dmp.tau = system.get("duration", 1.0)
-            demonstration = system.get("demonstration")
+    for system in spec.systems:
+        n = system.dimension
+        if isinstance(system, PointAttractorParameters):
+            systems.append(PointAttractor(np.zeros(n), np.zeros(n), alpha=system.alpha))
+        elif isinstance(system, DMPParameters):
+            dmp = DiscreteDMP(n, basis=system.basis, alpha=system.alpha)
+            dmp.tau = system.duration if system.duration is not None else 1.0
+            demonstration = system.demonstration
             if demonstration is not None:
-                dmp.learn(np.asarray(demonstration["samples"], dtype=float), demonstration["dt"])
-                if "duration" in system:
-                    dmp.tau = system["duration"]
+                dmp.learn(np.asarray(demonstration.samples, dtype=float), demonstration.dt)
+                if system.duration is not None:
+                    dmp.tau = system.duration
             systems.append(dmp)
         else:
-            offsets = np.asarray(system.get("offsets", np.zeros(n)), dtype=float)
-            phases = np.asarray(system.get("phases", 0.3 * np.arange(n)), dtype=float)
+            offsets = np.asarray(system.offsets if system.offsets is not None else np.zeros(n), dtype=float)
+            phases = np.asarray(
+                system.phases if system.phases is not None else 0.3 * np.arange(n), dtype=float
+            )
             systems.append(
                 CoupledOscillators(
                     offsets,
-                    frequency=system.get("frequency", 1.0),
-                    coupling=system.get("coupling", 4.0),
-                    amplitude=system.get("amplitude", 1.0),
+                    frequency=system.frequency,
+                    coupling=system.coupling,
+                    amplitude=system.amplitude,
                     phases=phases,
                 )
             )
-    module = Module(spec["id"], systems, [s["dimension"] for s in spec["systems"]])
-    module.set_state(spec.get("state", "executing"))
+    module = ModuleInstance(spec.id, systems, [s.dimension for s in spec.systems])
+    module.set_state(spec.state)
     return module
 
 
 # --------------------------------------------------------------------------- components
 @dataclass
-class Port:
+class PortInstance:
+    """A component's built port: the space it reads or writes, and the function on the way."""
+
     space: str
     function: Function | None
 
@@ -284,15 +313,17 @@ class Port:
 
 
 @dataclass
-class Component:
+class ComponentInstance:
+    """A running adaptive component: its module, ports, rate divider and criterion's verdict."""
+
     id: str
-    kind: str
+    kind: ComponentKind
     feature: str
-    module: Module
-    output: Port
-    goal: Port | None
-    feedback: Port | None
-    criterion: dict[str, Any] | None
+    module: ModuleInstance
+    output: PortInstance
+    goal: PortInstance | None
+    feedback: PortInstance | None
+    criterion: Criterion | None
     divider: int  # steps every `divider` ticks
     dt: float
     sequence: list[Vector]
@@ -355,7 +386,7 @@ class Component:
         if self.criterion is None:
             self.status = "running"
             return
-        tolerance = self.criterion["tolerance"]
+        tolerance = self.criterion.tolerance
         if self.module.periodic:
             self.error = self.module.phase_error()
         else:
@@ -365,7 +396,7 @@ class Component:
         if within and self.sequence and self.via < len(self.sequence) - 1:
             self.via += 1
             within = False
-        if self.criterion["type"] == "convergence":
+        if self.criterion.type == "convergence":
             self.status = "converged" if within else "ongoing"
         else:
             self.status = "tracking" if within else "ongoing"
@@ -377,14 +408,14 @@ class Assembly:
     """The built architecture: space values, components in stepping order, free mappings."""
 
     values: dict[str, Vector]
-    spaces: dict[str, dict[str, Any]]
-    components: list[Component]
-    modules: dict[str, Module]
+    spaces: dict[str, Space]
+    components: list[ComponentInstance]
+    modules: dict[str, ModuleInstance]
     mappings: list[tuple[str, str, str, Function]]  # (id, from, to, function), in order
-    adaptive: dict[str, AdaptiveMapping]
-    writers: dict[str, list[Component]]
+    adaptive: dict[str, AdaptiveMappingInstance]
+    writers: dict[str, list[ComponentInstance]]
     functions: dict[str, Function]  # every mapping's function by id (kept across changes)
-    fresh: list[Component]  # components built new, to prime before their first step
+    fresh: list[ComponentInstance]  # components built new, to prime before their first step
     features: set[str]  # the active features it was built for
 
     def goal_changed(self, space: str) -> None:
@@ -442,7 +473,11 @@ class Assembly:
             values[target] = function(values[source])
 
 
-def _order(items: dict[str, Any], depends: Callable[[str], list[str]]) -> list[str]:
+def _initial(space: Space) -> Vector:
+    return np.asarray(space.initial if space.initial is not None else np.zeros(space.dimension), dtype=float)
+
+
+def _order(items: Collection[str], depends: Callable[[str], list[str]]) -> list[str]:
     """Kahn's algorithm, document order among equals; items on a cycle keep document order last."""
     remaining = {k: set(depends(k)) & set(items) for k in items}
     ordered: list[str] = []
@@ -475,139 +510,134 @@ def build(
     arch = architecture.elements_of(active)
     problems: list[Diagnostic] = []
     warnings: list[Diagnostic] = []
-    positions = {
-        (section, item["id"]): i
-        for section in ("spaces", "mappings", "modules", "components")
-        for i, item in enumerate(whole.source.root.get(section, []))
-    }
 
-    def where(section: str, element: str, *keys: str | int) -> Any:
-        return whole.source.locate((section, positions[(section, element)], *keys))
-
-    def need(section: str, element: str, keys: tuple[str | int, ...], kind: str, target: str) -> bool:
-        if target in getattr(arch, kind):
+    def need(
+        user: Mapping | Component, keys: tuple[str, ...], kind: str, used: Space | Mapping | Module
+    ) -> bool:
+        """Is the element `user` uses active too? If not, a located error says which."""
+        if used.feature in active:
             return True
-        owner = getattr(whole, kind)[target]["feature"]
-        mine = getattr(arch, section)[element]["feature"]
         problems.append(
             error(
-                where(section, element, *keys),
-                f"{element} of feature {mine} needs {kind.removesuffix('s')} {target} of feature {owner}, which is not active",
+                whole.locate("mappings" if isinstance(user, Mapping) else "components", user.id, *keys),
+                f"{user.id} of feature {user.feature} needs {kind} {used.id} of feature {used.feature}, which is not active",
                 "build.inactive",
-                mine,
+                user.feature,
             )
         )
         return False
 
     functions: dict[str, Function] = {}
-    adaptive: dict[str, AdaptiveMapping] = {}
+    adaptive: dict[str, AdaptiveMappingInstance] = {}
     for element, mapping in arch.mappings.items():
-        if need("mappings", element, ("from",), "spaces", mapping["from"]) and need(
-            "mappings", element, ("to",), "spaces", mapping["to"]
+        if need(mapping, ("from",), "space", mapping.source) and need(
+            mapping, ("to",), "space", mapping.target
         ):
-            inputs, outputs = (arch.spaces[mapping[k]]["dimension"] for k in ("from", "to"))
             kept = kept_functions.get(element)
-            functions[element] = kept if kept is not None else make_function(mapping, inputs, outputs)
-            if isinstance(functions[element], AdaptiveMapping):
-                adaptive[element] = functions[element]  # type: ignore[assignment]
+            function = functions[element] = kept if kept is not None else make_function(mapping)
+            if isinstance(function, AdaptiveMappingInstance):
+                adaptive[element] = function
 
-    modules: dict[str, Module] = {}
-    components: dict[str, Component] = {}
+    modules: dict[str, ModuleInstance] = {}
+    components: dict[str, ComponentInstance] = {}
     for element, spec in arch.components.items():
-        ok = need("components", element, ("module",), "modules", spec["module"])
-        ports: dict[str, Port | None] = {}
-        for port in ("goal", "feedback", "output"):
-            connection = spec.get(port)
-            if connection is None:
-                ports[port] = None
+        ok = need(spec, ("module",), "module", spec.module)
+        ports: dict[PortName, PortInstance | None] = {}
+        for name in PORTS:
+            port = spec.port(name)
+            if port is None:
+                ports[name] = None
                 continue
-            ok = need("components", element, (port, "space"), "spaces", connection["space"]) and ok
-            through = connection.get("through")
+            ok = need(spec, (name, "space"), "space", port.space) and ok
+            through = port.through
             if through is not None:
-                ok = need("components", element, (port, "through"), "mappings", through) and ok
-            ports[port] = Port(connection["space"], functions.get(through) if through else None)
+                ok = need(spec, (name, "through"), "mapping", through) and ok
+            ports[name] = PortInstance(
+                port.space.id, functions.get(through.id) if through is not None else None
+            )
         if not ok:
             continue
         if element in kept_components:
             components[element] = kept_components[element]
-            modules[spec["module"]] = kept_components[element].module
+            modules[spec.module.id] = kept_components[element].module
             continue
-        component_rate = spec.get("rate", rate)
+        component_rate = spec.rate if spec.rate is not None else rate
         divider = max(1, round(rate / component_rate))
         if component_rate > rate or abs(rate / divider - component_rate) > 1e-9 * rate:
             warnings.append(
                 warning(
-                    where("components", element, "rate"),
+                    whole.locate("components", element, "rate"),
                     f"{element} asks for {component_rate:g} Hz; the loop runs at {rate:g} Hz, so it steps at {rate / divider:g} Hz",
                     "build.rate",
-                    spec["feature"],
+                    spec.feature,
                 )
             )
-        module = modules[spec["module"]] = make_module(arch.modules[spec["module"]])
+        module = modules[spec.module.id] = make_module(spec.module)
         for system in module.systems:  # semi-implicit Euler diverges once alpha * dt / tau >= 2
             if isinstance(system, PointAttractor | DiscreteDMP):
                 tau = system.tau if isinstance(system, DiscreteDMP) else 1.0
                 if system.alpha * (divider / rate) / tau >= 2.0:
                     problems.append(
                         error(
-                            where("components", element, "rate" if "rate" in spec else "module"),
+                            whole.locate(
+                                "components", element, "rate" if spec.rate is not None else "module"
+                            ),
                             f"{element} steps every {divider / rate:g} s, too coarse for module {module.id} "
                             f"(alpha {system.alpha:g}{f', duration {tau:g} s' if tau != 1.0 else ''}): the "
                             f"integration diverges unless alpha * step / duration < 2",
                             "build.stability",
-                            spec["feature"],
+                            spec.feature,
                         )
                     )
         output = ports["output"]
         assert output is not None  # required by the schema
-        components[element] = Component(
+        components[element] = ComponentInstance(
             element,
-            spec["kind"],
-            spec["feature"],
+            spec.kind,
+            spec.feature,
             module,
             output,
             ports["goal"],
             ports["feedback"],
-            spec.get("criterion"),
+            spec.criterion,
             divider,
             divider / rate,
-            [np.asarray(p, dtype=float) for p in spec.get("sequence", [])],
+            [np.asarray(p, dtype=float) for p in spec.sequence],
         )
     if problems:
         raise BuildError(problems)
-    for element, spec in arch.modules.items():
+    for element, module_spec in arch.modules.items():
         if element not in modules:
             kept_module = previous.modules.get(element) if previous is not None else None
-            modules[element] = kept_module if kept_module is not None else make_module(spec)
+            modules[element] = kept_module if kept_module is not None else make_module(module_spec)
 
     old = previous.values if previous is not None else {}
-    values = {
-        k: old[k] if k in old else np.asarray(s.get("initial", np.zeros(s["dimension"])), dtype=float)
-        for k, s in arch.spaces.items()
-    }
+    values = {k: old[k] if k in old else _initial(s) for k, s in arch.spaces.items()}
     fresh = [c for k, c in components.items() if k not in kept_components]
-    writers: dict[str, list[Component]] = {}
+    writers: dict[str, list[ComponentInstance]] = {}
     for component in components.values():
         writers.setdefault(component.output.space, []).append(component)
     goal_of = {
-        k: spec["goal"]["space"] for k, spec in arch.components.items() if "goal" in spec and k in components
+        k: spec.goal.space.id
+        for k, spec in arch.components.items()
+        if spec.goal is not None and k in components
     }
     order = _order(components, lambda k: [w.id for w in writers.get(goal_of.get(k, ""), [])])
     on_any_port = {  # of the whole document: a port's mapping never computes on its own
-        connection["through"]
+        port.through.id
         for spec in whole.components.values()
-        for port in ("goal", "feedback", "output")
-        if (connection := spec.get(port)) is not None and "through" in connection
+        for _, port in spec.ports()
+        if port.through is not None
     }
     free = {k: m for k, m in arch.mappings.items() if k not in on_any_port and k in functions}
-    mapping_order = _order(free, lambda k: [j for j, m in free.items() if m["to"] == free[k]["from"]])
+    mapping_order = _order(free, lambda k: [j for j, m in free.items() if m.target.id == free[k].source.id])
     return (
         Assembly(
             values,
             arch.spaces,
             [components[k] for k in order],
             modules,
-            [(k, free[k]["from"], free[k]["to"], functions[k]) for k in mapping_order],
+            [(k, free[k].source.id, free[k].target.id, functions[k]) for k in mapping_order],
             adaptive,
             writers,
             functions,

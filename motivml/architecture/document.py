@@ -12,18 +12,46 @@ mapping within one type, a module whose dimension does not fit a port, a compone
 and feedback meeting in incompatible spaces, a criterion or dynamical system unfit for the
 component's kind, and cycles among goal connections (a component cannot wait on its own
 output within one tick; feedback may close loops).
+
+A document that passes becomes an `Architecture` of typed elements (elements.py), made
+once here: the builder, the drawings and the coordination checks read those, never the
+JSON. The checks themselves read the JSON, since what they look for (duplicate ids,
+unknown references, parameters of another system's type) is what typed elements cannot
+hold; `Architecture.locate` takes an element back to its place in the text.
 """
 
 from __future__ import annotations
 
 import difflib
+from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from ..documents.loader import Document
 from ..documents.schema import check_document
 from ..errors import Diagnostic, Location, error
 from ..language.model import FeatureModel
+from .elements import (
+    Component,
+    Criterion,
+    Demonstration,
+    DMPParameters,
+    Element,
+    Learner,
+    Linear,
+    Mapping,
+    MappingFunction,
+    Module,
+    OscillatorParameters,
+    PlanarArm,
+    PlanarArmIK,
+    PointAttractorParameters,
+    Port,
+    Scale,
+    Space,
+    SystemParameters,
+    Vector,
+)
 
 ARCHITECTURE = "architecture.schema.json"
 GOAL_DIRECTED = {"pointAttractor", "dmp"}
@@ -44,34 +72,49 @@ PARAMETERS = {
     "oscillators": {"frequency", "coupling", "amplitude", "offsets", "phases"},
 }
 SECTIONS = ("spaces", "mappings", "modules", "components")
+E = TypeVar("E", Space, Mapping, Module, Component)
 
 
 @dataclass
 class Architecture:
-    """The document's elements by id, per section (plain dicts as written, validated)."""
+    """The document's elements by id, per section, in document order (typed, checked)."""
 
-    spaces: dict[str, dict[str, Any]]
-    mappings: dict[str, dict[str, Any]]
-    modules: dict[str, dict[str, Any]]
-    components: dict[str, dict[str, Any]]
+    spaces: dict[str, Space]
+    mappings: dict[str, Mapping]
+    modules: dict[str, Module]
+    components: dict[str, Component]
     source: Document
+    positions: dict[tuple[str, str], int]  # (section, id) -> index in the document's section
 
     def elements_of(self, features: set[str]) -> Architecture:
-        """The elements brought by the given (active) features."""
+        """The elements brought by the given (active) features.
 
-        def keep(section: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
-            return {k: v for k, v in section.items() if v["feature"] in features}
+        An element kept still refers to the elements it uses, kept or not: whoever needs
+        them present (the builder, a drawing) looks for their ids among the kept ones.
+        """
+
+        def keep(section: dict[str, E]) -> dict[str, E]:
+            return {k: v for k, v in section.items() if v.feature in features}
 
         return Architecture(
-            keep(self.spaces), keep(self.mappings), keep(self.modules), keep(self.components), self.source
+            keep(self.spaces),
+            keep(self.mappings),
+            keep(self.modules),
+            keep(self.components),
+            self.source,
+            self.positions,
         )
 
-    def sections(self) -> tuple[dict[str, dict[str, Any]], ...]:
-        return self.spaces, self.mappings, self.modules, self.components
+    def elements(self) -> Iterator[Element]:
+        """Every element: spaces, mappings, modules, components."""
+        yield from self.spaces.values()
+        yield from self.mappings.values()
+        yield from self.modules.values()
+        yield from self.components.values()
 
-    def locate(self, section: str, element: str, *keys: str) -> Location:
-        index = next(i for i, item in enumerate(self.source.root.get(section, [])) if item["id"] == element)
-        return self.source.locate((section, index, *keys))
+    def locate(self, section: str, element: str, *keys: str | int) -> Location:
+        """Where an element, or one of its keys, stands in the document's text."""
+        return self.source.locate((section, self.positions[(section, element)], *keys))
 
 
 @dataclass(frozen=True)
@@ -90,60 +133,46 @@ class Reference:
 def references(architecture: Architecture) -> list[Reference]:
     """Every use of one element by another, in document order."""
     found = []
-    for element, mapping in architecture.mappings.items():
-        for key in ("from", "to"):
-            space = architecture.spaces[mapping[key]]
+    for mapping in architecture.mappings.values():
+        for key, space in (("from", mapping.source), ("to", mapping.target)):
             found.append(
-                Reference(
-                    "mappings", element, (key,), "spaces", space["id"], mapping["feature"], space["feature"]
-                )
+                Reference("mappings", mapping.id, (key,), "spaces", space.id, mapping.feature, space.feature)
             )
-    for element, component in architecture.components.items():
-        module = architecture.modules[component["module"]]
+    for component in architecture.components.values():
+        module, user = component.module, component.feature
         found.append(
-            Reference(
-                "components",
-                element,
-                ("module",),
-                "modules",
-                module["id"],
-                component["feature"],
-                module["feature"],
-            )
+            Reference("components", component.id, ("module",), "modules", module.id, user, module.feature)
         )
-        for port in ("goal", "feedback", "output"):
-            connection = component.get(port)
-            if connection is None:
-                continue
-            space = architecture.spaces[connection["space"]]
+        for name, port in component.ports():
+            space = port.space
             found.append(
                 Reference(
-                    "components",
-                    element,
-                    (port, "space"),
-                    "spaces",
-                    space["id"],
-                    component["feature"],
-                    space["feature"],
+                    "components", component.id, (name, "space"), "spaces", space.id, user, space.feature
                 )
             )
-            if "through" in connection:
-                mapping = architecture.mappings[connection["through"]]
+            if port.through is not None:
+                mapping = port.through
                 found.append(
                     Reference(
                         "components",
-                        element,
-                        (port, "through"),
+                        component.id,
+                        (name, "through"),
                         "mappings",
-                        mapping["id"],
-                        component["feature"],
-                        mapping["feature"],
+                        mapping.id,
+                        user,
+                        mapping.feature,
                     )
                 )
     return found
 
 
-class _Checker:
+class _ArchitectureChecker:
+    """What an architecture document must be beyond its schema, against itself and the model:
+    ids, features, references, types and dimensions, kinds, goal cycles.
+
+    Every problem is collected in `found`, located.
+    """
+
     def __init__(self, doc: Document, model: FeatureModel) -> None:
         self.doc = doc
         self.model = model
@@ -561,13 +590,137 @@ def _shape(space: dict[str, Any]) -> str:
 
 
 def read_architecture(doc: Document, model: FeatureModel) -> tuple[Architecture | None, list[Diagnostic]]:
-    """Validate an architecture document against the schema and the model."""
+    """Validate an architecture document against the schema and the model; its typed elements."""
     problems = check_document(doc, ARCHITECTURE, "an architecture document")
     if problems:
         return None, problems
-    checker = _Checker(doc, model)
+    checker = _ArchitectureChecker(doc, model)
     checker.run()
     if checker.found:
         return None, checker.found
-    by_id = checker.by_id
-    return Architecture(by_id["spaces"], by_id["mappings"], by_id["modules"], by_id["components"], doc), []
+    return _elements(doc), []
+
+
+# ------------------------------------------------------------- typed elements of the JSON
+def _elements(doc: Document) -> Architecture:
+    """The typed elements of a checked document (every id unique, every reference known)."""
+    root = doc.root
+    spaces = {item["id"]: _space(item) for item in root.get("spaces", [])}
+    mappings = {item["id"]: _mapping(item, spaces) for item in root.get("mappings", [])}
+    modules = {item["id"]: _module(item) for item in root.get("modules", [])}
+    components = {
+        item["id"]: _component(item, spaces, mappings, modules) for item in root.get("components", [])
+    }
+    positions = {
+        (section, item["id"]): i for section in SECTIONS for i, item in enumerate(root.get(section, []))
+    }
+    return Architecture(spaces, mappings, modules, components, doc, positions)
+
+
+def _vector(numbers: list[float]) -> Vector:
+    return tuple(numbers)
+
+
+def _space(item: dict[str, Any]) -> Space:
+    initial = item.get("initial")
+    return Space(
+        item["id"],
+        item["type"],
+        item["dimension"],
+        item["feature"],
+        item.get("unit"),
+        _vector(initial) if initial is not None else None,
+    )
+
+
+def _function(item: dict[str, Any]) -> MappingFunction:
+    kind = item["type"]
+    if kind == "linear":
+        offset = item.get("offset")
+        return Linear(
+            tuple(_vector(row) for row in item["matrix"]), _vector(offset) if offset is not None else None
+        )
+    if kind == "scale":
+        factor = item["factor"]
+        return Scale(_vector(factor) if isinstance(factor, list) else factor)
+    if kind == "planarArm":
+        return PlanarArm(_vector(item["links"]))
+    return PlanarArmIK(_vector(item["links"]))
+
+
+def _learner(item: dict[str, Any]) -> Learner:
+    return Learner(item["type"], item.get("mode"), item.get("hidden", 60))
+
+
+def _mapping(item: dict[str, Any], spaces: dict[str, Space]) -> Mapping:
+    function, learner = item.get("function"), item.get("learner")
+    return Mapping(
+        item["id"],
+        item["kind"],
+        spaces[item["from"]],
+        spaces[item["to"]],
+        item["feature"],
+        _function(function) if function is not None else None,
+        _learner(learner) if learner is not None else None,
+    )
+
+
+def _system(item: dict[str, Any]) -> SystemParameters:
+    kind, dimension = item["type"], item["dimension"]
+    if kind == "pointAttractor":
+        return PointAttractorParameters(dimension, item.get("alpha", 25.0))
+    if kind == "dmp":
+        shown = item.get("demonstration")
+        demonstration = (
+            Demonstration(shown["dt"], tuple(_vector(sample) for sample in shown["samples"]))
+            if shown is not None
+            else None
+        )
+        return DMPParameters(
+            dimension, item.get("alpha", 25.0), item.get("basis", 30), item.get("duration"), demonstration
+        )
+    offsets, phases = item.get("offsets"), item.get("phases")
+    return OscillatorParameters(
+        dimension,
+        item.get("frequency", 1.0),
+        item.get("coupling", 4.0),
+        item.get("amplitude", 1.0),
+        _vector(offsets) if offsets is not None else None,
+        _vector(phases) if phases is not None else None,
+    )
+
+
+def _module(item: dict[str, Any]) -> Module:
+    return Module(
+        item["id"],
+        tuple(_system(system) for system in item["systems"]),
+        item["feature"],
+        tuple(_learner(learner) for learner in item.get("learners", [])),
+        item.get("state", "executing"),
+    )
+
+
+def _component(
+    item: dict[str, Any], spaces: dict[str, Space], mappings: dict[str, Mapping], modules: dict[str, Module]
+) -> Component:
+    def port(name: str) -> Port | None:
+        connection = item.get(name)
+        if connection is None:
+            return None
+        through = connection.get("through")
+        return Port(spaces[connection["space"]], mappings[through] if through is not None else None)
+
+    output, criterion = port("output"), item.get("criterion")
+    assert output is not None  # required by the schema
+    return Component(
+        item["id"],
+        item["kind"],
+        modules[item["module"]],
+        output,
+        item["feature"],
+        port("goal"),
+        port("feedback"),
+        item.get("rate"),
+        Criterion(criterion["type"], criterion["tolerance"]) if criterion is not None else None,
+        tuple(_vector(point) for point in item.get("sequence", [])),
+    )

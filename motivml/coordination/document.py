@@ -17,11 +17,12 @@ space, set a module's `learning` state, `start` or `stop` a component, `load`, `
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from ..architecture.document import Architecture
+from ..architecture.elements import Component, Module, Space
 from ..documents.loader import Document
 from ..documents.robot_folder import ARCHITECTURE_FILE
 from ..documents.schema import check_document
@@ -83,6 +84,21 @@ def _depth(root: Any) -> int:
     return deepest
 
 
+E = TypeVar("E", Space, Module, Component)
+
+
+def _spaces(architecture: Architecture) -> dict[str, Space]:
+    return architecture.spaces
+
+
+def _modules(architecture: Architecture) -> dict[str, Module]:
+    return architecture.modules
+
+
+def _components(architecture: Architecture) -> dict[str, Component]:
+    return architecture.components
+
+
 @dataclass(frozen=True)
 class VariantBindings:
     """What the checks need of a resolved variant: its name and each selected feature's binding."""
@@ -91,7 +107,13 @@ class VariantBindings:
     bindings: dict[str, str]  # selected feature id -> "SE", "SL", "DE" or "DL"
 
 
-class _Checker:
+class _CoordinationChecker:
+    """What a coordination document must be beyond its schema: its states, and its references
+    to the model's features, the architecture's elements and the variant's bindings.
+
+    Every problem is collected in `found`, located.
+    """
+
     def __init__(
         self,
         doc: Document,
@@ -202,21 +224,28 @@ class _Checker:
                 self.action(action, (*where, "actions", j))
 
     def _element(
-        self, section: str, name: str, path: tuple[str | int, ...], what: str
-    ) -> dict[str, Any] | None:
+        self,
+        section: Callable[[Architecture], dict[str, E]],
+        name: str,
+        path: tuple[str | int, ...],
+        what: str,
+    ) -> E | None:
+        """The architecture's element of that name in that section, if it has one (else say so)."""
         if self.architecture is None:
             if self.architecture_invalid:
                 self.unchecked += 1
             else:
-                self.error(path, f"{what} {name!r}: the robot has no {ARCHITECTURE_FILE}", "coordination.unknown")
+                self.error(
+                    path, f"{what} {name!r}: the robot has no {ARCHITECTURE_FILE}", "coordination.unknown"
+                )
             return None
-        element: dict[str, Any] | None = getattr(self.architecture, section).get(name)
+        element = section(self.architecture).get(name)
         if element is None:
             self.error(path, f"unknown {what} {name!r}", "coordination.unknown")
-        elif self.variant is not None and element["feature"] not in self.variant.bindings:
+        elif self.variant is not None and element.feature not in self.variant.bindings:
             self.warn(
                 path,
-                f"{what} {name} belongs to {element['feature']}, which variant {self.variant.name} does not select: "
+                f"{what} {name} belongs to {element.feature}, which variant {self.variant.name} does not select: "
                 f"it is never active there",
                 "coordination.inactive",
             )
@@ -224,50 +253,50 @@ class _Checker:
 
     def condition(self, condition: dict[str, Any], path: tuple[str | int, ...]) -> None:
         if "component" in condition:
-            component = self._element("components", condition["component"], (*path, "component"), "component")
+            component = self._element(_components, condition["component"], (*path, "component"), "component")
             if component is None:
                 return
-            criterion = component.get("criterion")
+            criterion = component.criterion
             wanted = CRITERION_FOR[condition["is"]]
-            if criterion is None or criterion["type"] not in wanted:
-                has = f"a {criterion['type']} criterion" if criterion else "no criterion"
+            if criterion is None or criterion.type not in wanted:
+                has = f"a {criterion.type} criterion" if criterion is not None else "no criterion"
                 self.error(
                     (*path, "is"),
                     f"{condition['component']} has {has}, so it is never {condition['is']} (a condition on a component needs its {' or '.join(wanted)} criterion)",
                     "coordination.criterion",
                 )
         else:
-            self._element("modules", condition["module"], (*path, "module"), "module")
+            self._element(_modules, condition["module"], (*path, "module"), "module")
 
     def action(self, action: dict[str, Any], path: tuple[str | int, ...]) -> None:
         ((kind, value),) = action.items()
         where = (*path, kind)
         if kind == "send":
-            space = self._element("spaces", value["space"], (*where, "space"), "space")
+            space = self._element(_spaces, value["space"], (*where, "space"), "space")
             if space is None:
                 return
-            if len(value["value"]) != space["dimension"]:
+            if len(value["value"]) != space.dimension:
                 self.error(
                     (*where, "value"),
-                    f"{value['space']} holds {space['type']}({space['dimension']}), not {len(value['value'])} numbers",
+                    f"{value['space']} holds {space.type}({space.dimension}), not {len(value['value'])} numbers",
                     "coordination.send",
                 )
-            if "type" in value and value["type"] != space["type"]:
+            if "type" in value and value["type"] != space.type:
                 self.error(
                     (*where, "type"),
-                    f"{value['space']} holds {space['type']}, not {value['type']}",
+                    f"{value['space']} holds {space.type}, not {value['type']}",
                     "coordination.send",
                 )
-            if "unit" in value and value["unit"] != space.get("unit"):
+            if "unit" in value and value["unit"] != space.unit:
                 self.warn(
                     (*where, "unit"),
-                    f"{value['space']} is in {space.get('unit') or 'no unit'}, not {value['unit']}",
+                    f"{value['space']} is in {space.unit or 'no unit'}, not {value['unit']}",
                     "coordination.unit",
                 )
         elif kind == "learning":
-            self._element("modules", value["module"], (*where, "module"), "module")
+            self._element(_modules, value["module"], (*where, "module"), "module")
         elif kind in ("start", "stop"):
-            self._element("components", value, where, "component")
+            self._element(_components, value, where, "component")
         elif kind in ("load", "unload", "swap"):
             for i, feature in enumerate(value):
                 self.feature(feature, (*where, i), kind)
@@ -387,7 +416,7 @@ def read_coordination(
     problems = check_document(doc, COORDINATION, "a coordination document")
     if problems:
         return None, problems
-    checker = _Checker(doc, model, architecture, variant, architecture_invalid)
+    checker = _CoordinationChecker(doc, model, architecture, variant, architecture_invalid)
     coordination = checker.run()
     errors = [d for d in checker.found if d.severity.value == "error"]
     return (None if errors or checker.unchecked else coordination), checker.found

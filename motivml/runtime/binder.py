@@ -91,9 +91,7 @@ class Binder:
         self.between_ticks = False  # simulated clock: changes are made on the control thread
         self._inbox: queue.SimpleQueue[tuple[Request, Future[Outcome]]] = queue.SimpleQueue()
         self._bring_elements = (
-            {e["feature"] for section in architecture.sections() for e in section.values()}
-            if architecture is not None
-            else set()
+            {e.feature for e in architecture.elements()} if architecture is not None else set()
         )  # features whose coming or going changes the architecture
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="motivml-binder")
         runtime.on_fault = self._on_fault

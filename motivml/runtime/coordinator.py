@@ -19,6 +19,7 @@ from sismic.clock import SimulatedClock as StatechartClock
 from sismic.interpreter import Interpreter
 from sismic.model import BasicState, CompoundState, FinalState, Statechart, Transition
 
+from ..architecture.builder import ComponentInstance
 from ..coordination.document import Coordination
 from ..errors import describe_exception
 from .binder import Binder
@@ -110,7 +111,7 @@ class Coordinator:
     def _context(self) -> dict[str, Any]:
         runtime = self.runtime
 
-        def component(name: str) -> Any:
+        def component(name: str) -> ComponentInstance | None:
             return next((c for c in runtime.assembly.components if c.id == name), None)
 
         def status(name: str) -> str:
