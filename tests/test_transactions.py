@@ -400,3 +400,79 @@ def test_scheduled_times_must_fall_in_the_run() -> None:
     for at in ("5", "nan", "inf"):
         result = CliRunner().invoke(main, [*base, "--at", at, "load kartoslam"])
         assert result.exit_code == 2 and "requests are made during the run" in result.output
+
+
+# ------------------------------------------- plugins that leave, fail or wait (coverage)
+LIFECYCLE = """
+from motivml.plugins.api import FeaturePlugin
+
+class Plugin(FeaturePlugin):
+    def start(self):
+        self.steps, self.stopped = 0, False
+        {start}
+    def step(self, time):
+        if self.stopped:
+            self.context.log("stepped after stop()")
+        self.steps += 1
+        {step}
+    def stop(self):
+        self.stopped = True
+        self.context.log("stop()")
+        {stop}
+    def status(self):
+        return f"{{self.steps}} steps"
+"""
+
+
+def lifecycle_robot(
+    tmp_path: Path,
+    plugins: dict[str, dict[str, str]],
+    model: dict[str, Any] | None = None,
+    entries: tuple[tuple[Any, ...], ...] = (("a", "Early", "Dynamic"), ("a2", "Early", "Dynamic")),
+) -> Path:
+    """By default a (optional) with a2 (optional) under it, both Dynamic Early, so both run from
+    the start; each plugin says in the run's log when it is stopped, and if it is stepped after."""
+    model = model or feature(
+        "bot", [feature("a", [feature("a2", isMandatory=False, **ANY)], isMandatory=False, **ANY)]
+    )
+    (tmp_path / "variants").mkdir(parents=True)
+    (tmp_path / "model.json").write_text(json.dumps(model, indent=1))
+    (tmp_path / "variants" / "v.json").write_text(json.dumps(config(*entries), indent=1))
+    (tmp_path / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
+    architecture = {"spaces": [{"id": "Out", "type": "Scalar", "dimension": 1, "feature": "bot"}]}
+    (tmp_path / "architecture.json").write_text(json.dumps(architecture))
+    for name, code in plugins.items():
+        folder = tmp_path / "plugins" / name
+        folder.mkdir(parents=True)
+        manifest = {"feature": name, "kind": "python", "entry": {"module": f"life_{name}", "class": "Plugin"}}
+        (folder / "plugin.json").write_text(json.dumps(manifest, indent=1))
+        text = LIFECYCLE.format(**{k: code.get(k, "pass") for k in ("start", "step", "stop")})
+        (folder / f"life_{name}.py").write_text(text)
+    return tmp_path
+
+
+def simulated_run(folder: Path, *extra: str, duration: str = "0.01") -> Any:
+    args = [
+        "run",
+        str(folder),
+        "--variant",
+        "v",
+        "--duration",
+        duration,
+        "--clock",
+        "simulated",
+        "--no-control",
+    ]
+    return CliRunner().invoke(main, [*args, *extra])
+
+
+def test_a_plugin_unloaded_by_a_fault_between_ticks_is_not_stepped_after_its_stop(tmp_path: Path) -> None:
+    folder = lifecycle_robot(
+        tmp_path, {"a": {"step": "if self.steps == 3: raise ValueError('lost track')"}, "a2": {}}
+    )
+    result = simulated_run(folder)
+    assert result.exit_code == 0, result.output
+    assert "at 0.003 s (tick 3): unloaded a after the fault of a" in result.output
+    assert "at 0.003 s (tick 3): a2: stop()" in result.output  # a2 went with its parent's subtree
+    assert "stepped after stop()" not in result.output
+    assert "a2 raised" not in result.output
