@@ -476,3 +476,19 @@ def test_a_plugin_unloaded_by_a_fault_between_ticks_is_not_stepped_after_its_sto
     assert "at 0.003 s (tick 3): a2: stop()" in result.output  # a2 went with its parent's subtree
     assert "stepped after stop()" not in result.output
     assert "a2 raised" not in result.output
+
+
+def test_a_dynamic_fault_in_the_last_tick_neither_holds_the_close_nor_fails_the_run(tmp_path: Path) -> None:
+    # on the real clock the fault's unload waits for the next tick; when the run ends first,
+    # no tick will come: closing the robot must not wait for it, nor call the run a failure
+    folder = lifecycle_robot(tmp_path, {"a": {"step": "if self.steps == 3: raise ValueError('lost track')"}})
+    robot = launch(folder, "v")
+    for _ in range(3):
+        robot.runtime.tick()  # the last tick of the run: a faults
+    assert [f.feature for f in robot.runtime.faults] == ["a"]
+    robot.close()  # the run's end
+    assert robot.runtime.failure is None and robot.runtime.changes == []
+    assert not robot.runtime.stop_requested.is_set()
+    log = [text for _, _, text in robot.runtime.notes]
+    assert "the fault of a: the run ended before its unload" in log and "a: stop()" in log
+    assert not any("cannot unload" in text for text in log)
