@@ -8,6 +8,7 @@ import stat
 import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from click.testing import CliRunner
@@ -122,3 +123,87 @@ def test_ctl_without_a_run_says_so(tmp_path: Path) -> None:
         main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(tmp_path), "status"]
     )
     assert result.exit_code == 3 and "no run is listening here" in result.output
+
+
+# ------------------------------------- events, long lines, idle clients, stale sockets
+ARM = SIMPLEBOT.parent / "coordinated_arm"
+
+
+def converse(path: Path, *lines: bytes) -> list[Any]:
+    """Send raw lines on one connection; each answer, then None if the server hung up."""
+    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    client.settimeout(30)
+    client.connect(str(path))
+    answers: list[Any] = []
+    with client, client.makefile("rb") as stream:
+        for line in lines:
+            try:
+                client.sendall(line)
+            except (BrokenPipeError, ConnectionResetError):
+                answers.append(None)  # the server had hung up
+                break
+            answer = stream.readline()
+            answers.append(json.loads(answer) if answer else None)
+            if not answer:
+                break
+    return answers
+
+
+@pytest.fixture
+def coordinated(tmp_path: Path) -> Iterator[tuple[Robot, ControlServer]]:
+    """The coordinated arm on the simulated clock, ticked by the test; its socket open."""
+    robot = launch(ARM, "attractor")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    server.open()
+    server.coordinator = robot.coordinate(simulated=True)  # as a run's session does
+    yield robot, server
+    server.close()
+    robot.close()
+
+
+def test_ctl_event_reaches_the_coordination(coordinated: tuple[Robot, ControlServer]) -> None:
+    robot, server = coordinated
+    robot.runtime.run(0.1)
+    assert server.coordinator.configuration() == ["Working", "ReachOut"]
+    result = CliRunner().invoke(
+        main, ["ctl", str(ARM), "--variant", "attractor", "--run-dir", str(server.run_dir), "event", "stop"]
+    )
+    assert result.exit_code == 0 and result.output == "event stop queued for the coordination\n"
+    robot.runtime.run(0.1)  # handled at the chart's next step
+    assert server.coordinator.finished is not None and server.coordinator.finished[2] == "Done"
+    log = [text for _, _, text in robot.runtime.notes]
+    assert log.index("event stop (from the control socket)") < log.index(
+        "coordination: stopped by the operator"
+    )
+    assert send(server.run_dir, {"op": "event", "name": "again"}) == {
+        "ok": True,
+        "op": "event",
+        "name": "again",
+    }
+
+
+@pytest.mark.parametrize(
+    "request_",
+    [
+        {"op": "event"},
+        {"op": "event", "name": ""},
+        {"op": "event", "features": "stop"},
+        {"op": "event", "features": 5},
+    ],
+)
+def test_an_event_without_one_name_is_refused(
+    coordinated: tuple[Robot, ControlServer], request_: dict[str, Any]
+) -> None:
+    robot, server = coordinated
+    assert send(server.run_dir, request_) == {"ok": False, "error": 'event needs "name"'}
+    assert not any(text.startswith("event") for _, _, text in robot.runtime.notes)
+
+
+def test_an_event_for_a_robot_without_coordination_says_so(running: tuple[Robot, ControlServer]) -> None:
+    _, server = running
+    answer = send(server.run_dir, {"op": "event", "name": "go"})
+    assert answer == {"ok": False, "error": "this robot has no coordination statechart to send events to"}
+    result = CliRunner().invoke(
+        main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(server.run_dir), "event", "go"]
+    )
+    assert result.exit_code == 2 and "this robot has no coordination statechart" in result.output

@@ -140,7 +140,9 @@ class ControlServer:
         if op == "dump":
             return {"ok": True, "op": op, **self.status(), **self.dump()}
         if op == "event":
-            name = request.get("name") or (request.get("features") or [None])[0]
+            name, features = request.get("name"), request.get("features")
+            if name is None and isinstance(features, list) and len(features) == 1:
+                name = features[0]  # motivml ctl sends the name as its one feature
             if not isinstance(name, str) or not name:
                 return {"ok": False, "error": 'event needs "name"'}
             if self.coordinator is None:
