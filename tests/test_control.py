@@ -28,8 +28,11 @@ def running(tmp_path: Path) -> Iterator[tuple[Robot, ControlServer]]:
     robot = launch(SIMPLEBOT, "field")
     server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
     server.open()
+    ticking = threading.Event()
+    robot.runtime.hooks.append(ticking.set)
     loop = threading.Thread(target=robot.runtime.run, args=(60.0, RealClock()), daemon=True)
     loop.start()
+    assert ticking.wait(30)  # a change is then committed at a tick after the first
     yield robot, server
     robot.runtime.stop()
     loop.join()
