@@ -210,3 +210,17 @@ def test_an_event_for_a_robot_without_coordination_says_so(running: tuple[Robot,
         main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(server.run_dir), "event", "go"]
     )
     assert result.exit_code == 2 and "this robot has no coordination statechart" in result.output
+
+
+def test_closing_the_server_ends_its_threads_and_removes_the_socket(tmp_path: Path) -> None:
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    before = set(threading.enumerate())
+    server.open()
+    [accepting] = [t for t in set(threading.enumerate()) - before if t.name == "motivml-control-accept"]
+    assert send(server.run_dir, {"op": "status"})["ok"] is True  # the thread is in its accept loop
+    server.close()
+    accepting.join(30)
+    assert not accepting.is_alive() and not server.path.exists()
+    server.close()  # twice is harmless
+    robot.close()

@@ -206,6 +206,10 @@ class ControlServer:
     def close(self) -> None:
         self._closing.set()
         if self._socket is not None:
+            try:  # wakes the thread blocked in accept(), which close() alone does not on Linux
+                self._socket.shutdown(socket.SHUT_RDWR)
+            except OSError:
+                pass
             self._socket.close()
             self._socket = None
         try:
