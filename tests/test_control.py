@@ -15,7 +15,8 @@ from click.testing import CliRunner
 
 from motivml.cli import main
 from motivml.errors import EnvironmentProblem
-from motivml.runtime.control import ControlServer, send
+from motivml.runtime import control
+from motivml.runtime.control import LINE_LIMIT, ControlServer, send
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import RealClock
 
@@ -210,6 +211,110 @@ def test_an_event_for_a_robot_without_coordination_says_so(running: tuple[Robot,
         main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(server.run_dir), "event", "go"]
     )
     assert result.exit_code == 2 and "this robot has no coordination statechart" in result.output
+
+
+def test_a_request_line_over_64_kib_is_refused_and_the_connection_closed(
+    coordinated: tuple[Robot, ControlServer],
+) -> None:
+    robot, server = coordinated
+    head, tail = b'{"op": "status", "x-pad": "', b'"}\n'
+    longest = head + b"x" * (LINE_LIMIT - len(head) - len(tail)) + tail  # the newline included
+    assert len(longest) == LINE_LIMIT
+    assert converse(server.path, longest)[0]["ok"] is True
+    refused, after = converse(server.path, longest[:-3] + b'x"}\n', b'{"op": "status"}\n')
+    assert refused == {"ok": False, "error": "a request line is at most 65536 bytes"}
+    assert after is None  # the server hung up: the rest of such a line is not read as requests
+    assert converse(server.path, b'{"op": "status"}\n')[0]["ok"] is True  # others are still served
+    assert not robot.runtime.stop_requested.is_set()
+
+
+def test_an_unexpected_failure_is_an_answer_and_the_connection_goes_on(
+    running: tuple[Robot, ControlServer], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    robot, server = running
+
+    def broken(request: Any, timeout: float | None = 5.0) -> Any:
+        raise RuntimeError("the binder is gone")
+
+    monkeypatch.setattr(robot.binder, "request", broken)
+    failed, status = converse(
+        server.path, b'{"op": "load", "features": ["kartoslam"]}\n', b'{"op": "status"}\n'
+    )
+    assert failed == {"ok": False, "error": "the request failed: RuntimeError: the binder is gone"}
+    assert status["ok"] is True and not robot.runtime.stop_requested.is_set()
+
+
+def test_a_silent_client_is_let_go_after_the_idle_time(
+    coordinated: tuple[Robot, ControlServer], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _, server = coordinated
+    monkeypatch.setattr(control, "IDLE", 0.05)
+    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    client.settimeout(30)
+    client.connect(str(server.path))
+    with client:
+        assert client.recv(1) == b""  # the server closed a connection that sent nothing
+    assert send(server.run_dir, {"op": "status"})["ok"] is True
+
+
+def test_a_stale_socket_from_a_dead_run_is_replaced(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    run_dir.mkdir(mode=0o700)
+    dead = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    dead.bind(str(run_dir / "control.sock"))
+    dead.close()  # the run died without removing its socket
+    ctl = ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(run_dir), "status"]
+    nobody = CliRunner().invoke(main, ctl)
+    assert nobody.exit_code == 3 and "cannot talk to the run: Connection refused" in nobody.output
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(run_dir, robot.runtime, robot.binder)
+    try:
+        server.open()
+        assert send(run_dir, {"op": "status"})["ok"] is True
+    finally:
+        server.close()
+        robot.close()
+
+
+def test_a_file_where_the_socket_goes_is_not_replaced(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "control.sock").write_text("notes")
+    robot = launch(SIMPLEBOT, "field")
+    try:
+        with pytest.raises(EnvironmentProblem) as caught:
+            ControlServer(run_dir, robot.runtime, robot.binder).open()
+        assert caught.value.diagnostics[0].message == "exists and is not a socket: not replacing it"
+        assert (run_dir / "control.sock").read_text() == "notes"
+        too_long = tmp_path / ("d" * 120)
+        with pytest.raises(EnvironmentProblem, match="the socket path is too long for a Unix socket"):
+            ControlServer(too_long, robot.runtime, robot.binder).open()
+        assert not too_long.exists()
+    finally:
+        robot.close()
+
+
+def test_a_run_that_hangs_up_without_answering_is_said_so(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(str(run_dir / "control.sock"))
+    listener.listen(1)
+
+    def hang_up() -> None:
+        connection, _ = listener.accept()
+        connection.recv(1 << 16)  # the request, then nothing
+        connection.close()
+
+    thread = threading.Thread(target=hang_up, daemon=True)
+    thread.start()
+    try:
+        with pytest.raises(EnvironmentProblem) as caught:
+            send(run_dir, {"op": "status"})
+        assert caught.value.diagnostics[0].message == "the run closed the connection without an answer"
+    finally:
+        thread.join()
+        listener.close()
 
 
 def test_closing_the_server_ends_its_threads_and_removes_the_socket(tmp_path: Path) -> None:
