@@ -506,3 +506,29 @@ def test_on_the_real_clock_a_reconfiguration_is_logged_when_its_outcome_arrives(
         assert [c.id for c in robot.assembly.components] == ["AttractorReacher"]
     finally:
         robot.close()
+
+
+def test_a_chart_whose_action_fails_stops_the_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # a checked chart's actions do not raise; a failure inside the runtime is simulated here
+    from motivml.runtime.binder import Binder
+
+    def broken(self: Any, request: Any) -> Any:
+        raise RuntimeError("the binder broke")
+
+    monkeypatch.setattr(Binder, "request_between_ticks", broken)
+    chart = {
+        "initial": "Load",
+        "states": [{"id": "Load", "entry": [{"log": "loading"}, {"unload": ["hand_monitor"]}]}],
+    }
+    result = CliRunner().invoke(
+        main,
+        ["run", str(robot_with(tmp_path, chart)), "--variant", "swappable", "--duration", "1"]
+        + ["--clock", "simulated", "--no-control"],
+    )
+    assert result.exit_code == 1, result.output
+    failed = [line for line in result.output.splitlines() if "coordination failed" in line]
+    assert len(failed) == 1 and failed[0].startswith(
+        "at 0.001 s (tick 1): coordination failed: RuntimeError: the binder broke (at test_coordination.py:"
+    )  # the error itself, not sismic's wrapper around the code it ran
+    assert failed[0].endswith(": the run stops")
+    assert "1 ticks, 0.001 s of control time" in result.output  # it stopped at once
