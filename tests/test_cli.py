@@ -220,3 +220,92 @@ def test_show_spells_out_control_characters_in_names(tmp_path: Path) -> None:
     path.write_text('{"id": "r", "name": "R\\u001b[31m"}')
     code, output = run("show", str(path))
     assert code == 0 and "(R\\x1b[31m)" in output
+
+
+# ------------------------------------------------------- run and ctl: refusals, live view
+ARM = ROOT / "feature_models" / "coordinated_arm"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["status", "slam"], "status takes no features"),
+        (["load"], "load needs at least one feature"),
+        (["event", "stop", "now"], "event needs one name"),
+    ],
+)
+def test_ctl_usage_errors_exit_2_before_any_connection(tmp_path: Path, args: list[str], message: str) -> None:
+    code, output = run(
+        "ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(tmp_path / "none"), *args
+    )
+    assert code == 2 and message in output
+
+
+def test_run_with_an_event_for_a_robot_without_coordination_is_a_usage_error(tmp_path: Path) -> None:
+    code, output = run(
+        "run",
+        str(SIMPLEBOT),
+        "--variant",
+        "field",
+        "--clock",
+        "simulated",
+        "--run-dir",
+        str(tmp_path / "run"),
+        "--at",
+        "0.5",
+        "event stop",
+    )
+    assert code == 2 and "events go to a coordination statechart, and this robot has none" in output
+    assert not (tmp_path / "run" / "control.sock").exists()  # the socket it had opened is closed
+
+
+def test_run_whose_socket_cannot_open_exits_3(tmp_path: Path) -> None:
+    blocker = tmp_path / "build"
+    blocker.write_text("a file where a folder of the run directory goes")
+    run_dir = blocker / "run"
+    code, output = run(
+        "run", str(SIMPLEBOT), "--variant", "field", "--clock", "simulated", "--run-dir", str(run_dir)
+    )
+    assert code == 3, output
+    assert (
+        output.splitlines()[-1]
+        == f"{run_dir / 'control.sock'}: cannot open the control socket: Not a directory"
+    )
+
+
+def test_run_on_the_real_clock_reports_changes_as_they_happen() -> None:
+    code, output = run(
+        "run",
+        str(SIMPLEBOT),
+        "--variant",
+        "field",
+        "--duration",
+        "0.3",
+        "--no-control",
+        "--at",
+        "0.05",
+        "swap hectorslam kartoslam",
+    )
+    assert code == 0, output
+    reported = [line for line in output.splitlines() if line.endswith(": swap hectorslam kartoslam")]
+    stamp, tick = reported[0].split(" tick ")  # HH:MM:SS.mmm tick N: the request
+    assert len(stamp) == 12 and stamp[2] == stamp[5] == ":" and stamp[8] == "."
+    assert int(tick.split(":")[0]) >= 50
+    assert "request at 0.050 s (tick 50): swap hectorslam kartoslam: accepted" in output
+
+
+def test_the_live_view_shows_the_coordination() -> None:
+    code, output = run(
+        "run",
+        str(ARM),
+        "--variant",
+        "dmp",
+        "--duration",
+        "5",
+        "--clock",
+        "simulated",
+        "--no-control",
+        "--live",
+    )
+    assert code == 0, output
+    assert output.splitlines()[-1].startswith("coordination reached its final state Done")

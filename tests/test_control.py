@@ -8,15 +8,17 @@ import stat
 import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from click.testing import CliRunner
 
 from motivml.cli import main
 from motivml.errors import EnvironmentProblem
-from motivml.runtime.control import ControlServer, send
+from motivml.runtime import control
+from motivml.runtime.control import LINE_LIMIT, ControlServer, send
 from motivml.runtime.launch import Robot, launch
-from motivml.runtime.loop import RealClock, Runtime
+from motivml.runtime.loop import RealClock
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 
@@ -28,17 +30,10 @@ def running(tmp_path: Path) -> Iterator[tuple[Robot, ControlServer]]:
     server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
     server.open()
     ticking = threading.Event()
-
-    def first_tick(runtime: Runtime) -> bool:
-        if runtime.ticks:  # called before each tick: one has run
-            ticking.set()
-        return False
-
-    loop = threading.Thread(
-        target=robot.runtime.run, args=(60.0, RealClock()), kwargs={"until": first_tick}, daemon=True
-    )
+    robot.runtime.hooks.append(ticking.set)
+    loop = threading.Thread(target=robot.runtime.run, args=(60.0, RealClock()), daemon=True)
     loop.start()
-    assert ticking.wait(30), "the loop did not start"  # requests below find it ticking
+    assert ticking.wait(30)  # a change is then committed at a tick after the first
     yield robot, server
     robot.runtime.stop()
     loop.join()
@@ -132,3 +127,205 @@ def test_ctl_without_a_run_says_so(tmp_path: Path) -> None:
         main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(tmp_path), "status"]
     )
     assert result.exit_code == 3 and "no run is listening here" in result.output
+
+
+# ------------------------------------- events, long lines, idle clients, stale sockets
+ARM = SIMPLEBOT.parent / "coordinated_arm"
+
+
+def converse(path: Path, *lines: bytes) -> list[Any]:
+    """Send raw lines on one connection; each answer, then None if the server hung up."""
+    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    client.settimeout(30)
+    client.connect(str(path))
+    answers: list[Any] = []
+    with client, client.makefile("rb") as stream:
+        for line in lines:
+            try:
+                client.sendall(line)
+            except (BrokenPipeError, ConnectionResetError):
+                answers.append(None)  # the server had hung up
+                break
+            answer = stream.readline()
+            answers.append(json.loads(answer) if answer else None)
+            if not answer:
+                break
+    return answers
+
+
+@pytest.fixture
+def coordinated(tmp_path: Path) -> Iterator[tuple[Robot, ControlServer]]:
+    """The coordinated arm on the simulated clock, ticked by the test; its socket open."""
+    robot = launch(ARM, "attractor")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    server.open()
+    server.coordinator = robot.coordinate(simulated=True)  # as a run's session does
+    yield robot, server
+    server.close()
+    robot.close()
+
+
+def test_ctl_event_reaches_the_coordination(coordinated: tuple[Robot, ControlServer]) -> None:
+    robot, server = coordinated
+    robot.runtime.run(0.1)
+    assert server.coordinator.configuration() == ["Working", "ReachOut"]
+    result = CliRunner().invoke(
+        main, ["ctl", str(ARM), "--variant", "attractor", "--run-dir", str(server.run_dir), "event", "stop"]
+    )
+    assert result.exit_code == 0 and result.output == "event stop queued for the coordination\n"
+    robot.runtime.run(0.1)  # handled at the chart's next step
+    assert server.coordinator.finished is not None and server.coordinator.finished[2] == "Done"
+    log = [text for _, _, text in robot.runtime.notes]
+    assert log.index("event stop (from the control socket)") < log.index(
+        "coordination: stopped by the operator"
+    )
+    assert send(server.run_dir, {"op": "event", "name": "again"}) == {
+        "ok": True,
+        "op": "event",
+        "name": "again",
+    }
+
+
+@pytest.mark.parametrize(
+    "request_",
+    [
+        {"op": "event"},
+        {"op": "event", "name": ""},
+        {"op": "event", "features": "stop"},
+        {"op": "event", "features": 5},
+    ],
+)
+def test_an_event_without_one_name_is_refused(
+    coordinated: tuple[Robot, ControlServer], request_: dict[str, Any]
+) -> None:
+    robot, server = coordinated
+    assert send(server.run_dir, request_) == {"ok": False, "error": 'event needs "name"'}
+    assert not any(text.startswith("event") for _, _, text in robot.runtime.notes)
+
+
+def test_an_event_for_a_robot_without_coordination_says_so(running: tuple[Robot, ControlServer]) -> None:
+    _, server = running
+    answer = send(server.run_dir, {"op": "event", "name": "go"})
+    assert answer == {"ok": False, "error": "this robot has no coordination statechart to send events to"}
+    result = CliRunner().invoke(
+        main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(server.run_dir), "event", "go"]
+    )
+    assert result.exit_code == 2 and "this robot has no coordination statechart" in result.output
+
+
+def test_a_request_line_over_64_kib_is_refused_and_the_connection_closed(
+    coordinated: tuple[Robot, ControlServer],
+) -> None:
+    robot, server = coordinated
+    head, tail = b'{"op": "status", "x-pad": "', b'"}\n'
+    longest = head + b"x" * (LINE_LIMIT - len(head) - len(tail)) + tail  # the newline included
+    assert len(longest) == LINE_LIMIT
+    assert converse(server.path, longest)[0]["ok"] is True
+    refused, after = converse(server.path, longest[:-3] + b'x"}\n', b'{"op": "status"}\n')
+    assert refused == {"ok": False, "error": "a request line is at most 65536 bytes"}
+    assert after is None  # the server hung up: the rest of such a line is not read as requests
+    assert converse(server.path, b'{"op": "status"}\n')[0]["ok"] is True  # others are still served
+    assert not robot.runtime.stop_requested.is_set()
+
+
+def test_an_unexpected_failure_is_an_answer_and_the_connection_goes_on(
+    running: tuple[Robot, ControlServer], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    robot, server = running
+
+    def broken(request: Any, timeout: float | None = 5.0) -> Any:
+        raise RuntimeError("the binder is gone")
+
+    monkeypatch.setattr(robot.binder, "request", broken)
+    failed, status = converse(
+        server.path, b'{"op": "load", "features": ["kartoslam"]}\n', b'{"op": "status"}\n'
+    )
+    assert failed == {"ok": False, "error": "the request failed: RuntimeError: the binder is gone"}
+    assert status["ok"] is True and not robot.runtime.stop_requested.is_set()
+
+
+def test_a_silent_client_is_let_go_after_the_idle_time(
+    coordinated: tuple[Robot, ControlServer], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _, server = coordinated
+    monkeypatch.setattr(control, "IDLE", 0.05)
+    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    client.settimeout(30)
+    client.connect(str(server.path))
+    with client:
+        assert client.recv(1) == b""  # the server closed a connection that sent nothing
+    assert send(server.run_dir, {"op": "status"})["ok"] is True
+
+
+def test_a_stale_socket_from_a_dead_run_is_replaced(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    run_dir.mkdir(mode=0o700)
+    dead = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    dead.bind(str(run_dir / "control.sock"))
+    dead.close()  # the run died without removing its socket
+    ctl = ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(run_dir), "status"]
+    nobody = CliRunner().invoke(main, ctl)
+    assert nobody.exit_code == 3 and "cannot talk to the run: Connection refused" in nobody.output
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(run_dir, robot.runtime, robot.binder)
+    try:
+        server.open()
+        assert send(run_dir, {"op": "status"})["ok"] is True
+    finally:
+        server.close()
+        robot.close()
+
+
+def test_a_file_where_the_socket_goes_is_not_replaced(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "control.sock").write_text("notes")
+    robot = launch(SIMPLEBOT, "field")
+    try:
+        with pytest.raises(EnvironmentProblem) as caught:
+            ControlServer(run_dir, robot.runtime, robot.binder).open()
+        assert caught.value.diagnostics[0].message == "exists and is not a socket: not replacing it"
+        assert (run_dir / "control.sock").read_text() == "notes"
+        too_long = tmp_path / ("d" * 120)
+        with pytest.raises(EnvironmentProblem, match="the socket path is too long for a Unix socket"):
+            ControlServer(too_long, robot.runtime, robot.binder).open()
+        assert not too_long.exists()
+    finally:
+        robot.close()
+
+
+def test_a_run_that_hangs_up_without_answering_is_said_so(tmp_path: Path) -> None:
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(str(run_dir / "control.sock"))
+    listener.listen(1)
+
+    def hang_up() -> None:
+        connection, _ = listener.accept()
+        connection.recv(1 << 16)  # the request, then nothing
+        connection.close()
+
+    thread = threading.Thread(target=hang_up, daemon=True)
+    thread.start()
+    try:
+        with pytest.raises(EnvironmentProblem) as caught:
+            send(run_dir, {"op": "status"})
+        assert caught.value.diagnostics[0].message == "the run closed the connection without an answer"
+    finally:
+        thread.join()
+        listener.close()
+
+
+def test_closing_the_server_ends_its_threads_and_removes_the_socket(tmp_path: Path) -> None:
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    before = set(threading.enumerate())
+    server.open()
+    [accepting] = [t for t in set(threading.enumerate()) - before if t.name == "motivml-control-accept"]
+    assert send(server.run_dir, {"op": "status"})["ok"] is True  # the thread is in its accept loop
+    server.close()
+    accepting.join(30)
+    assert not accepting.is_alive() and not server.path.exists()
+    server.close()  # twice is harmless
+    robot.close()

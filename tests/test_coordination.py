@@ -400,3 +400,138 @@ def test_a_send_to_a_space_a_running_component_writes_is_skipped_and_said(tmp_pa
     )
     assert result.exit_code == 0, result.output
     assert "coordination: send to ArmCommand skipped: ArmCommand is written by DMPReacher" in result.output
+
+
+# ------------------------------------------- actions on the running robot (coverage)
+def notes(robot: Any) -> list[str]:
+    return [text for _, _, text in robot.runtime.notes]
+
+
+def component_status(robot: Any, name: str) -> str:
+    return next(c.status for c in robot.runtime.status().components if c.id == name)
+
+
+RECONFIGURING = {
+    "initial": "Swap",
+    "states": [
+        {
+            "id": "Swap",
+            "entry": [
+                {"swap": ["dmp_reach", "attractor_reach"]},
+                {"learning": {"module": "ReachDMP", "state": "offlineLearning"}},
+                {"start": "DMPReacher"},
+                {"stop": "DMPReacher"},
+                {"learning": {"module": "ReachAttractor", "state": "offlineLearning"}},
+                {"unload": ["hand_monitor"]},
+                {"send": {"space": "HandPosition", "value": [0.0, 0.0]}},
+                {"load": ["dmp_reach"]},
+            ],
+            "transitions": [{"target": "Back", "event": "back"}],
+        },
+        {
+            "id": "Back",
+            "entry": [
+                {"stop": "AttractorReacher"},
+                {"learning": {"module": "ReachAttractor", "state": "executing"}},
+                {"load": ["hand_monitor"]},
+            ],
+            "transitions": [{"target": "Done", "event": "end"}],
+        },
+        {"id": "Done", "final": True, "entry": [{"start": "AttractorReacher"}]},
+    ],
+}
+
+
+def test_actions_reconfigure_the_running_robot_and_skip_what_is_not_active(tmp_path: Path) -> None:
+    robot = launch(robot_with(tmp_path, RECONFIGURING), "swappable")
+    try:
+        coordinator = robot.coordinate(simulated=True)
+        assert coordinator is not None and robot.binder.active >= {"dmp_reach", "hand_monitor"}
+        robot.runtime.run(0.01)
+        log = notes(robot)
+        assert log[:6] == [
+            "coordination: swap dmp_reach attractor_reach: accepted",
+            "coordination: learning of ReachDMP skipped: its feature is not active",
+            "coordination: start of DMPReacher skipped: its feature is not active",
+            "coordination: stop of DMPReacher skipped: its feature is not active",
+            "coordination: unload hand_monitor: accepted",
+            "coordination: send to HandPosition skipped: its feature is not active",
+        ]
+        assert log[6].startswith(
+            "refused load dmp_reach: dmp_reach and attractor_reach are alternatives"
+        )  # the binder's log
+        assert log[7].startswith(
+            "coordination: load dmp_reach: refused: dmp_reach and attractor_reach are alternatives in reaching's "
+            "XOR group, but dmp_reach would be active and attractor_reach would be active"
+        )
+        assert [c.request for c in robot.runtime.changes] == [
+            "swap dmp_reach attractor_reach",
+            "unload hand_monitor",
+        ]
+        assert [c.id for c in robot.assembly.components] == ["AttractorReacher"]
+        assert "hand_monitor" not in robot.binder.active and "HandPosition" not in robot.assembly.values
+        assert robot.assembly.modules["ReachAttractor"].state == "offlineLearning"
+        coordinator.event("back")
+        robot.runtime.run(0.01)
+        assert component_status(robot, "AttractorReacher") == "stopped"
+        assert robot.assembly.modules["ReachAttractor"].state == "executing"
+        assert "hand_monitor" in robot.binder.active and "HandPosition" in robot.assembly.values
+        coordinator.event("end")
+        robot.runtime.run(0.01)
+        assert coordinator.finished is not None and component_status(robot, "AttractorReacher") != "stopped"
+    finally:
+        robot.close()
+
+
+def test_on_the_real_clock_a_reconfiguration_is_logged_when_its_outcome_arrives(tmp_path: Path) -> None:
+    from motivml.runtime.loop import RealClock
+
+    chart = {
+        "initial": "Swap",
+        "states": [
+            {"id": "Swap", "entry": [{"swap": ["dmp_reach", "attractor_reach"]}, {"load": ["dmp_reach"]}]}
+        ],
+    }
+    robot = launch(robot_with(tmp_path, chart), "swappable")
+    try:
+        robot.coordinate(simulated=False)  # prepared on the binder's thread, committed by a later tick
+
+        def answered(runtime: Any) -> bool:
+            return sum(": accepted" in t or ": refused" in t for t in notes(robot)) == 2
+
+        robot.runtime.run(60.0, RealClock(), until=answered)
+        assert answered(robot.runtime)
+        swap, load = (t for t in notes(robot) if ": accepted" in t or ": refused" in t)
+        assert swap == "coordination: swap dmp_reach attractor_reach: accepted"
+        assert load.startswith(
+            "coordination: load dmp_reach: refused: dmp_reach and attractor_reach are alternatives"
+        )
+        assert [c.id for c in robot.assembly.components] == ["AttractorReacher"]
+    finally:
+        robot.close()
+
+
+def test_a_chart_whose_action_fails_stops_the_run(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # a checked chart's actions do not raise; a failure inside the runtime is simulated here
+    from motivml.runtime.binder import Binder
+
+    def broken(self: Any, request: Any) -> Any:
+        raise RuntimeError("the binder broke")
+
+    monkeypatch.setattr(Binder, "request_between_ticks", broken)
+    chart = {
+        "initial": "Load",
+        "states": [{"id": "Load", "entry": [{"log": "loading"}, {"unload": ["hand_monitor"]}]}],
+    }
+    result = CliRunner().invoke(
+        main,
+        ["run", str(robot_with(tmp_path, chart)), "--variant", "swappable", "--duration", "1"]
+        + ["--clock", "simulated", "--no-control"],
+    )
+    assert result.exit_code == 1, result.output
+    failed = [line for line in result.output.splitlines() if "coordination failed" in line]
+    assert len(failed) == 1 and failed[0].startswith(
+        "at 0.001 s (tick 1): coordination failed: RuntimeError: the binder broke (at test_coordination.py:"
+    )  # the error itself, not sismic's wrapper around the code it ran
+    assert failed[0].endswith(": the run stops")
+    assert "1 ticks, 0.001 s of control time" in result.output  # it stopped at once

@@ -18,6 +18,7 @@ from motivml.documents.robot_folder import Plugin
 from motivml.plugins.api import PluginContext
 from motivml.plugins.python import PluginError
 from motivml.runtime.launch import Robot, launch
+from motivml.runtime.requests import Request
 
 ROOT = Path(__file__).resolve().parent.parent
 GESTURES = ROOT / "plugins" / "cpp" / "gestures"
@@ -139,3 +140,149 @@ def test_a_library_link_that_leaves_the_plugin_folder_is_refused(
     )
     with pytest.raises(PluginError, match="library libhands.so leaves the plugin folder"):
         cppplugins.create(plugin, context())
+
+
+# --------------------------------------- the spaces bridge, throwing plugins, set-up errors
+TESTING_CPP = r"""
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "motivml/feature_plugin.hpp"
+
+namespace testing_plugins {
+
+class Echo : public motivml::FeaturePlugin {  // Out = 2 In, every tick
+ public:
+  void step(double, motivml::Spaces& spaces) override {
+    std::vector<double> value = spaces.read("In");
+    for (double& v : value) v *= 2.0;
+    spaces.write("Out", value);
+    ++steps_;
+  }
+  std::string status() const override { return std::to_string(steps_) + " echoes"; }
+
+ private:
+  long steps_ = 0;
+};
+
+class Broken : public motivml::FeaturePlugin {
+ public:
+  void start() override { throw std::runtime_error("no sensor"); }
+  void step(double, motivml::Spaces&) override {}
+  void stop() override { throw std::runtime_error("stuck"); }
+};
+
+}  // namespace testing_plugins
+
+MOTIVML_PLUGIN(testing_plugins::Echo)
+MOTIVML_PLUGIN(testing_plugins::Broken)
+"""
+
+
+@pytest.fixture(scope="module")
+def testing_library(extension: ModuleType, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two small C++ plugins, compiled as cpp_plugins/CMakeLists.txt compiles a plugin."""
+    folder = tmp_path_factory.mktemp("cpp")
+    (folder / "testing.cpp").write_text(TESTING_CPP)
+    includes = [ROOT / "cpp_plugins" / "include"] + [
+        Path("/usr/include") / name for name in ("class_loader", "rcpputils", "rcutils")
+    ]
+    command = ["g++", "-std=c++17", "-shared", "-fPIC", "-fno-gnu-unique", "-fvisibility=hidden"]
+    command += [f"-I{path}" for path in includes]
+    command += [str(folder / "testing.cpp"), "-o", str(folder / "libtesting.so"), "-Wl,-z,defs"]
+    command += ["-lclass_loader", "-lconsole_bridge", "-lrcpputils", "-lrcutils"]
+    subprocess.run(command, check=True, capture_output=True)
+    return folder / "libtesting.so"
+
+
+def cpp_robot(folder: Path, library: Path, classes: dict[str, str]) -> Path:
+    """Features x and y (Dynamic Late), spaces In and Out, a C++ plugin per entry of `classes`."""
+    model = {
+        "id": "bot",
+        "name": "Bot",
+        "sub": [
+            {
+                "id": f,
+                "name": f,
+                "isMandatory": False,
+                "constraints": {"bindingTimeAllowed": "Late", "bindingModeAllowed": "Dynamic"},
+            }
+            for f in ("x", "y")
+        ],
+    }
+    (folder / "variants").mkdir(parents=True)
+    (folder / "model.json").write_text(json.dumps(model))
+    variant = {"properties": [{"id": f, "props": {"time": "Late", "mode": "Dynamic"}} for f in ("x", "y")]}
+    (folder / "variants" / "v.json").write_text(json.dumps(variant))
+    (folder / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
+    spaces = [{"id": s, "type": "Vector", "dimension": 2, "feature": "bot"} for s in ("In", "Out")]
+    (folder / "architecture.json").write_text(json.dumps({"spaces": spaces}))
+    for feature, cls in classes.items():
+        plugin = folder / "plugins" / feature
+        plugin.mkdir(parents=True)
+        shutil.copy(library, plugin / "libtesting.so")
+        entry = {"library": "libtesting.so", "class": cls}
+        (plugin / "plugin.json").write_text(json.dumps({"feature": feature, "kind": "cpp", "entry": entry}))
+    return folder
+
+
+def test_a_cpp_plugin_reads_and_writes_spaces(testing_library: Path, tmp_path: Path) -> None:
+    robot = launch(cpp_robot(tmp_path, testing_library, {"x": "testing_plugins::Echo"}), "v")
+    try:
+        robot.runtime.send("In", [0.25, -1.5])
+        assert robot.binder.request_between_ticks(Request("load", ("x",))).accepted
+        robot.runtime.run(0.003)
+        assert robot.runtime.assembly.values["Out"].tolist() == [0.5, -3.0]
+        assert robot.runtime.status().plugins == (("x", "3 echoes"),)
+    finally:
+        robot.close()
+    assert not mapped(str(tmp_path / "plugins" / "x" / "libtesting.so"))  # released and unloaded
+
+
+def test_a_cpp_start_that_throws_refuses_the_load_and_a_throwing_stop_is_noted(
+    testing_library: Path, tmp_path: Path
+) -> None:
+    robot = launch(cpp_robot(tmp_path, testing_library, {"y": "testing_plugins::Broken"}), "v")
+    try:
+        outcome = robot.binder.request_between_ticks(Request("load", ("y",)))
+        assert (
+            not outcome.accepted and outcome.reason == "start() of plugin y failed: RuntimeError: no sensor"
+        )
+        assert [text for _, _, text in robot.runtime.notes] == [
+            "stop() of plugin y raised RuntimeError: stuck",
+            "refused load y: start() of plugin y failed: RuntimeError: no sensor",
+        ]
+        assert robot.runtime.plugins == {} and "y" not in robot.binder.active
+        assert not mapped(str(tmp_path / "plugins" / "y" / "libtesting.so"))  # released all the same
+    finally:
+        robot.close()
+
+
+def test_set_up_errors_name_the_manifest_entry(
+    testing_library: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from motivml.plugins import cpp as cppplugins
+
+    folder = cpp_robot(tmp_path, testing_library, {"x": "testing_plugins::Feet"})
+    plugin = manifest(folder / "plugins" / "x")
+    with pytest.raises(PluginError) as caught:
+        cppplugins.create(plugin, context())
+    [problem] = caught.value.diagnostics
+    assert problem.location.path == "$.entry.class"
+    assert "declares no class testing_plugins::Feet" in problem.message
+    assert "testing_plugins::Broken" in problem.message and "testing_plugins::Echo" in problem.message
+    assert not mapped(str(folder / "plugins" / "x" / "libtesting.so"))
+    (folder / "plugins" / "x" / "libtesting.so").unlink()
+    with pytest.raises(PluginError, match=r"libtesting.so does not exist \(build it: make cpp-plugins\)"):
+        cppplugins.create(plugin, context())
+    import motivml
+
+    monkeypatch.delattr(motivml, "_cpp_plugins")  # as if it was never built
+    monkeypatch.setitem(sys.modules, "motivml._cpp_plugins", None)
+    with pytest.raises(PluginError) as missing:
+        cppplugins.create(plugin, context())
+    assert missing.value.diagnostics[0].message == (
+        "C++ plugin support is not built: run make cpp-plugins (needs cmake, g++, libclass-loader-dev)"
+    )
+    assert missing.value.diagnostics[0].location.path == "$.entry.library"

@@ -420,3 +420,46 @@ def test_the_guides_pictures_are_what_graph_draws_now(robot: str, tmp_path: Path
         assert drawn.read_text() == (committed / drawn.name).read_text(), (
             f"regenerate {committed / drawn.name}"
         )
+
+
+# --------------------------------------------- graph without Graphviz, export's refusals
+def test_graph_without_graphviz_writes_the_dot_files_and_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    examples = Path(__file__).resolve().parent.parent / "feature_models"
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))  # no dot anywhere
+    out = tmp_path / "pictures"
+    result = CliRunner().invoke(main, ["graph", str(examples / "reaching_arm"), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert sorted(p.name for p in out.iterdir()) == ["architecture.dot", "feature-model.dot"]
+    assert result.output.splitlines()[-1] == (
+        "Graphviz's dot is not installed: no SVG (install graphviz, or render the .dot files elsewhere)"
+    )
+
+
+def test_export_without_or_with_a_broken_coordination_writes_nothing(tmp_path: Path) -> None:
+    import json
+
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    examples = Path(__file__).resolve().parent.parent / "feature_models"
+    target = tmp_path / "chart.scxml"
+    none = CliRunner().invoke(main, ["export", "scxml", str(examples / "reaching_arm"), "-o", str(target)])
+    assert none.exit_code == 3
+    assert none.output == (
+        f"nothing to export: {examples / 'reaching_arm' / 'coordination.json'} does not exist\n"
+    )
+    robot = tmp_path / "arm"
+    shutil.copytree(examples / "coordinated_arm", robot)
+    (robot / "coordination.json").write_text(json.dumps({"initial": "Gone", "states": [{"id": "Here"}]}))
+    broken = CliRunner().invoke(main, ["export", "scxml", str(robot), "-o", str(target)])
+    assert broken.exit_code == 1
+    assert "error: the initial state 'Gone' is not a top-level state" in broken.output
+    assert broken.output.splitlines()[-1] == f"nothing exported: {robot}"
+    assert not target.exists()

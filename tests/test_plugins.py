@@ -158,3 +158,88 @@ def test_an_optional_document_that_is_not_a_file_is_an_environment_error(tmp_pat
         os.mkfifo(path)
     result = CliRunner().invoke(main, ["validate", str(folder)])
     assert result.exit_code == 3 and "architecture.json" in result.output and "Traceback" not in result.output
+
+
+# ------------------------------------------------ Python plugins that fail to load (coverage)
+SLAM_PLUGIN = {"feature": "slam", "kind": "python", "entry": {"module": "slammod", "class": "Plugin"}}
+SLAM_CODE = """
+from motivml.plugins.api import FeaturePlugin
+GREETING = "v1"
+
+class Plugin(FeaturePlugin):
+    def status(self):
+        return GREETING
+"""
+
+
+def slam_robot(tmp_path: Path, code: str = SLAM_CODE) -> Path:
+    folder = robot(tmp_path, {"slam": SLAM_PLUGIN})
+    (folder / "plugins" / "slam" / "slammod.py").write_text(code)
+    return folder
+
+
+def load(robot: Any, action: str, *features: str) -> Any:
+    """A request made between two ticks, as the control thread makes it."""
+    from motivml.runtime.requests import Request
+
+    return robot.binder.request_between_ticks(Request(action, features))
+
+
+def test_a_failed_reload_leaves_the_running_plugin_and_its_module_as_they_were(tmp_path: Path) -> None:
+    from motivml.runtime.launch import launch
+
+    folder = slam_robot(tmp_path)
+    running = launch(folder, "v")
+    try:
+        assert load(running, "load", "slam").accepted
+        module = folder / "plugins" / "slam" / "slammod.py"
+        module.write_text('GREETING = "half-written"\nraise RuntimeError("saved mid-edit")\n')
+        outcome = load(running, "reload", "slam")
+        assert not outcome.accepted
+        [problem] = outcome.diagnostics
+        assert problem.message == (
+            "cannot import 'slammod' of plugin slam: RuntimeError: saved mid-edit (at slammod.py:2)"
+        )
+        assert problem.location.path == "$.entry.module"
+        assert running.runtime.status().plugins == (("slam", "v1"),)  # not "half-written"
+        module.write_text(SLAM_CODE.replace('"v1"', '"v2"'))
+        assert load(running, "reload", "slam").accepted
+        assert running.runtime.status().plugins == (("slam", "v2"),)
+    finally:
+        running.close()
+
+
+def test_a_class_that_cannot_be_constructed_refuses_the_load(tmp_path: Path) -> None:
+    from motivml.runtime.launch import launch
+
+    code = SLAM_CODE + "    def __init__(self, context):\n        raise ValueError('no map server')\n"
+    running = launch(slam_robot(tmp_path, code), "v")
+    try:
+        outcome = load(running, "load", "slam")
+        assert not outcome.accepted and outcome.reason == (
+            "constructing Plugin of plugin slam failed: ValueError: no map server (at slammod.py:9)"
+        )
+        assert outcome.diagnostics[0].location.path == "$.entry.class"
+        assert running.runtime.plugins == {} and "slam" not in running.binder.active
+    finally:
+        running.close()
+
+
+def test_a_plugin_folder_removed_during_the_run_is_named_by_its_manifest(tmp_path: Path) -> None:
+    import shutil
+
+    from motivml.runtime.launch import launch
+
+    folder = slam_robot(tmp_path)
+    running = launch(folder, "v")
+    try:
+        shutil.rmtree(folder / "plugins" / "slam")
+        outcome = load(running, "load", "slam")
+        assert not outcome.accepted
+        [problem] = outcome.diagnostics
+        assert problem.message.startswith("cannot import 'slammod' of plugin slam: ModuleNotFoundError: ")
+        assert str(problem.location) == str(
+            folder / "plugins" / "slam" / "plugin.json"
+        )  # no line: it is gone
+    finally:
+        running.close()

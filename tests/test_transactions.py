@@ -9,6 +9,7 @@ import threading
 import types
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -419,3 +420,249 @@ def test_scheduled_times_must_fall_in_the_run() -> None:
     for at in ("5", "nan", "inf"):
         result = CliRunner().invoke(main, [*base, "--at", at, "load kartoslam"])
         assert result.exit_code == 2 and "requests are made during the run" in result.output
+
+
+# ------------------------------------------- plugins that leave, fail or wait (coverage)
+LIFECYCLE = """
+from motivml.plugins.api import FeaturePlugin
+
+class Plugin(FeaturePlugin):
+    def start(self):
+        self.steps, self.stopped = 0, False
+        {start}
+    def step(self, time):
+        if self.stopped:
+            self.context.log("stepped after stop()")
+        self.steps += 1
+        {step}
+    def stop(self):
+        self.stopped = True
+        self.context.log("stop()")
+        {stop}
+    def status(self):
+        return f"{{self.steps}} steps"
+"""
+
+
+def lifecycle_robot(
+    tmp_path: Path,
+    plugins: dict[str, dict[str, str]],
+    model: dict[str, Any] | None = None,
+    entries: tuple[tuple[Any, ...], ...] = (("a", "Early", "Dynamic"), ("a2", "Early", "Dynamic")),
+) -> Path:
+    """By default a (optional) with a2 (optional) under it, both Dynamic Early, so both run from
+    the start; each plugin says in the run's log when it is stopped, and if it is stepped after."""
+    model = model or feature(
+        "bot", [feature("a", [feature("a2", isMandatory=False, **ANY)], isMandatory=False, **ANY)]
+    )
+    (tmp_path / "variants").mkdir(parents=True)
+    (tmp_path / "model.json").write_text(json.dumps(model, indent=1))
+    (tmp_path / "variants" / "v.json").write_text(json.dumps(config(*entries), indent=1))
+    (tmp_path / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
+    architecture = {"spaces": [{"id": "Out", "type": "Scalar", "dimension": 1, "feature": "bot"}]}
+    (tmp_path / "architecture.json").write_text(json.dumps(architecture))
+    for name, code in plugins.items():
+        folder = tmp_path / "plugins" / name
+        folder.mkdir(parents=True)
+        manifest = {"feature": name, "kind": "python", "entry": {"module": f"life_{name}", "class": "Plugin"}}
+        (folder / "plugin.json").write_text(json.dumps(manifest, indent=1))
+        text = LIFECYCLE.format(**{k: code.get(k, "pass") for k in ("start", "step", "stop")})
+        (folder / f"life_{name}.py").write_text(text)
+    return tmp_path
+
+
+def simulated_run(folder: Path, *extra: str, duration: str = "0.01") -> Any:
+    args = [
+        "run",
+        str(folder),
+        "--variant",
+        "v",
+        "--duration",
+        duration,
+        "--clock",
+        "simulated",
+        "--no-control",
+    ]
+    return CliRunner().invoke(main, [*args, *extra])
+
+
+def test_a_plugin_unloaded_by_a_fault_between_ticks_is_not_stepped_after_its_stop(tmp_path: Path) -> None:
+    folder = lifecycle_robot(
+        tmp_path, {"a": {"step": "if self.steps == 3: raise ValueError('lost track')"}, "a2": {}}
+    )
+    result = simulated_run(folder)
+    assert result.exit_code == 0, result.output
+    assert "at 0.003 s (tick 3): unloaded a after the fault of a" in result.output
+    assert "at 0.003 s (tick 3): a2: stop()" in result.output  # a2 went with its parent's subtree
+    assert "stepped after stop()" not in result.output
+    assert "a2 raised" not in result.output
+
+
+def test_a_dynamic_fault_in_the_last_tick_neither_holds_the_close_nor_fails_the_run(tmp_path: Path) -> None:
+    # on the real clock the fault's unload waits for the next tick; when the run ends first,
+    # no tick will come: closing the robot must not wait for it, nor call the run a failure
+    folder = lifecycle_robot(tmp_path, {"a": {"step": "if self.steps == 3: raise ValueError('lost track')"}})
+    robot = launch(folder, "v")
+    for _ in range(3):
+        robot.runtime.tick()  # the last tick of the run: a faults
+    assert [f.feature for f in robot.runtime.faults] == ["a"]
+    robot.close()  # the run's end
+    assert robot.runtime.failure is None and robot.runtime.changes == []
+    assert not robot.runtime.stop_requested.is_set()
+    log = [text for _, _, text in robot.runtime.notes]
+    assert "the fault of a: the run ended before its unload" in log and "a: stop()" in log
+    assert not any("cannot unload" in text for text in log)
+
+
+LATE_A2 = (("a", "Early", "Dynamic"), ("a2", "Late", "Dynamic"))  # a runs from the start, a2 loads
+
+
+def test_writes_in_start_at_launch_reach_the_spaces(tmp_path: Path) -> None:
+    folder = lifecycle_robot(tmp_path, {"a": {"start": "self.context.write('Out', [5.0])"}})
+    robot = launch(folder, "v")
+    try:
+        assert robot.runtime.assembly.values["Out"][0] == 5.0
+    finally:
+        robot.close()
+
+
+def test_a_write_in_start_to_a_space_the_plugin_may_not_write_refuses_the_load(tmp_path: Path) -> None:
+    folder = lifecycle_robot(
+        tmp_path, {"a": {}, "a2": {"start": "self.context.write('Nowhere', [1.0])"}}, entries=LATE_A2
+    )
+    robot = launch(folder, "v")
+    try:
+        outcome = ask(robot, "load a2")
+        assert not outcome.accepted
+        assert outcome.reason == (
+            "start() of plugin a2 failed: ValueError: Nowhere is not a space this plugin may write (at life_a2.py:7)"
+        )
+        assert set(robot.runtime.plugins) == {"a"} and robot.runtime.changes == []
+    finally:
+        robot.close()
+
+
+def test_a_failing_start_stops_the_plugins_the_same_request_started(tmp_path: Path) -> None:
+    entries = (("a", "Late", "Dynamic"), ("a2", "Late", "Dynamic"))
+    folder = lifecycle_robot(
+        tmp_path, {"a": {}, "a2": {"start": "raise OSError('no camera')"}}, entries=entries
+    )
+    robot = launch(folder, "v")
+    try:
+        assert robot.runtime.plugins == {}
+        outcome = ask(robot, "load a a2")
+        assert not outcome.accepted and outcome.reason.startswith(
+            "start() of plugin a2 failed: OSError: no camera"
+        )
+        assert [text for _, _, text in robot.runtime.notes] == [
+            "a: stop()",  # a had started: stopped again
+            "refused load a a2: start() of plugin a2 failed: OSError: no camera (at life_a2.py:7)",
+        ]
+        assert robot.runtime.plugins == {} and robot.binder.active == {"bot"}
+    finally:
+        robot.close()
+
+
+def test_ctrl_c_in_a_plugins_start_stops_the_started_ones_and_says_so(tmp_path: Path) -> None:
+    stopped = "(self.context.folder / 'stopped').write_text('yes')"
+    folder = lifecycle_robot(tmp_path, {"a": {"stop": stopped}, "a2": {"start": "raise KeyboardInterrupt"}})
+    result = simulated_run(folder)
+    assert result.exit_code == 130 and "interrupted before the run started" in result.output
+    assert (folder / "plugins" / "a" / "stopped").read_text() == "yes"  # a had started before a2
+
+
+def test_a_stop_that_raises_is_reported_and_the_unload_goes_through(tmp_path: Path) -> None:
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {"stop": "raise RuntimeError('device busy')"}})
+    robot = launch(folder, "v")
+    try:
+        outcome = ask(robot, "unload a2")
+        assert outcome.accepted and set(robot.runtime.plugins) == {"a"}
+        assert (
+            robot.runtime.notes[-1][2]
+            == "stop() of plugin a2 raised RuntimeError: device busy (at life_a2.py:16)"
+        )
+    finally:
+        robot.close()
+
+
+def test_a_change_the_loop_does_not_take_in_time_is_withdrawn(tmp_path: Path) -> None:
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {}}, entries=LATE_A2)
+    robot = launch(folder, "v")
+    try:
+        outcome = robot.binder.request(Request("load", ("a2",)), timeout=0.01)  # nothing ticks
+        assert not outcome.accepted
+        assert outcome.reason == "the control loop did not take the change within 0.01 s: nothing changed"
+        assert [text for _, _, text in robot.runtime.notes[-2:]] == [
+            "a2: stop()",  # started for the change, stopped with it
+            "refused load a2: the control loop did not take the change within 0.01 s: nothing changed",
+        ]
+        robot.runtime.tick()  # the withdrawn change is not applied later
+        assert set(robot.runtime.plugins) == {"a"} and robot.runtime.changes == []
+        assert "a2" not in robot.binder.active
+    finally:
+        robot.close()
+
+
+def test_between_ticks_a_request_from_another_thread_waits_for_the_control_thread(tmp_path: Path) -> None:
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {}}, entries=LATE_A2)
+    robot = launch(folder, "v")
+    try:
+        robot.binder.make_changes_between_ticks()  # as a simulated run does
+        late = robot.binder.request(Request("load", ("a2",)), timeout=0.01)  # nothing ticks
+        assert not late.accepted
+        assert late.reason == "the control loop did not take the request within 0.01 s: nothing changed"
+        robot.runtime.tick()
+        assert robot.runtime.changes == [] and set(robot.runtime.plugins) == {"a"}  # it was taken back
+        future = robot.binder.submit(Request("load", ("a2",)))  # from the binder's thread, as the socket
+        for _ in range(1_000_000):
+            if future.done():
+                break
+            robot.runtime.tick()  # the control thread empties the inbox after each tick
+        outcome = future.result(timeout=10)
+        assert outcome.accepted and set(robot.runtime.plugins) == {"a", "a2"}
+        assert [c.request for c in robot.runtime.changes] == ["load a2"]
+    finally:
+        robot.close()
+
+
+def test_a_fault_whose_feature_already_left_the_loop_is_only_noted(tmp_path: Path) -> None:
+    raising = "if self.steps == 3: raise ValueError('lost track')"
+    folder = lifecycle_robot(tmp_path, {"a": {"step": raising}, "a2": {"step": raising}})
+    robot = launch(folder, "v")  # the real clock: faults are handled on the binder's thread
+    both = threading.Event()
+    robot.runtime.hooks.append(lambda: both.set() if len(robot.runtime.faults) == 2 else None)
+    loop = threading.Thread(target=robot.runtime.run, args=(60.0, RealClock()), daemon=True)
+    loop.start()
+    try:
+        assert both.wait(30)  # a and a2 raised in the same tick; a's unload takes a2 with it
+        barrier = robot.binder.submit(Request("load", ("nothing",)))  # after both fault handlers
+        assert not barrier.result(timeout=30).accepted
+    finally:
+        robot.runtime.stop()
+        loop.join()
+        robot.close()
+    log = [text for _, _, text in robot.runtime.notes]
+    assert "unloaded a after the fault of a" in log
+    assert "the fault of a2: it has already left the loop" in log
+    assert robot.runtime.failure is None and robot.binder.active == {"bot"}
+
+
+def test_a_fault_no_unload_can_mend_stops_the_run(tmp_path: Path) -> None:
+    # a and b are the root's XOR alternatives: neither a alone nor the (Static) root unloads
+    model = feature("bot", [feature("a", group="XOR", **ANY), feature("b", group="XOR", **ANY)])
+    folder = lifecycle_robot(
+        tmp_path,
+        {"a": {"step": "if self.steps == 3: raise ValueError('lost track')"}},
+        model=model,
+        entries=(("a", "Early", "Dynamic"), ("b", "Late", "Dynamic")),
+    )
+    result = simulated_run(folder)
+    assert result.exit_code == 1, result.output
+    assert (
+        "at 0.003 s (tick 3): cannot unload a after its fault: bot has the XOR group a, b, but bot would be active, a would be inactive"
+        in result.output
+    )
+    assert (
+        "the run stopped: a raised in its step at 0.003 s (tick 3): ValueError: lost track (at life_a.py:12)"
+        in result.output
+    )

@@ -94,6 +94,8 @@ class Binder:
             {e.feature for e in architecture.elements()} if architecture is not None else set()
         )  # features whose coming or going changes the architecture
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="motivml-binder")
+        self._closing = threading.Event()  # the run has ended: no tick will take a commit any more
+        self._in_flight: Commit | None = None  # the commit a request waits for
         runtime.on_fault = self._on_fault
 
     # ---------------------------------------------------------------- plugins
@@ -226,11 +228,22 @@ class Binder:
             if isinstance(prepared, Outcome):
                 return prepared
             plan, commit = prepared
-            self.runtime.submit(commit)
-            if not commit.done.wait(timeout) and self.runtime.withdraw(commit):
+            self._in_flight = commit
+            try:
+                self.runtime.submit(commit)
+                if self._closing.is_set():
+                    self._give_up(commit)
+                taken = commit.done.wait(timeout)
+            finally:
+                self._in_flight = None
+            if (not taken and self.runtime.withdraw(commit)) or commit.withdrawn:
                 for running in commit.add.values():
                     self._stop(running)
-                message = f"the control loop did not take the change within {timeout:g} s: nothing changed"
+                message = (
+                    "the run ended before the control loop took the change: nothing changed"
+                    if commit.withdrawn and taken
+                    else f"the control loop did not take the change within {timeout:g} s: nothing changed"
+                )
                 return self._refused(
                     Outcome(
                         request,
@@ -310,6 +323,11 @@ class Binder:
             str(plan.request), plan.loads, plan.unloads, assembly, add, remove, writes=preparing.writes
         )
 
+    def _give_up(self, commit: Commit) -> None:
+        """Withdraw a commit no tick will take, and wake the request waiting for it."""
+        if self.runtime.withdraw(commit):
+            commit.done.set()  # (withdrawn: the request sees it was not applied)
+
     # ----------------------------------------------------------------- faults
     def _on_fault(self, fault: Fault) -> None:
         """Called on the control thread. Between ticks (simulated clock) the unload happens
@@ -335,6 +353,9 @@ class Binder:
                 if outcome.accepted:
                     self.runtime.note(f"unloaded {feature} after the fault of {fault.feature}")
                     return
+                if self._closing.is_set():  # the run has ended: nothing to keep safe any more
+                    self.runtime.note(f"the fault of {fault.feature}: the run ended before its unload")
+                    return
                 reasons.append(outcome.reason)
                 if not outcome.breaks_relations:
                     break  # refused for another reason than the model: an ancestor would not help
@@ -346,7 +367,15 @@ class Binder:
         self.runtime.stop()
 
     def close(self) -> None:
-        """Stop every plugin, after the request in flight (if any) has ended."""
+        """Stop every plugin, after the request in flight (if any) has ended.
+
+        The run has ended, so a request still waiting for a tick (a fault's unload, say)
+        gives up at once instead of waiting out its timeout.
+        """
+        self._closing.set()
+        pending = self._in_flight
+        if pending is not None:
+            self._give_up(pending)
         self._executor.shutdown(wait=True)
         settled = self._lock.acquire(timeout=10.0)  # a request from the socket may be preparing
         try:

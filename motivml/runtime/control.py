@@ -33,6 +33,7 @@ from .requests import ACTIONS, Request
 SOCKET = "control.sock"
 LINE_LIMIT = 1 << 16  # bytes per request line
 IDLE = 600.0  # seconds a connection may stay silent
+DRAIN_LIMIT = 1 << 20  # bytes read and dropped after a line over LINE_LIMIT
 
 
 def _problem(path: Path, message: str) -> EnvironmentProblem:
@@ -116,6 +117,7 @@ class ControlServer:
                     }
                     stream.write((json.dumps(answer) + "\n").encode())
                     stream.flush()
+                    _hang_up(connection)
                     return
                 stream.write((json.dumps(self.handle(line)) + "\n").encode())
                 stream.flush()
@@ -140,7 +142,9 @@ class ControlServer:
         if op == "dump":
             return {"ok": True, "op": op, **self.status(), **self.dump()}
         if op == "event":
-            name = request.get("name") or (request.get("features") or [None])[0]
+            name, features = request.get("name"), request.get("features")
+            if name is None and isinstance(features, list) and len(features) == 1:
+                name = features[0]  # motivml ctl sends the name as its one feature
             if not isinstance(name, str) or not name:
                 return {"ok": False, "error": 'event needs "name"'}
             if self.coordinator is None:
@@ -206,12 +210,33 @@ class ControlServer:
         self._closing.set()
         if self._socket is None:
             return
+        try:  # wakes the thread blocked in accept(), which close() alone does not on Linux
+            self._socket.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
         self._socket.close()
         self._socket = None
         try:
             self.path.unlink()
         except OSError:
             pass
+
+
+def _hang_up(connection: socket.socket) -> None:
+    """End a conversation whose client sent too much: the answer already written is read.
+
+    Closing a Unix socket with unread input resets it, and the client would lose the answer
+    in its buffer; so say end-of-file first, then discard what is still coming, a bounded
+    amount for a bounded time, before closing.
+    """
+    try:
+        connection.shutdown(socket.SHUT_WR)
+        connection.settimeout(1.0)
+        left = DRAIN_LIMIT
+        while left > 0 and (chunk := connection.recv(min(left, 1 << 16))):
+            left -= len(chunk)
+    except OSError:
+        pass
 
 
 def _alive(path: Path) -> bool:

@@ -199,7 +199,8 @@ class Coordinator:
             try:
                 step = self.interpreter.execute_once()
             except Exception as exc:  # a guard or an action that cannot run: say so, stop the run
-                runtime.note(f"coordination failed: {describe_exception(exc)}: the run stops")
+                cause = exc.__cause__ if isinstance(exc.__cause__, Exception) else exc  # sismic wraps it
+                runtime.note(f"coordination failed: {describe_exception(cause)}: the run stops")
                 self.unsettled = True
                 runtime.stop()
                 return

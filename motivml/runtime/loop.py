@@ -243,7 +243,8 @@ class Runtime:
         if self.plugins:
             now = self.time
             for running in list(self.plugins.values()):
-                if running.faulted:
+                # faulted, or unloaded during this tick (a fault's unload between ticks): stopped
+                if running.faulted or self.plugins.get(running.feature) is not running:
                     continue
                 try:
                     running.instance.step(now)
