@@ -1,7 +1,7 @@
-"""The compiled schema check agrees with jsonschema.
+"""The compiled schema check agrees with jsonschema, and `validate` no longer imports jsonschema.
 
 jsonschema's `Draft202012Validator.is_valid` is the reference: for every schema in
-`schemas/` the compiler covers, the compiled
+`schemas/` and the shallow schemas `documents/schema.py` derives from them, the compiled
 verdict must equal jsonschema's on valid documents (generated from the schema), on those
 documents with one value replaced, one key removed or one added, on arbitrary JSON values,
 and on random schemas built from the keywords the compiler covers.
@@ -11,7 +11,11 @@ from __future__ import annotations
 
 import copy
 import functools
+import json
 import math
+import subprocess
+import sys
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -21,8 +25,17 @@ from hypothesis_jsonschema import from_schema
 from jsonschema import Draft202012Validator
 
 from motivml.documents.fastschema import Unsupported, compile_schema, equal
-from motivml.documents.schema import FEATURE_MODEL, load_schema
+from motivml.documents.loader import parse
+from motivml.documents.schema import (
+    FEATURE_MODEL,
+    _Checker,
+    _errors,
+    entry_schema,
+    feature_schemas,
+    load_schema,
+)
 
+ROOT = Path(__file__).resolve().parent.parent
 COVERED = [
     "architecture.schema.json",
     "configuration.schema.json",
@@ -32,7 +45,16 @@ COVERED = [
 ]
 
 
-SCHEMAS = {name: load_schema(name) for name in COVERED}
+def all_schemas() -> dict[str, dict[str, Any]]:
+    root, inner = feature_schemas()
+    schemas = {name: load_schema(name) for name in COVERED}
+    schemas.update(
+        {"root feature (shallow)": root, "feature (shallow)": inner, "configuration entry": entry_schema()}
+    )
+    return schemas
+
+
+SCHEMAS = all_schemas()
 SETTINGS = settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck))
 
 json_values = st.recursive(
@@ -354,3 +376,58 @@ def test_the_published_feature_model_schema_is_left_to_jsonschema() -> None:
         compile_schema(load_schema(FEATURE_MODEL))
     for name in COVERED:
         compile_schema(load_schema(name))
+
+
+def test_an_unsupported_schema_falls_back_to_jsonschema_for_the_verdict_and_messages() -> None:
+    checker = _Checker({"type": "object", "required": ["a"], "not": {"required": ["b"]}})
+    assert checker.fast is None
+    doc = parse('{"b": 1}', "d.json")
+    messages = [f"{d.location}: {d.message}" for d in _errors(checker, doc.root, doc, (), None)]
+    assert messages == [
+        "d.json:1:1: missing required key 'a'",
+        "d.json:1:1: {'b': 1} should not be valid under {'required': ['b']}",
+    ]
+    assert _errors(checker, {"a": 1}, doc, (), None) == []
+
+
+# What `motivml validate` imports.
+
+PROBE = """
+import sys
+from motivml.cli import main
+try:
+    main(sys.argv[1:], prog_name="motivml")
+except SystemExit as exit:
+    print("EXIT:", exit.code, file=sys.stderr)
+print("JSONSCHEMA:", "jsonschema" in sys.modules, file=sys.stderr)
+"""
+
+
+def run_validate(*args: str) -> tuple[str, list[str]]:
+    done = subprocess.run(
+        [sys.executable, "-c", PROBE, "validate", *args], cwd=ROOT, capture_output=True, text=True
+    )
+    return done.stdout, done.stderr.splitlines()[-2:]
+
+
+def test_importing_the_schema_module_does_not_import_jsonschema() -> None:
+    code = "import motivml.documents.schema, sys; assert 'jsonschema' not in sys.modules"
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
+def test_validating_valid_documents_does_not_import_jsonschema() -> None:
+    output, status = run_validate("feature_models/simplebot", "--variant", "lab")
+    assert status == ["EXIT: 0", "JSONSCHEMA: False"], output
+    assert "valid" in output
+
+
+def test_an_invalid_document_still_gets_jsonschemas_located_message(tmp_path: Path) -> None:
+    model = tmp_path / "model.json"
+    model.write_text(json.dumps({"id": "r", "name": "R", "sub": [{"id": "a", "name": "A", "group": "xor"}]}))
+    output, status = run_validate(str(model))
+    assert status == ["EXIT: 1", "JSONSCHEMA: True"], output
+    assert (
+        f"{model}:1:68: $.sub[0].group: error: 'xor' is not one of \"\", 'OR', 'XOR' (did you mean 'XOR'?)"
+        in output
+    )
