@@ -81,6 +81,15 @@ class _Checker:
             self.fast = None
         self._validator: Draft202012Validator | None = None
 
+    def valid(self, instance: Any) -> bool:
+        """True when the compiled check accepts `instance`; False: ask jsonschema."""
+        if self.fast is None:
+            return False
+        try:
+            return self.fast(instance)
+        except RecursionError:  # jsonschema decides (and reports), as it always did
+            return False
+
     @property
     def validator(self) -> Draft202012Validator:
         if self._validator is None:
@@ -216,21 +225,38 @@ def _ordered(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
     return sorted(diagnostics, key=lambda d: (d.location.line or 0, d.location.column or 0))
 
 
+_Link = tuple[Any, int] | None  # (the parent feature's link, index in its `sub`); None: the root
+
+
+def _path(link: _Link) -> JSONPath:
+    indices: list[int] = []
+    while link is not None:
+        link, i = link
+        indices.append(i)
+    return tuple(step for i in reversed(indices) for step in ("sub", i))
+
+
 def check_feature_model(doc: Document) -> list[Diagnostic]:
-    """All schema errors of a feature model, in document order (iterative over the tree)."""
+    """All schema errors of a feature model, in document order (iterative over the tree).
+
+    A feature's place is kept as a link to its parent's, `(parent link, index)`, and spelt
+    out as a JSON path only for a feature with errors: copying the whole path for each
+    feature costs time proportional to the depth, thousands of levels in large models.
+    """
     root_checker, inner_checker = _feature_checkers()
     found: list[Diagnostic] = []
-    stack: list[tuple[JSONPath, Any]] = [((), doc.root)]
+    stack: list[tuple[_Link, Any]] = [(None, doc.root)]
     while stack:
-        path, node = stack.pop()
-        checker = root_checker if not path else inner_checker
-        feature = node.get("id") if isinstance(node, dict) and isinstance(node.get("id"), str) else None
-        found.extend(_errors(checker, node, doc, path, feature))
+        link, node = stack.pop()
+        checker = root_checker if link is None else inner_checker
+        if not checker.valid(node):
+            feature = node.get("id") if isinstance(node, dict) and isinstance(node.get("id"), str) else None
+            found.extend(_located_errors(checker, node, doc, _path(link), feature))
         if isinstance(node, dict) and isinstance(node.get("sub"), list):
             for i in range(len(node["sub"]) - 1, -1, -1):
                 child = node["sub"][i]
                 if isinstance(child, dict):
-                    stack.append((path + ("sub", i), child))
+                    stack.append(((link, i), child))
     if not isinstance(doc.root, dict):
         return [
             error(
@@ -292,19 +318,19 @@ def _entry_checker() -> _Checker:
 def _errors(
     checker: _Checker, instance: Any, doc: Document, path: JSONPath, feature: str | None
 ) -> list[Diagnostic]:
-    """Located schema errors of one object.
+    """Located schema errors of one object: none when the compiled check accepts it."""
+    return [] if checker.valid(instance) else _located_errors(checker, instance, doc, path, feature)
 
-    The compiled check answers for valid objects; jsonschema looks for the errors of the
-    others (and decides when the compiled check runs out of stack). jsonschema builds each
-    message with `repr` of the offending value, which recurses; a value nested thousands
-    of levels deep (where only a small one belongs) is reported as such instead of crashing.
+
+def _located_errors(
+    checker: _Checker, instance: Any, doc: Document, path: JSONPath, feature: str | None
+) -> list[Diagnostic]:
+    """The errors jsonschema finds in one object, located.
+
+    jsonschema builds each message with `repr` of the offending value, which recurses; a
+    value nested thousands of levels deep (where only a small one belongs) is reported as
+    such instead of crashing.
     """
-    if checker.fast is not None:
-        try:
-            if checker.fast(instance):
-                return []
-        except RecursionError:
-            pass
     try:
         return [
             d for err in checker.validator.iter_errors(instance) for d in _messages(err, doc, path, feature)
