@@ -32,7 +32,7 @@ from motivml.documents.schema import (
     _errors,
     entry_schema,
     feature_schemas,
-    load_schema,
+    schema_path,
 )
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -46,10 +46,16 @@ COVERED = [
 
 
 def all_schemas() -> dict[str, dict[str, Any]]:
-    root, inner = feature_schemas()
-    schemas = {name: load_schema(name) for name in COVERED}
+    """Fresh copies: hypothesis-jsonschema rewrites the schemas it is given in place (and
+    other test modules hand it parts of `load_schema`'s cached dicts)."""
+    schemas = {name: json.loads(schema_path(name).read_text(encoding="utf-8")) for name in COVERED}
+    root, inner = copy.deepcopy(feature_schemas())
     schemas.update(
-        {"root feature (shallow)": root, "feature (shallow)": inner, "configuration entry": entry_schema()}
+        {
+            "root feature (shallow)": root,
+            "feature (shallow)": inner,
+            "configuration entry": copy.deepcopy(entry_schema()),
+        }
     )
     return schemas
 
@@ -373,9 +379,9 @@ def test_what_is_not_covered_is_unsupported(schema: dict[str, Any]) -> None:
 def test_the_published_feature_model_schema_is_left_to_jsonschema() -> None:
     """Its `unevaluatedProperties` sits beside a `$ref`: the shallow copies are what we check."""
     with pytest.raises(Unsupported):
-        compile_schema(load_schema(FEATURE_MODEL))
+        compile_schema(json.loads(schema_path(FEATURE_MODEL).read_text(encoding="utf-8")))
     for name in COVERED:
-        compile_schema(load_schema(name))
+        compile_schema(SCHEMAS[name])
 
 
 def test_an_unsupported_schema_falls_back_to_jsonschema_for_the_verdict_and_messages() -> None:
