@@ -258,7 +258,7 @@ TREE = {
 }
 
 
-@settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=200, deadline=None, suppress_health_check=list(HealthCheck))
 @given(
     schema=keyword_schemas(random_subschemas),
     leaf=keyword_schemas(st.booleans()),
