@@ -4,7 +4,7 @@ Why: `jsonschema` costs 50-75 ms of start-up to import (referencing, attrs, rpds
 bundled metaschemas) and tens of microseconds per feature object to validate, yet nearly
 every document a user checks is valid and needs no message at all. So `schema.py` asks
 this checker first and imports `jsonschema` only when the answer is "invalid" (or when a
-schema uses something compiled here does not cover); `jsonschema` stays the one source of
+schema uses a keyword this compiler does not cover); `jsonschema` stays the one source of
 every error message.
 
 `compile_schema(schema)` turns a draft 2020-12 schema (a Python dict) into a function
@@ -21,8 +21,8 @@ from them) use:
   object has no in-place applicator and no additionalProperties);
 * oneOf, anyOf, allOf, and `$ref` to `#` or `#/$defs/NAME` of the root (recursive
   references are bound once their target is compiled);
-* annotations, ignored: title, description, default, examples, $comment, $defs, $id (at
-  the root only) and $schema (draft 2020-12 only).
+* annotations, ignored: title, description, default, examples, $comment, $id (at the root
+  only) and $schema (draft 2020-12 only); $defs is read only through `$ref`.
 
 Any other keyword raises `Unsupported`, and the caller validates with `jsonschema`.
 `jsonschema`'s semantics are followed to the letter: a keyword applies only to instances
