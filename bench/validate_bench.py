@@ -5,8 +5,8 @@ cross-tree constraints, mixed bindings) with a valid full configuration it print
 
 * the wall time and peak memory of `motivml validate MODEL --config CONFIG` in a fresh
   process (what a user waits for);
-* where the time goes, in-process: load+schema+read of model and configuration, encoding,
-  solve;
+* where the time goes, in-process: loading, schema check and reading of the model and of
+  the configuration, encoding, solve;
 * the floor: the same CNF as a DIMACS file, read by pysat and solved under the same
   assumptions in a fresh process (what any SAT-based checker must pay at least).
 
@@ -54,26 +54,44 @@ def run_measured(args: list[str]) -> tuple[float, int, str]:
     return wall, usage.ru_maxrss // 1024, output
 
 
-def stages(model_path: str, config_path: str, cnf_path: str, assumptions_path: str) -> dict[str, float]:
+def stages(
+    model_path: str, config_path: str, cnf_path: str, assumptions_path: str
+) -> list[tuple[str, float]]:
     from motivml.binding import encoding as enc
-    from motivml.language.reader import load_configuration, load_model
+    from motivml.documents.loader import load_file, no_gc
+    from motivml.documents.schema import check_configuration, check_feature_model
+    from motivml.language.reader import read_configuration, read_model
 
-    times: dict[str, float] = {}
+    times: list[tuple[str, float]] = []
     t = time.perf_counter()
-    model, _ = load_model(model_path)
-    times["model: load, schema, read"] = time.perf_counter() - t
-    assert model is not None
+    doc = load_file(model_path)
+    times.append(("model: load", time.perf_counter() - t))
     t = time.perf_counter()
-    config, _ = load_configuration(config_path, model)
-    times["configuration: load, schema, read"] = time.perf_counter() - t
-    assert config is not None
+    with no_gc():
+        assert not check_feature_model(doc)
+    times.append(("schema", time.perf_counter() - t))
+    t = time.perf_counter()
+    with no_gc():
+        model, _ = read_model(doc)
+    times.append(("read", time.perf_counter() - t))
+    t = time.perf_counter()
+    doc = load_file(config_path)
+    times.append(("configuration: load", time.perf_counter() - t))
+    t = time.perf_counter()
+    with no_gc():
+        assert not check_configuration(doc)
+    times.append(("schema", time.perf_counter() - t))
+    t = time.perf_counter()
+    with no_gc():
+        config, _ = read_configuration(doc, model)
+    times.append(("read", time.perf_counter() - t))
     t = time.perf_counter()
     with enc.Encoding(model, record=True) as encoding:
         encoding.set_configuration(config)
-        times["encode"] = time.perf_counter() - t
+        times.append(("encode", time.perf_counter() - t))
         t = time.perf_counter()
         assert encoding.solve()
-        times["solve"] = time.perf_counter() - t
+        times.append(("solve", time.perf_counter() - t))
         assert encoding.recorded is not None
         top = max(abs(lit) for clause in encoding.recorded for lit in clause)
         with open(cnf_path, "w") as handle:
@@ -106,7 +124,7 @@ def main() -> None:
             cnf_path, assumptions_path = os.path.join(folder, "f.cnf"), os.path.join(folder, "a.txt")
             parts = stages(model_path, config_path, cnf_path, assumptions_path)
             floor_wall, _, _ = run_measured([sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER])
-            detail = ", ".join(f"{k} {v:.2f}" for k, v in parts.items())
+            detail = ", ".join(f"{k} {v:.2f}" for k, v in parts)
             print(
                 f"{n:>9,} {size:>6.1f} {wall:>10.2f} {peak:>9} {floor_wall:>8.2f} {wall / floor_wall:>6.1f}  {detail}",
                 flush=True,

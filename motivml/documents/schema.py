@@ -1,8 +1,10 @@
 """JSON Schema checks of documents, with our own located messages.
 
 The schemas in `schemas/` are the single description of the syntax (editors use them too).
-`jsonschema`'s validator finds the errors; this module turns each into one located line
-(`file:line:col: path: message`) with a suggestion where one helps.
+Each object is first checked by the schema compiled in `fastschema.py` (a yes/no answer,
+without importing `jsonschema`); only an object it finds invalid, or a schema it does not
+cover, goes to `jsonschema`'s validator, which finds the errors; this module turns each
+into one located line (`file:line:col: path: message`) with a suggestion where one helps.
 
 A feature model nests features thousands of levels deep and `jsonschema` descends
 recursively, so the model is not validated in one call: each feature object is validated
@@ -16,17 +18,18 @@ import copy
 import difflib
 import functools
 import json
-import re
 from collections.abc import Callable, Iterator
 from importlib import resources
 from pathlib import Path
-from typing import Any
-
-from jsonschema import Draft202012Validator
-from jsonschema.exceptions import ValidationError
+from typing import TYPE_CHECKING, Any
 
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from .fastschema import Check, Unsupported, compile_schema
 from .loader import Document, JSONPath, load_file, no_gc
+
+if TYPE_CHECKING:  # imported where a document is invalid: it takes ~60 ms to import
+    from jsonschema import Draft202012Validator
+    from jsonschema.exceptions import ValidationError
 
 FEATURE_MODEL = "feature-model.schema.json"
 CONFIGURATION = "configuration.schema.json"
@@ -66,9 +69,39 @@ def load_schema(name: str) -> dict[str, Any]:
     return schema
 
 
+class _Checker:
+    """One schema: its compiled yes/no check, and jsonschema's validator when messages are needed."""
+
+    def __init__(self, schema: dict[str, Any]) -> None:
+        self.schema = schema
+        self.fast: Check | None
+        try:
+            self.fast = compile_schema(schema)
+        except Unsupported:
+            self.fast = None
+        self._validator: Draft202012Validator | None = None
+
+    def valid(self, instance: Any) -> bool:
+        """True when the compiled check accepts `instance`; False: ask jsonschema."""
+        if self.fast is None:
+            return False
+        try:
+            return self.fast(instance)
+        except RecursionError:  # jsonschema decides (and reports), as it always did
+            return False
+
+    @property
+    def validator(self) -> Draft202012Validator:
+        if self._validator is None:
+            from jsonschema import Draft202012Validator
+
+            self._validator = Draft202012Validator(self.schema)
+        return self._validator
+
+
 @functools.cache
-def _feature_validators() -> tuple[Draft202012Validator, Draft202012Validator]:
-    """Validators for the root feature and for any other feature, both shallow."""
+def feature_schemas() -> tuple[dict[str, Any], dict[str, Any]]:
+    """The schemas of the root feature and of any other feature, both shallow."""
     published = load_schema(FEATURE_MODEL)
     defs = copy.deepcopy(published["$defs"])
     body = defs["featureBody"]
@@ -77,7 +110,13 @@ def _feature_validators() -> tuple[Draft202012Validator, Draft202012Validator]:
     # body inlined, `additionalProperties` says the same thing for one object at a time.
     inner = _inline(dict(body, additionalProperties=False), defs)
     root = dict(inner, properties=dict(inner["properties"], **published["properties"]))
-    return Draft202012Validator(root), Draft202012Validator(inner)
+    return root, inner
+
+
+@functools.cache
+def _feature_checkers() -> tuple[_Checker, _Checker]:
+    root, inner = feature_schemas()
+    return _Checker(root), _Checker(inner)
 
 
 def _inline(schema: Any, defs: dict[str, Any]) -> Any:
@@ -99,8 +138,8 @@ def _inline(schema: Any, defs: dict[str, Any]) -> Any:
 
 
 @functools.cache
-def _validator(name: str) -> Draft202012Validator:
-    return Draft202012Validator(load_schema(name))
+def _checker(name: str) -> _Checker:
+    return _Checker(load_schema(name))
 
 
 def _show(value: Any) -> str:
@@ -186,21 +225,38 @@ def _ordered(diagnostics: list[Diagnostic]) -> list[Diagnostic]:
     return sorted(diagnostics, key=lambda d: (d.location.line or 0, d.location.column or 0))
 
 
+_Link = tuple[Any, int] | None  # (the parent feature's link, index in its `sub`); None: the root
+
+
+def _path(link: _Link) -> JSONPath:
+    indices: list[int] = []
+    while link is not None:
+        link, i = link
+        indices.append(i)
+    return tuple(step for i in reversed(indices) for step in ("sub", i))
+
+
 def check_feature_model(doc: Document) -> list[Diagnostic]:
-    """All schema errors of a feature model, in document order (iterative over the tree)."""
-    root_validator, inner_validator = _feature_validators()
+    """All schema errors of a feature model, in document order (iterative over the tree).
+
+    A feature's place is kept as a link to its parent's, `(parent link, index)`, and spelt
+    out as a JSON path only for a feature with errors: copying the whole path for each
+    feature costs time proportional to the depth, thousands of levels in large models.
+    """
+    root_checker, inner_checker = _feature_checkers()
     found: list[Diagnostic] = []
-    stack: list[tuple[JSONPath, Any]] = [((), doc.root)]
+    stack: list[tuple[_Link, Any]] = [(None, doc.root)]
     while stack:
-        path, node = stack.pop()
-        validator = root_validator if not path else inner_validator
-        feature = node.get("id") if isinstance(node, dict) and isinstance(node.get("id"), str) else None
-        found.extend(_errors(validator, node, doc, path, feature))
+        link, node = stack.pop()
+        checker = root_checker if link is None else inner_checker
+        if not checker.valid(node):
+            feature = node.get("id") if isinstance(node, dict) and isinstance(node.get("id"), str) else None
+            found.extend(_located_errors(checker, node, doc, _path(link), feature))
         if isinstance(node, dict) and isinstance(node.get("sub"), list):
             for i in range(len(node["sub"]) - 1, -1, -1):
                 child = node["sub"][i]
                 if isinstance(child, dict):
-                    stack.append((path + ("sub", i), child))
+                    stack.append(((link, i), child))
     if not isinstance(doc.root, dict):
         return [
             error(
@@ -228,14 +284,14 @@ def check_configuration(doc: Document) -> list[Diagnostic]:
         key: (value if key != "properties" or not isinstance(value, list) else [])
         for key, value in doc.root.items()
     }
-    found.extend(_errors(_validator(CONFIGURATION), top, doc, (), None))
+    found.extend(_errors(_checker(CONFIGURATION), top, doc, (), None))
     if isinstance(entries, list):
-        entry_validator = _entry_validator()
+        entry_checker = _entry_checker()
         for i, entry in enumerate(entries):
             feature = (
                 entry.get("id") if isinstance(entry, dict) and isinstance(entry.get("id"), str) else None
             )
-            found.extend(_errors(entry_validator, entry, doc, ("properties", i), feature))
+            found.extend(_errors(entry_checker, entry, doc, ("properties", i), feature))
     return _ordered(found)
 
 
@@ -243,134 +299,42 @@ def check_document(doc: Document, name: str, what: str) -> list[Diagnostic]:
     """Schema errors of a small, shallow document (a plugin manifest, robot.json)."""
     if not isinstance(doc.root, dict):
         return [error(doc.locate(()), f"{what} is a JSON object, found {_describe(doc.root)}", "schema.type")]
-    return _ordered(_errors(_validator(name), doc.root, doc, (), None))
+    return _ordered(_errors(_checker(name), doc.root, doc, (), None))
 
 
 @functools.cache
-def _entry_validator() -> Draft202012Validator:
+def entry_schema() -> dict[str, Any]:
+    """The schema of one configuration entry, its references inlined."""
     schema = load_schema(CONFIGURATION)
-    return Draft202012Validator(_inline(schema["$defs"]["entry"], schema["$defs"]))
+    inlined: dict[str, Any] = _inline(schema["$defs"]["entry"], schema["$defs"])
+    return inlined
 
 
-_SHAPE_KEYWORDS = frozenset(
-    {
-        "type",
-        "enum",
-        "pattern",
-        "minLength",
-        "properties",
-        "additionalProperties",
-        "patternProperties",
-        "required",
-        "items",
-        "default",
-        "description",
-        "title",
-        "$defs",
-    }
-)
-
-
-class _Shape:
-    """Memo of the shapes a (non-recursive) schema accepts.
-
-    jsonschema needs ~80 µs per feature object, too slow for 100,000 features. Most
-    features look alike once what the schema cannot tell apart is forgotten: a string
-    only matters through its enum membership, pattern matches and emptiness; a number,
-    boolean or null only through its type; a value under a `true` subschema not at all.
-    `key()` maps a value to that abstraction, walking the schema beside it (so its depth
-    is the schema's, never the document's). A shape jsonschema once found valid is valid
-    again; anything else is validated for real. Schemas using other keywords get no memo.
-    """
-
-    def __init__(self, schema: dict[str, Any]) -> None:
-        self.schema = schema
-        self.valid: set[Any] = set()
-        self.enabled = _uses_only(schema, _SHAPE_KEYWORDS)
-
-    def key(self, value: Any, schema: Any = None) -> Any:
-        schema = self.schema if schema is None else schema
-        if schema is True or schema == {}:
-            return None
-        if isinstance(value, bool):
-            return ("bool",)
-        if isinstance(value, str):
-            enum = schema.get("enum", ())
-            pattern = schema.get("pattern")
-            return (
-                "str",
-                value if value in enum else None,
-                bool(re.search(pattern, value)) if pattern else None,
-                len(value) >= schema.get("minLength", 0),
-            )
-        if isinstance(value, (int, float)) or value is None:
-            return (type(value).__name__,)
-        if isinstance(value, list):
-            items = schema.get("items", True)
-            return ("list", frozenset(self.key(v, items) for v in value))
-        if isinstance(value, dict):
-            props = schema.get("properties", {})
-            patterns = schema.get("patternProperties", {})
-            parts = []
-            for k, v in value.items():
-                if k in props:
-                    parts.append((k, self.key(v, props[k])))
-                    continue
-                matched = [p for p in patterns if re.search(p, k)]
-                if matched:
-                    parts.append(
-                        (tuple(matched), self.key(v, patterns[matched[0]]) if len(matched) == 1 else v)
-                    )
-                else:
-                    parts.append((k, None))
-            return ("dict", frozenset(parts))
-        raise TypeError(f"not a JSON value: {type(value).__name__}")
-
-
-def _uses_only(schema: Any, allowed: frozenset[str]) -> bool:
-    stack = [schema]
-    while stack:
-        node = stack.pop()
-        if isinstance(node, dict):
-            if not set(node) <= allowed:
-                return False
-            for key in ("properties", "patternProperties", "$defs"):
-                stack.extend(node.get(key, {}).values())
-            stack.extend(node[k] for k in ("items", "additionalProperties") if k in node)
-    return True
-
-
-_shapes: dict[int, _Shape] = {}
-
-
-def _shape(validator: Draft202012Validator) -> _Shape:
-    """The memo of one (cached, long-lived) validator."""
-    shape = _shapes.get(id(validator))
-    if shape is None:
-        shape = _shapes[id(validator)] = _Shape(validator.schema)
-    return shape
+@functools.cache
+def _entry_checker() -> _Checker:
+    return _Checker(entry_schema())
 
 
 def _errors(
-    validator: Draft202012Validator, instance: Any, doc: Document, path: JSONPath, feature: str | None
+    checker: _Checker, instance: Any, doc: Document, path: JSONPath, feature: str | None
 ) -> list[Diagnostic]:
-    """Located schema errors of one object.
+    """Located schema errors of one object: none when the compiled check accepts it."""
+    return [] if checker.valid(instance) else _located_errors(checker, instance, doc, path, feature)
+
+
+def _located_errors(
+    checker: _Checker, instance: Any, doc: Document, path: JSONPath, feature: str | None
+) -> list[Diagnostic]:
+    """The errors jsonschema finds in one object, located.
 
     jsonschema builds each message with `repr` of the offending value, which recurses; a
     value nested thousands of levels deep (where only a small one belongs) is reported as
     such instead of crashing.
     """
-    shape = _shape(validator)
     try:
-        if shape.enabled:
-            key = shape.key(instance)
-            if key in shape.valid:
-                return []
-            found = [d for err in validator.iter_errors(instance) for d in _messages(err, doc, path, feature)]
-            if not found:
-                shape.valid.add(key)
-            return found
-        return [d for err in validator.iter_errors(instance) for d in _messages(err, doc, path, feature)]
+        return [
+            d for err in checker.validator.iter_errors(instance) for d in _messages(err, doc, path, feature)
+        ]
     except RecursionError:
         return [
             error(
