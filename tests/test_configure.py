@@ -127,7 +127,7 @@ def test_resolution_is_valid_and_optimal(data: st.DataObject, prefer: set[str]) 
             resolve(feature_model, configuration, prefer)
         return
     resolved = resolve(feature_model, configuration, prefer)
-    chosen = {d.feature.id: (d.early, d.static) for d in resolved.decisions if d.selected}
+    chosen = {d.feature.id: (d.binding.early, d.binding.static) for d in resolved.decisions if d.selected}
     lock = json.loads(outputs(resolved)["variant.lock.json"])
     assert ref.is_valid(model, lock)
     assert cost(model, config, chosen, prefer) == min(cost(model, config, v, prefer) for v in variants)

@@ -67,8 +67,8 @@ def test_start_state_equals_brute_force(data: st.DataObject) -> None:
     except NoVariant:
         return
     selected = variant.selected()
-    early = {d.feature.index for d in selected if d.early}
-    late = [d.feature.index for d in selected if not d.early]
+    early = {d.feature.index for d in selected if d.binding.early}
+    late = [d.feature.index for d in selected if not d.binding.early]
     expected = brute_force(model, early, late)
     assert expected is not None, "a resolved variant has a start state (section 4)"
     assert {f.index for f in start_state(variant)} == expected

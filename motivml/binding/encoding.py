@@ -34,7 +34,7 @@ from pysat.examples.rc2 import RC2
 from pysat.formula import WCNF
 from pysat.solvers import Solver
 
-from ..language.model import Configuration, FeatureModel
+from ..language.model import Configuration, FeatureModel, Mode, Time
 
 SOLVER = "glucose4"  # forgiving API, assumptions and cores; CaDiCaL aborts the process on misuse
 
@@ -150,6 +150,7 @@ class Encoding:
     # ------------------------------------------------------------------ encoding
     def _encode_model(self) -> None:
         s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
+        early_time, static_mode = Time.EARLY, Mode.STATIC  # local: an enum member lookup is slow
         features = self.model.features
         start = self._fact(START, 0)
         early = self._fact(START_EARLY, 0)
@@ -166,12 +167,12 @@ class Encoding:
 
         for f in features:
             i = f.index
-            if f.time_allowed != "Any":
+            if f.time_allowed is not None:
                 sel = self._fact(ALLOWED_TIME, i)
-                self._add(sel, [-s(i), E(i) if f.time_allowed == "Early" else -E(i)])
-            if f.mode_allowed != "Any":
+                self._add(sel, [-s(i), E(i) if f.time_allowed is early_time else -E(i)])
+            if f.mode_allowed is not None:
                 sel = self._fact(ALLOWED_MODE, i)
-                self._add(sel, [-s(i), S(i) if f.mode_allowed == "Static" else -S(i)])
+                self._add(sel, [-s(i), S(i) if f.mode_allowed is static_mode else -S(i)])
             p = f.parent
             if p is None:
                 continue
@@ -238,6 +239,7 @@ class Encoding:
         """Add a configuration's facts (once per encoding): literals to assume."""
         first = len(self.facts)
         index = self.model.index
+        early_time, static_mode = Time.EARLY, Mode.STATIC
         for entry in config.entries.values():
             i = index.get(entry.id)
             if i is None:
@@ -246,10 +248,10 @@ class Encoding:
                 self._config_fact(CONFIG_DESELECTED, i, -self.s(i))
                 continue
             self._config_fact(CONFIG_SELECTED, i, self.s(i))
-            if entry.time != "Any":
-                self._config_fact(CONFIG_TIME, i, self.E(i) if entry.time == "Early" else -self.E(i))
-            if entry.mode != "Any":
-                self._config_fact(CONFIG_MODE, i, self.S(i) if entry.mode == "Static" else -self.S(i))
+            if entry.time is not None:
+                self._config_fact(CONFIG_TIME, i, self.E(i) if entry.time is early_time else -self.E(i))
+            if entry.mode is not None:
+                self._config_fact(CONFIG_MODE, i, self.S(i) if entry.mode is static_mode else -self.S(i))
         self._config_fact_range = (first, len(self.facts))
 
     def _config_fact(self, kind: str, i: int, literal: int) -> None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from ..errors import Diagnostic, Fact, Location, Severity
-from ..language.model import Configuration, FeatureModel
+from ..language.model import Configuration, FeatureModel, Mode, Time
 from . import encoding as enc
 
 # kind -> (rule, why); the first matching kind in PRIORITY gives the sentence its "why".
@@ -225,14 +225,12 @@ class Explainer:
             if kind == enc.CONFIG_DESELECTED:
                 return Fact(f"{self._id(a)} is not selected", self._config_loc(a, "selected"), "config")
             if kind == enc.CONFIG_TIME:
-                value = "Early" if literal > 0 else "Late"
+                time = Time.EARLY if literal > 0 else Time.LATE
                 return Fact(
-                    f"{self._id(a)} is configured {value}", self._config_loc(a, "props", "time"), "config"
+                    f"{self._id(a)} is configured {time}", self._config_loc(a, "props", "time"), "config"
                 )
-            value = "Static" if literal > 0 else "Dynamic"
-            return Fact(
-                f"{self._id(a)} is configured {value}", self._config_loc(a, "props", "mode"), "config"
-            )
+            mode = Mode.STATIC if literal > 0 else Mode.DYNAMIC
+            return Fact(f"{self._id(a)} is configured {mode}", self._config_loc(a, "props", "mode"), "config")
         # queries ("what if f were selected / bound so")
         return Fact(
             self.query_words.get(k, f"{self._id(a)} is assumed"), self.model_location(a, "id"), "query"

@@ -19,7 +19,7 @@ from ..binding.resolve import PREFERENCES, resolve
 from ..documents.robot_folder import ARCHITECTURE_FILE, COORDINATION_FILE, RobotFolder
 from ..documents.writing import write_if_changed
 from ..errors import Diagnostic, MotivmlError
-from ..language.model import Configuration, FeatureModel
+from ..language.model import OFF, Binding, Configuration, FeatureModel, FeatureState, Mode, Time
 from ..plugins.manifests import discover
 from ..plugins.manifests import missing as missing_plugins
 from ..validate import Report, validate
@@ -160,15 +160,7 @@ def configure_command(
         for d in resolved.decisions
         if d.selection_by == "solver" or (d.selected and "solver" in (d.time_by, d.mode_by))
     )
-    counts = ", ".join(
-        f"{sum(1 for d in chosen if d.binding == b)} {name}"
-        for b, name in (
-            ("SE", "Static Early"),
-            ("SL", "Static Late"),
-            ("DE", "Dynamic Early"),
-            ("DL", "Dynamic Late"),
-        )
-    )
+    counts = ", ".join(f"{sum(1 for d in chosen if d.binding is b)} {b.words}" for b in Binding)
     out.print(
         f"variant {escape(variant)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
     )
@@ -278,7 +270,8 @@ def show_command(target: str, config: str | None, variant: str | None) -> None:
     )
 
 
-def _tree(model: FeatureModel, config: Configuration | None, states: list[set[str]]) -> Tree:
+def _tree(model: FeatureModel, config: Configuration | None, states: list[set[FeatureState]]) -> Tree:
+    order: list[FeatureState] = [OFF, *Binding]
     nodes: dict[int, Tree] = {}
     root_tree: Tree | None = None
     for f in model.features:
@@ -299,7 +292,6 @@ def _tree(model: FeatureModel, config: Configuration | None, states: list[set[st
             else:
                 configured = f" set {_short(entry.mode)}{_short(entry.time)}"
         possible = states[f.index]
-        order = ["off", "SE", "SL", "DE", "DL"]
         solver = ",".join(s for s in order if s in possible) or "none"
         colour = "green" if len(possible) == 1 else "cyan"
         label = (
@@ -320,5 +312,6 @@ def _printable(text: str) -> str:
     return "".join(ch if ch.isprintable() else ch.encode("unicode_escape").decode() for ch in text)
 
 
-def _short(token: str) -> str:
-    return {"Static": "S", "Dynamic": "D", "Early": "E", "Late": "L", "Any": "*"}[token]
+def _short(value: Time | Mode | None) -> str:
+    """A time or mode as the letter it has in a binding's name ("S" of "SE"); `*`: Any."""
+    return "*" if value is None else value[0]

@@ -84,7 +84,7 @@ class Binder:
         self.active = frozenset(active)
         self.reconfigurer = Reconfigurer(variant, config)
         self.python = PythonPlugins(robot, plugins)
-        self.static = {d.feature.id: d.static for d in variant.decisions}
+        self.static = {d.feature.id: d.binding.static for d in variant.decisions}
         self._lock = threading.Lock()
         self.between_ticks = False  # simulated clock: changes are made on the control thread
         self._inbox: queue.SimpleQueue[tuple[Request, Future[Outcome]]] = queue.SimpleQueue()
