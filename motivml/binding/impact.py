@@ -20,7 +20,9 @@ ORDER = (REBUILD, RESTART, RUN_TIME)
 
 
 @dataclass(frozen=True)
-class Change:
+class FeatureChange:
+    """One feature's difference between two variants, and what making it takes."""
+
     feature: str
     before: FeatureState
     after: FeatureState
@@ -51,17 +53,17 @@ def classify(before: FeatureState, after: FeatureState) -> tuple[str, str]:
     return RUN_TIME, "a Dynamic feature changes time: it is unloaded and loaded again while the program runs"
 
 
-def diff(first: Variant, second: Variant) -> list[Change]:
+def diff(first: Variant, second: Variant) -> list[FeatureChange]:
     """Every feature whose selection or binding differs, worst impact first, then model order."""
     changes = []
     for a, b in zip(first.decisions, second.decisions, strict=True):
         before, after = _state(a), _state(b)
         if before != after:
             impact, reason = classify(before, after)
-            changes.append(Change(a.feature.id, before, after, impact, reason))
+            changes.append(FeatureChange(a.feature.id, before, after, impact, reason))
     return sorted(changes, key=lambda c: ORDER.index(c.impact))
 
 
-def verdict(changes: list[Change]) -> str:
+def verdict(changes: list[FeatureChange]) -> str:
     """The worst impact of all changes ("run time" when there are none)."""
     return min((c.impact for c in changes), key=ORDER.index, default=RUN_TIME)
