@@ -39,7 +39,7 @@ from ..language.model import Configuration
 from ..plugins import cpp as cppplugins
 from ..plugins.api import PluginContext
 from ..plugins.python import PluginError, PythonPlugins, plugin_error
-from .loop import Change, Commit, Fault, Running, Runtime
+from .loop import AppliedReconfiguration, Commit, Fault, Running, Runtime
 from .reconfigure import Plan, Reconfigurer, Refused, Request
 
 
@@ -57,7 +57,7 @@ class Outcome:
     request: Request
     accepted: bool
     plan: Plan | None = None
-    change: Change | None = None  # when it took effect
+    change: AppliedReconfiguration | None = None  # when it took effect
     latency: float = 0.0  # s, from the request to its commit
     diagnostics: list[Diagnostic] = field(default_factory=list)  # why not
 
