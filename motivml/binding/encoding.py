@@ -70,10 +70,13 @@ CONFIG_KINDS = frozenset({CONFIG_SELECTED, CONFIG_DESELECTED, CONFIG_TIME, CONFI
 
 
 @dataclass(frozen=True, slots=True)
-class Fact:
-    """A model or configuration statement: `kind` over features `a` and `b` (-1: none).
+class EncodedFact:
+    """A model or configuration statement as the encoding holds it: a kind over features.
 
-    For group facts `a` is the group's index in `FeatureModel.groups`.
+    `a` and `b` are feature indices (-1: none; for group facts `a` is the group's index in
+    `FeatureModel.groups`). Its literal in `Encoding.literals` puts it in force: a selector
+    over its clauses, or the configuration's literal itself. Explanations put it in words
+    and locate it as an `errors.LocatedFact`.
     """
 
     kind: str
@@ -92,7 +95,7 @@ class Encoding:
         self.recorded: list[list[int]] | None = [] if record else None  # for bench/ (DIMACS)
         n = len(model.features)
         self.n = n
-        self.facts: list[Fact] = []  # explain build: every fact; hard build: config facts
+        self.facts: list[EncodedFact] = []  # explain build: every fact; hard build: config facts
         self.literals: list[int] = []  # the assumption literal of each fact
         self._top = 4 * n
         self._activity: int | None = None  # index of the first ACTIVE fact, once made
@@ -129,7 +132,7 @@ class Encoding:
         if not self.explain:
             return 0
         selector = self._new_var()
-        self.facts.append(Fact(kind, a, b))
+        self.facts.append(EncodedFact(kind, a, b))
         self.literals.append(selector)
         return selector
 
@@ -255,7 +258,7 @@ class Encoding:
         self._config_fact_range = (first, len(self.facts))
 
     def _config_fact(self, kind: str, i: int, literal: int) -> None:
-        self.facts.append(Fact(kind, i))
+        self.facts.append(EncodedFact(kind, i))
         self.literals.append(literal)
 
     # ----------------------------------------------------------------- queries
@@ -273,7 +276,7 @@ class Encoding:
 
     def query(self, kind: str, i: int, literal: int) -> int:
         """A hypothetical fact ("f is selected") to explain why it cannot hold; its index."""
-        self.facts.append(Fact(kind, i))
+        self.facts.append(EncodedFact(kind, i))
         self.literals.append(literal)
         return len(self.facts) - 1
 
@@ -437,7 +440,7 @@ class Encoding:
             self._activity = len(self.facts)
             for kind, sign in ((ACTIVE, 1), (INACTIVE, -1)):
                 for i in range(self.n):
-                    self.facts.append(Fact(kind, i))
+                    self.facts.append(EncodedFact(kind, i))
                     self.literals.append(sign * self.a(i))
         wanted = set(active)
         chosen = [self._activity + (i if i in wanted else self.n + i) for i in range(self.n)]
