@@ -33,8 +33,8 @@ class Location:
 
 
 @dataclass(frozen=True)
-class Fact:
-    """One model or configuration fact that takes part in an explanation."""
+class LocatedFact:
+    """One model or configuration fact of an explanation: in words, located, with its rule."""
 
     text: str
     location: Location
@@ -50,7 +50,7 @@ class Diagnostic:
     message: str
     rule: str
     feature: str | None = None
-    facts: tuple[Fact, ...] = field(default=())
+    facts: tuple[LocatedFact, ...] = field(default=())
 
     def as_dict(self) -> dict[str, object]:
         return {

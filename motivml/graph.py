@@ -36,12 +36,11 @@ from xml.sax.saxutils import escape, quoteattr
 from .architecture.document import Architecture
 from .architecture.elements import Element, Module
 from .errors import EnvironmentProblem, Location, error
-from .language.model import Feature, FeatureModel
+from .language.model import Binding, Feature, FeatureModel, token
 
 Value = str | int | float | bool
 GRAPHML_NS = "http://graphml.graphdrawing.org/xmlns"
-BINDINGS = {"SE": "Static Early", "SL": "Static Late", "DE": "Dynamic Early", "DL": "Dynamic Late"}
-_FILLS = {"SE": "#dbe9f6", "SL": "#d9f0d3", "DE": "#fde9c9", "DL": "#f6d5e5"}
+_FILLS = {Binding.SE: "#dbe9f6", Binding.SL: "#d9f0d3", Binding.DE: "#fde9c9", Binding.DL: "#f6d5e5"}
 _FADED = {"style": "dashed", "color": "grey60"}
 _UNSELECTED = _FADED | {"style": "rounded,dashed,filled", "fillcolor": "#f2f2f2", "fontcolor": "grey50"}
 _GROUP = {"shape": "invtriangle", "style": "filled", "width": "0.3", "height": "0.25", "fixedsize": "true"}
@@ -65,7 +64,7 @@ class DecisionLike(Protocol):
     @property
     def selected(self) -> bool: ...
     @property
-    def binding(self) -> str: ...
+    def binding(self) -> Binding: ...
 
 
 class VariantLike(Protocol):
@@ -193,17 +192,18 @@ def _feature_graph(model: FeatureModel, variant: VariantLike | None) -> _Graph:
         groups.setdefault(g.parent, []).append((g.kind, f"{model.features[g.parent].id}/{g.kind}"))
     for f in model.features:
         decision = decisions.get(f.id)
-        allowed = f"{f.mode_allowed} · {f.time_allowed}"
-        data: dict[str, Value] = {"label": f.name, "kind": "feature", "timeAllowed": f.time_allowed}
-        data |= {"modeAllowed": f.mode_allowed, "mandatory": f.mandatory, "group": f.group}
+        time_allowed, mode_allowed = token(f.time_allowed), token(f.mode_allowed)
+        allowed = f"{mode_allowed} · {time_allowed}"
+        data: dict[str, Value] = {"label": f.name, "kind": "feature", "timeAllowed": time_allowed}
+        data |= {"modeAllowed": mode_allowed, "mandatory": f.mandatory, "group": f.group}
         dot = {"shape": "box", "style": "rounded,filled", "fillcolor": "white"}
         if f.parent is None:
             dot["penwidth"] = "2"
         if decision is None:
             label = _lines(f.name, allowed)
         elif decision.selected:
-            data |= {"selected": True, "binding": decision.binding}
-            label = _lines(f.name, BINDINGS[decision.binding])
+            data |= {"selected": True, "binding": decision.binding.value}
+            label = _lines(f.name, decision.binding.words)
             dot["fillcolor"] = _FILLS[decision.binding]
         else:
             data["selected"] = False

@@ -73,7 +73,7 @@ def validate_configuration(model: FeatureModel, config_path: str | Path, partial
         report.open_bindings = sum(
             1
             for e in config.entries.values()
-            if e.selected and (e.time == "Any" or e.mode == "Any") and e.id != model.root.id
+            if e.selected and (e.time is None or e.mode is None) and e.id != model.root.id
         )
     return _sorted(report)
 

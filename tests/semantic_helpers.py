@@ -11,7 +11,7 @@ import reference_semantics as ref
 
 from motivml.binding.check import check_variant
 from motivml.documents.loader import parse
-from motivml.errors import Diagnostic, Fact
+from motivml.errors import Diagnostic, LocatedFact
 from motivml.language.reader import read_configuration, read_model
 
 MODEL_FILE = "model.json"
@@ -77,7 +77,7 @@ def _key(base: str, key: str) -> str:
 
 
 def statement_of(
-    fact: Fact, model: dict[str, Any], config: dict[str, Any] | None
+    fact: LocatedFact, model: dict[str, Any], config: dict[str, Any] | None
 ) -> tuple[tuple[str, ...], bool]:
     """The reference statement one fact of an explanation states, and whether it is a
     hypothesis of the question asked ("f would be selected") rather than something the

@@ -159,7 +159,7 @@ def test_resolution_is_valid_and_optimal(data: st.DataObject, prefer: set[str]) 
             resolve(feature_model, configuration, prefer)
         return
     resolved = resolve(feature_model, configuration, prefer)
-    chosen = {d.feature.id: (d.early, d.static) for d in resolved.decisions if d.selected}
+    chosen = {d.feature.id: (d.binding.early, d.binding.static) for d in resolved.decisions if d.selected}
     assert chosen in variants
     lock = json.loads(outputs(resolved)["variant.lock.json"])
     assert list(ref.valid_variants(model, lock)) == [chosen]

@@ -24,7 +24,7 @@ from motivml.graph import (
     feature_model_graphml,
     render_svg,
 )
-from motivml.language.model import Feature, FeatureModel
+from motivml.language.model import Feature, FeatureModel, token
 from motivml.language.reader import load_configuration, load_model, read_model
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
@@ -108,7 +108,7 @@ def test_dot_draws_every_feature_once_with_foda_edges() -> None:
     assert [n for n in nodes if "/" not in n] == [f.id for f in model.features]
     assert {n for n in nodes if "/" in n} == {f"{model.features[g.parent].id}/{g.kind}" for g in model.groups}
     slam = model["slam"]
-    assert f'label="{slam.name}\\n{slam.time_allowed} · {slam.mode_allowed}"' in nodes["slam"]
+    assert f'label="{slam.name}\\n{token(slam.time_allowed)} · {token(slam.mode_allowed)}"' in nodes["slam"]
     edges = {(s, t): attrs for s, t, attrs in EDGE.findall(dot)}
     mandatory = next(f for f in model.features[1:] if f.mandatory)
     optional = next(f for f in model.features[1:] if not f.mandatory and not f.group)
@@ -179,7 +179,7 @@ def test_control_characters_and_newlines_stay_well_formed() -> None:
 
 def chain(depth: int) -> FeatureModel:
     features = [
-        Feature(i, f"f{i}", f"F{i}", i - 1 if i else None, 0, "", "", bool(i), None, "Any", "Any", (), ())
+        Feature(i, f"f{i}", f"F{i}", i - 1 if i else None, 0, "", "", bool(i), None, None, None, (), ())
         for i in range(depth)
     ]
     for f in features[1:]:

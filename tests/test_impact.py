@@ -11,8 +11,9 @@ from click.testing import CliRunner
 
 from motivml.binding.impact import REBUILD, RESTART, RUN_TIME, classify
 from motivml.cli import main
+from motivml.language.model import OFF, Binding, FeatureState
 
-STATES = ["off", "SE", "SL", "DE", "DL"]
+STATES: list[FeatureState] = [OFF, *Binding]
 
 # Straight from the spec's sentences, one row per `before`.
 EXPECTED = {
@@ -25,7 +26,7 @@ EXPECTED = {
 
 
 @pytest.mark.parametrize(("before", "after"), [p for p in itertools.product(STATES, STATES) if p[0] != p[1]])
-def test_classification(before: str, after: str) -> None:
+def test_classification(before: FeatureState, after: FeatureState) -> None:
     assert classify(before, after)[0] == EXPECTED[(before, after)]
 
 

@@ -7,6 +7,7 @@ import json
 from helpers import config, dumps, feature
 
 from motivml.documents.loader import parse
+from motivml.language.model import Binding, Mode, Time, token
 from motivml.language.reader import read_configuration, read_model
 
 
@@ -104,3 +105,20 @@ def test_repeated_include_is_warned_and_used_once() -> None:
         "warning: m.json:11:11: $.sub[0].constraints.featuresIncluded[1]: a includes b twice; the second is ignored"
     ]
     assert model["a"].includes == ("b", "b")
+
+
+def test_any_is_read_as_an_open_value_and_a_binding_is_spelled_from_its_time_and_mode() -> None:
+    model, _ = read(feature("r", [feature("a", time="Any", mode="Dynamic")]))
+    assert (model["a"].time_allowed, model["a"].mode_allowed) == (None, Mode.DYNAMIC)
+    entries = read_configuration(parse(json.dumps(config(("a", "Late", "Any"))), "c.json"), model)[0].entries
+    assert (entries["a"].time, entries["a"].mode) == (Time.LATE, None)
+    assert [(b.value, b.words, b.macro) for b in Binding] == [
+        ("SE", "Static Early", "STATIC_EARLY"),
+        ("SL", "Static Late", "STATIC_LATE"),
+        ("DE", "Dynamic Early", "DYNAMIC_EARLY"),
+        ("DL", "Dynamic Late", "DYNAMIC_LATE"),
+    ]
+    for b in Binding:
+        assert Binding.of(b.time, b.mode) is b is Binding.from_flags(b.early, b.static)
+        assert (b.early, b.static) == (b.time is Time.EARLY, b.mode is Mode.STATIC)
+    assert [token(v) for v in (Time.LATE, Mode.DYNAMIC, None)] == ["Late", "Dynamic", "Any"]

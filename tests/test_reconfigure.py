@@ -249,7 +249,7 @@ def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataO
         variant = resolve(model, configuration, ("late", "dynamic"))
     except NoVariant:
         return
-    selected = {d.feature.id: (d.early, d.static) for d in variant.selected()}
+    selected = {d.feature.id: (d.binding.early, d.binding.static) for d in variant.selected()}
     if len(selected) == 1:
         return  # only the root: nothing can change
     reference = Reference(raw, model, selected)

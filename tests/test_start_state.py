@@ -21,7 +21,7 @@ from motivml.language.reader import read_configuration, read_model
 
 
 def selection_of(variant: Variant) -> dict[str, tuple[bool, bool]]:
-    return {d.feature.id: (d.early, d.static) for d in variant.selected()}
+    return {d.feature.id: (d.binding.early, d.binding.static) for d in variant.selected()}
 
 
 def complete(raw: dict[str, Any], variant: dict[str, tuple[bool, bool]]) -> dict[str, Any]:

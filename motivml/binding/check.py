@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
-from ..language.model import Configuration, Feature, FeatureModel
+from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
 from . import encoding as enc
 from .explain import Explainer
 
@@ -52,17 +52,17 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
             [[hard.s(i)] for i in range(n)], with_config=False, hints=[[hard.s(i) for i in range(n)]]
         )
         targets: list[list[int]] = []
-        owners: list[tuple[int, str, str]] = []  # (feature, aspect, value)
+        owners: list[tuple[int, str, Time | Mode]] = []  # (feature, aspect, value)
         for f in features:
             if not alive[f.index]:
                 continue
             i = f.index
-            if f.time_allowed == "Any":
+            if f.time_allowed is None:
                 targets += [[hard.s(i), hard.E(i)], [hard.s(i), -hard.E(i)]]
-                owners += [(i, "time", "Early"), (i, "time", "Late")]
-            if f.mode_allowed == "Any":
+                owners += [(i, "time", Time.EARLY), (i, "time", Time.LATE)]
+            if f.mode_allowed is None:
                 targets += [[hard.s(i), hard.S(i)], [hard.s(i), -hard.S(i)]]
-                owners += [(i, "mode", "Static"), (i, "mode", "Dynamic")]
+                owners += [(i, "mode", Mode.STATIC), (i, "mode", Mode.DYNAMIC)]
         hints = [
             [lit for i in range(n) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
             for e in (1, -1)
@@ -102,7 +102,12 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
                     _more(rest, model, "model.impossible-binding", "bindings allowed but never possible")
                 )
                 break
-            other = {"Early": "Late", "Late": "Early", "Static": "Dynamic", "Dynamic": "Static"}[value]
+            other = {
+                Time.EARLY: Time.LATE,
+                Time.LATE: Time.EARLY,
+                Mode.STATIC: Mode.DYNAMIC,
+                Mode.DYNAMIC: Mode.STATIC,
+            }[value]
             head = f"{f.id} allows Any binding {aspect} but can never be {value}, only {other}"
             key = "bindingTimeAllowed" if aspect == "time" else "bindingModeAllowed"
             where = explainer.model_location(i, "constraints", key)
@@ -110,10 +115,10 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
                 found.append(warning(where, head, "model.impossible-binding", f.id))
                 continue
             literal = {
-                "Early": encoding.E(i),
-                "Late": -encoding.E(i),
-                "Static": encoding.S(i),
-                "Dynamic": -encoding.S(i),
+                Time.EARLY: encoding.E(i),
+                Time.LATE: -encoding.E(i),
+                Mode.STATIC: encoding.S(i),
+                Mode.DYNAMIC: -encoding.S(i),
             }
             q1 = encoding.query("query-selected", i, encoding.s(i))
             q2 = encoding.query("query-binding", i, literal[value])
@@ -144,13 +149,15 @@ def _as_warning(explained: Diagnostic, where: Location, head: str, rule: str, fe
     )
 
 
-def binding_states(model: FeatureModel, config: Configuration | None) -> list[set[str]]:
+def binding_states(model: FeatureModel, config: Configuration | None) -> list[set[FeatureState]]:
     """Per feature, what valid variants (of the configuration) can make of it.
 
-    Each set holds "off" (not selected) and/or the bindings SE, SL, DE, DL it can take; a
-    one-element set is what the solver forces. This is the paper's "binding semantics
-    interpreter", answered by `Encoding.cover`.
+    Each set holds OFF (not selected) and/or the bindings it can take; a one-element set is
+    what the solver forces. This is the paper's "binding semantics interpreter", answered
+    by `Encoding.cover`.
     """
+    states: tuple[FeatureState, ...] = (OFF, *Binding)
+    signs = [(1 if b.early else -1, 1 if b.static else -1) for b in Binding]
     with no_gc(), enc.Encoding(model) as hard:
         if config is not None:
             hard.set_configuration(config)
@@ -158,7 +165,8 @@ def binding_states(model: FeatureModel, config: Configuration | None) -> list[se
         for f in model.features:
             i = f.index
             s, e, st = hard.s(i), hard.E(i), hard.S(i)
-            targets += [[-s], [s, e, st], [s, -e, st], [s, e, -st], [s, -e, -st]]
+            targets.append([-s])
+            targets += [[s, te * e, ts * st] for te, ts in signs]
         possible = hard.cover(targets, with_config=config is not None)
-    names = ("off", "SE", "SL", "DE", "DL")
-    return [{names[j] for j in range(5) if possible[5 * f.index + j]} for f in model.features]
+    k = len(states)
+    return [{states[j] for j in range(k) if possible[k * f.index + j]} for f in model.features]

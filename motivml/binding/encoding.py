@@ -34,7 +34,7 @@ from pysat.examples.rc2 import RC2
 from pysat.formula import WCNF
 from pysat.solvers import Solver
 
-from ..language.model import Configuration, FeatureModel
+from ..language.model import Configuration, FeatureModel, Mode, Time
 
 SOLVER = "glucose4"  # forgiving API, assumptions and cores; CaDiCaL aborts the process on misuse
 
@@ -70,10 +70,13 @@ CONFIG_KINDS = frozenset({CONFIG_SELECTED, CONFIG_DESELECTED, CONFIG_TIME, CONFI
 
 
 @dataclass(frozen=True, slots=True)
-class Fact:
-    """A model or configuration statement: `kind` over features `a` and `b` (-1: none).
+class EncodedFact:
+    """A model or configuration statement as the encoding holds it: a kind over features.
 
-    For group facts `a` is the group's index in `FeatureModel.groups`.
+    `a` and `b` are feature indices (-1: none; for group facts `a` is the group's index in
+    `FeatureModel.groups`). Its literal in `Encoding.literals` puts it in force: a selector
+    over its clauses, or the configuration's literal itself. Explanations put it in words
+    and locate it as an `errors.LocatedFact`.
     """
 
     kind: str
@@ -92,7 +95,7 @@ class Encoding:
         self.recorded: list[list[int]] | None = [] if record else None  # for bench/ (DIMACS)
         n = len(model.features)
         self.n = n
-        self.facts: list[Fact] = []  # explain build: every fact; hard build: config facts
+        self.facts: list[EncodedFact] = []  # explain build: every fact; hard build: config facts
         self.literals: list[int] = []  # the assumption literal of each fact
         self._top = 4 * n
         self._activity: int | None = None  # index of the first ACTIVE fact, once made
@@ -129,7 +132,7 @@ class Encoding:
         if not self.explain:
             return 0
         selector = self._new_var()
-        self.facts.append(Fact(kind, a, b))
+        self.facts.append(EncodedFact(kind, a, b))
         self.literals.append(selector)
         return selector
 
@@ -150,6 +153,7 @@ class Encoding:
     # ------------------------------------------------------------------ encoding
     def _encode_model(self) -> None:
         s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
+        early_time, static_mode = Time.EARLY, Mode.STATIC  # local: an enum member lookup is slow
         features = self.model.features
         start = self._fact(START, 0)
         early = self._fact(START_EARLY, 0)
@@ -166,12 +170,12 @@ class Encoding:
 
         for f in features:
             i = f.index
-            if f.time_allowed != "Any":
+            if f.time_allowed is not None:
                 sel = self._fact(ALLOWED_TIME, i)
-                self._add(sel, [-s(i), E(i) if f.time_allowed == "Early" else -E(i)])
-            if f.mode_allowed != "Any":
+                self._add(sel, [-s(i), E(i) if f.time_allowed is early_time else -E(i)])
+            if f.mode_allowed is not None:
                 sel = self._fact(ALLOWED_MODE, i)
-                self._add(sel, [-s(i), S(i) if f.mode_allowed == "Static" else -S(i)])
+                self._add(sel, [-s(i), S(i) if f.mode_allowed is static_mode else -S(i)])
             p = f.parent
             if p is None:
                 continue
@@ -238,6 +242,7 @@ class Encoding:
         """Add a configuration's facts (once per encoding): literals to assume."""
         first = len(self.facts)
         index = self.model.index
+        early_time, static_mode = Time.EARLY, Mode.STATIC
         for entry in config.entries.values():
             i = index.get(entry.id)
             if i is None:
@@ -246,14 +251,14 @@ class Encoding:
                 self._config_fact(CONFIG_DESELECTED, i, -self.s(i))
                 continue
             self._config_fact(CONFIG_SELECTED, i, self.s(i))
-            if entry.time != "Any":
-                self._config_fact(CONFIG_TIME, i, self.E(i) if entry.time == "Early" else -self.E(i))
-            if entry.mode != "Any":
-                self._config_fact(CONFIG_MODE, i, self.S(i) if entry.mode == "Static" else -self.S(i))
+            if entry.time is not None:
+                self._config_fact(CONFIG_TIME, i, self.E(i) if entry.time is early_time else -self.E(i))
+            if entry.mode is not None:
+                self._config_fact(CONFIG_MODE, i, self.S(i) if entry.mode is static_mode else -self.S(i))
         self._config_fact_range = (first, len(self.facts))
 
     def _config_fact(self, kind: str, i: int, literal: int) -> None:
-        self.facts.append(Fact(kind, i))
+        self.facts.append(EncodedFact(kind, i))
         self.literals.append(literal)
 
     # ----------------------------------------------------------------- queries
@@ -271,7 +276,7 @@ class Encoding:
 
     def query(self, kind: str, i: int, literal: int) -> int:
         """A hypothetical fact ("f is selected") to explain why it cannot hold; its index."""
-        self.facts.append(Fact(kind, i))
+        self.facts.append(EncodedFact(kind, i))
         self.literals.append(literal)
         return len(self.facts) - 1
 
@@ -435,7 +440,7 @@ class Encoding:
             self._activity = len(self.facts)
             for kind, sign in ((ACTIVE, 1), (INACTIVE, -1)):
                 for i in range(self.n):
-                    self.facts.append(Fact(kind, i))
+                    self.facts.append(EncodedFact(kind, i))
                     self.literals.append(sign * self.a(i))
         wanted = set(active)
         chosen = [self._activity + (i if i in wanted else self.n + i) for i in range(self.n)]

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from ..errors import Diagnostic, Fact, Location, Severity
-from ..language.model import Configuration, FeatureModel
+from ..errors import Diagnostic, LocatedFact, Location, Severity
+from ..language.model import Configuration, FeatureModel, Mode, Time
 from . import encoding as enc
 
 # kind -> (rule, why); the first matching kind in PRIORITY gives the sentence its "why".
@@ -129,7 +129,7 @@ class Explainer:
         location: Location = doc.locate(self.config.path(self._id(i), *keys))
         return location
 
-    def statement(self, k: int) -> Fact:
+    def statement(self, k: int) -> LocatedFact:
         """One fact in words, with its rule and location."""
         fact = self.encoding.facts[k]
         kind, a, b = fact.kind, fact.a, fact.b
@@ -138,34 +138,34 @@ class Explainer:
         if kind in (enc.GROUP_OR, enc.GROUP_XOR):
             group = model.groups[a]
             members = ", ".join(self._id(m) for m in group.members)
-            return Fact(
+            return LocatedFact(
                 f"{self._id(group.parent)} has the {group.kind} group {members}",
                 self.model_location(group.members[0], "group"),
                 rule,
             )
         if kind == enc.ROOT:
-            return Fact(f"{self._id(0)} is the root", self.model_location(0, "id"), rule)
+            return LocatedFact(f"{self._id(0)} is the root", self.model_location(0, "id"), rule)
         if kind in STATE_KINDS:
             text = (
                 "the active set satisfies section 2 at every moment"
                 if self.run_time
                 else "the robot must be able to start"
             )
-            return Fact(text, self.model_location(0), "section 4")
+            return LocatedFact(text, self.model_location(0), "section 4")
         if kind in (enc.ACTIVE, enc.INACTIVE):
             state = "active" if kind == enc.ACTIVE else "inactive"
-            return Fact(f"{self._id(a)} would be {state}", self.model_location(a, "id"), "request")
+            return LocatedFact(f"{self._id(a)} would be {state}", self.model_location(a, "id"), "request")
         if kind in (enc.PARENT, enc.SUB_MODE, enc.SUB_TIME):
             parent = model.features[a].parent
             assert parent is not None
-            return Fact(
+            return LocatedFact(
                 f"{self._id(a)} is a sub-feature of {self._id(parent)}", self.model_location(a, "id"), rule
             )
         if kind in (enc.MANDATORY, enc.UNIT_TIME):
             parent = model.features[a].parent
             assert parent is not None
             where = "isMandatory" if model.features[a].declared_mandatory is not None else "id"
-            return Fact(
+            return LocatedFact(
                 f"{self._id(a)} is a mandatory sub-feature of {self._id(parent)}",
                 self.model_location(a, where),
                 rule,
@@ -174,7 +174,7 @@ class Explainer:
             parent = model.features[a].parent
             assert parent is not None
             where = "isMandatory" if model.features[a].declared_mandatory is not None else "id"
-            return Fact(
+            return LocatedFact(
                 f"{self._id(parent)} requires its mandatory sub-feature {self._id(a)}",
                 self.model_location(a, where),
                 rule,
@@ -182,7 +182,7 @@ class Explainer:
         if kind == enc.XOR_PAIR:
             parent = model.features[a].parent
             assert parent is not None
-            return Fact(
+            return LocatedFact(
                 f"{self._id(a)} and {self._id(b)} are alternatives in {self._id(parent)}'s XOR group",
                 self.model_location(b, "group"),
                 rule,
@@ -191,7 +191,7 @@ class Explainer:
             target = self._id(b)
             position = list(model.features[a].includes).index(target)
             verb = "includes" if kind == enc.INCLUDE else "requires"
-            return Fact(
+            return LocatedFact(
                 f"{self._id(a)} {verb} {target}",
                 self.model_location(a, "constraints", "featuresIncluded", position),
                 rule,
@@ -199,21 +199,21 @@ class Explainer:
         if kind == enc.EXCLUDE:
             target = self._id(b)
             position = list(model.features[a].excludes).index(target)
-            return Fact(
+            return LocatedFact(
                 f"{self._id(a)} excludes {target}",
                 self.model_location(a, "constraints", "featuresExcluded", position),
                 rule,
             )
         if kind == enc.ALLOWED_TIME:
             feature = model.features[a]
-            return Fact(
+            return LocatedFact(
                 f"{feature.id} allows only {feature.time_allowed} binding",
                 self.model_location(a, "constraints", "bindingTimeAllowed"),
                 "3",
             )
         if kind == enc.ALLOWED_MODE:
             feature = model.features[a]
-            return Fact(
+            return LocatedFact(
                 f"{feature.id} allows only {feature.mode_allowed} binding",
                 self.model_location(a, "constraints", "bindingModeAllowed"),
                 "3",
@@ -221,20 +221,22 @@ class Explainer:
         if kind in enc.CONFIG_KINDS:
             literal = self.encoding.literals[k]
             if kind == enc.CONFIG_SELECTED:
-                return Fact(f"{self._id(a)} is selected", self._config_loc(a), "config")
+                return LocatedFact(f"{self._id(a)} is selected", self._config_loc(a), "config")
             if kind == enc.CONFIG_DESELECTED:
-                return Fact(f"{self._id(a)} is not selected", self._config_loc(a, "selected"), "config")
-            if kind == enc.CONFIG_TIME:
-                value = "Early" if literal > 0 else "Late"
-                return Fact(
-                    f"{self._id(a)} is configured {value}", self._config_loc(a, "props", "time"), "config"
+                return LocatedFact(
+                    f"{self._id(a)} is not selected", self._config_loc(a, "selected"), "config"
                 )
-            value = "Static" if literal > 0 else "Dynamic"
-            return Fact(
-                f"{self._id(a)} is configured {value}", self._config_loc(a, "props", "mode"), "config"
+            if kind == enc.CONFIG_TIME:
+                time = Time.EARLY if literal > 0 else Time.LATE
+                return LocatedFact(
+                    f"{self._id(a)} is configured {time}", self._config_loc(a, "props", "time"), "config"
+                )
+            mode = Mode.STATIC if literal > 0 else Mode.DYNAMIC
+            return LocatedFact(
+                f"{self._id(a)} is configured {mode}", self._config_loc(a, "props", "mode"), "config"
             )
         # queries ("what if f were selected / bound so")
-        return Fact(
+        return LocatedFact(
             self.query_words.get(k, f"{self._id(a)} is assumed"), self.model_location(a, "id"), "query"
         )
 
@@ -251,7 +253,9 @@ class Explainer:
         parent = self.model.features[fact.a].parent
         return (fact.a,) if parent is None else (fact.a, parent)
 
-    def sentence(self, mus: Sequence[int]) -> tuple[str, str, int, dict[int, Fact], tuple[Fact, ...]]:
+    def sentence(
+        self, mus: Sequence[int]
+    ) -> tuple[str, str, int, dict[int, LocatedFact], tuple[LocatedFact, ...]]:
         """(message, rule, primary fact's index, each fact in words, all facts shown)."""
         facts = self.encoding.facts
         kinds = {facts[k].kind for k in mus}

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from ..language.model import OFF, Binding, FeatureState
 from .resolve import Decision, Variant
 
 REBUILD, RESTART, RUN_TIME = "rebuild", "restart", "run time"
@@ -19,48 +20,50 @@ ORDER = (REBUILD, RESTART, RUN_TIME)
 
 
 @dataclass(frozen=True)
-class Change:
+class FeatureChange:
+    """One feature's difference between two variants, and what making it takes."""
+
     feature: str
-    before: str  # "off", "SE", "SL", "DE" or "DL"
-    after: str
+    before: FeatureState
+    after: FeatureState
     impact: str
     reason: str
 
 
-def _state(d: Decision) -> str:
-    return d.binding if d.selected else "off"
+def _state(d: Decision) -> FeatureState:
+    return d.binding if d.selected else OFF
 
 
-def classify(before: str, after: str) -> tuple[str, str]:
+def classify(before: FeatureState, after: FeatureState) -> tuple[str, str]:
     """(impact, reason) of one feature's change from `before` to `after`."""
-    if (before == "SE") != (after == "SE"):
-        verb = "enters" if after == "SE" else "leaves"
+    if (before == Binding.SE) != (after == Binding.SE):
+        verb = "enters" if after == Binding.SE else "leaves"
         return REBUILD, f"{verb} the Static Early features, which are compiled in"
-    if before == "SL" and after != "SL":
-        what = "leaves the selection" if after == "off" else "changes its binding"
+    if before == Binding.SL and after != Binding.SL:
+        what = "leaves the selection" if after == OFF else "changes its binding"
         return RESTART, f"a Static Late feature {what}: once loaded it stays until the program ends"
-    if before != "off" and after != "off" and before[0] != after[0]:
+    if isinstance(before, Binding) and isinstance(after, Binding) and before.mode != after.mode:
         return RESTART, "changes mode (Static / Dynamic): its loader is chosen when the program starts"
-    if after == "SL":
+    if after == Binding.SL:
         return RUN_TIME, "a Static Late feature enters: it is loaded while the program runs"
-    if before == "off":
+    if before == OFF:
         return RUN_TIME, "a Dynamic feature enters: it is loaded while the program runs"
-    if after == "off":
+    if after == OFF:
         return RUN_TIME, "a Dynamic feature leaves: it is unloaded while the program runs"
     return RUN_TIME, "a Dynamic feature changes time: it is unloaded and loaded again while the program runs"
 
 
-def diff(first: Variant, second: Variant) -> list[Change]:
+def diff(first: Variant, second: Variant) -> list[FeatureChange]:
     """Every feature whose selection or binding differs, worst impact first, then model order."""
     changes = []
     for a, b in zip(first.decisions, second.decisions, strict=True):
         before, after = _state(a), _state(b)
         if before != after:
             impact, reason = classify(before, after)
-            changes.append(Change(a.feature.id, before, after, impact, reason))
+            changes.append(FeatureChange(a.feature.id, before, after, impact, reason))
     return sorted(changes, key=lambda c: ORDER.index(c.impact))
 
 
-def verdict(changes: list[Change]) -> str:
+def verdict(changes: list[FeatureChange]) -> str:
     """The worst impact of all changes ("run time" when there are none)."""
     return min((c.impact for c in changes), key=ORDER.index, default=RUN_TIME)

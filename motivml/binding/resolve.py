@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 from ..documents.loader import no_gc
 from ..errors import MotivmlError
-from ..language.model import Configuration, Entry, Feature, FeatureModel
+from ..language.model import Binding, Configuration, Entry, Feature, FeatureModel
 from . import PREFERENCES
 from . import encoding as enc
 from .check import check_variant
@@ -30,16 +30,10 @@ class Decision:
 
     feature: Feature
     selected: bool
-    early: bool  # meaningful when selected
-    static: bool
+    binding: Binding  # meaningful when selected
     selection_by: str  # "configuration" or "solver"
     time_by: str
     mode_by: str
-
-    @property
-    def binding(self) -> str:
-        """SE, SL, DE or DL."""
-        return ("S" if self.static else "D") + ("E" if self.early else "L")
 
 
 @dataclass(frozen=True)
@@ -74,18 +68,17 @@ def resolve(model: FeatureModel, config: Configuration, prefer: Collection[str] 
             Decision(
                 feature=f,
                 selected=truth[encoding.s(i)],
-                early=truth[encoding.E(i)],
-                static=truth[encoding.S(i)],
+                binding=Binding.from_flags(truth[encoding.E(i)], truth[encoding.S(i)]),
                 selection_by="model"
                 if f.parent is None
                 else "configuration"
                 if entry is not None
                 else "solver",
                 time_by="configuration"
-                if entry is not None and entry.time != "Any"
+                if entry is not None and entry.time is not None
                 else _model_or_solver(f, "time"),
                 mode_by="configuration"
-                if entry is not None and entry.mode != "Any"
+                if entry is not None and entry.mode is not None
                 else _model_or_solver(f, "mode"),
             )
         )
@@ -94,7 +87,7 @@ def resolve(model: FeatureModel, config: Configuration, prefer: Collection[str] 
 
 def _model_or_solver(feature: Feature, aspect: str) -> str:
     allowed = feature.time_allowed if aspect == "time" else feature.mode_allowed
-    return "model" if allowed != "Any" or feature.parent is None else "solver"
+    return "model" if allowed is not None or feature.parent is None else "solver"
 
 
 def _preferences(
@@ -107,9 +100,9 @@ def _preferences(
         i = f.index
         if entry is None:
             undecided.append(-encoding.s(i))
-        if entry is None or entry.time == "Any":
+        if entry is None or entry.time is None:
             times.append(-encoding.E(i) if "late" in prefer else encoding.E(i))
-        if entry is None or entry.mode == "Any":
+        if entry is None or entry.mode is None:
             modes.append(-encoding.S(i) if "dynamic" in prefer else encoding.S(i))
     mode_weight = 1
     time_weight = len(modes) + 1
@@ -125,9 +118,7 @@ def as_configuration(variant: Variant) -> Configuration:
     """The variant as a complete configuration (every feature decided, no Any)."""
     entries = {}
     for position, d in enumerate(variant.decisions):
-        time = "Early" if d.early else "Late"
-        mode = "Static" if d.static else "Dynamic"
-        entries[d.feature.id] = Entry(d.feature.id, d.selected, time, mode, position)
+        entries[d.feature.id] = Entry(d.feature.id, d.selected, d.binding.time, d.binding.mode, position)
     return Configuration(entries, variant.name)
 
 
@@ -139,7 +130,7 @@ def start_state(variant: Variant) -> list[Feature]:
     the encoding that resolved it); NoVariant says otherwise if that ever fails.
     """
     model = variant.model
-    late = [d.feature.index for d in variant.selected() if not d.early]
+    late = [d.feature.index for d in variant.selected() if not d.binding.early]
     with enc.Encoding(model) as encoding:
         encoding.set_configuration(as_configuration(variant))
         active = encoding.start_state(late)

@@ -15,6 +15,7 @@ from rich.markup import escape
 from ..binding import PREFERENCES
 from ..documents.robot_folder import RobotFolder
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from ..language.model import OFF, Binding, FeatureState, Mode, Time
 from .common import fail, out, plural, print_diagnostic, printable, targets
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
@@ -181,15 +182,7 @@ def configure_command(
         for d in resolved.decisions
         if d.selection_by == "solver" or (d.selected and "solver" in (d.time_by, d.mode_by))
     )
-    counts = ", ".join(
-        f"{sum(1 for d in chosen if d.binding == b)} {name}"
-        for b, name in (
-            ("SE", "Static Early"),
-            ("SL", "Static Late"),
-            ("DE", "Dynamic Early"),
-            ("DL", "Dynamic Late"),
-        )
-    )
+    counts = ", ".join(f"{sum(1 for d in chosen if d.binding is b)} {b.words}" for b in Binding)
     out.print(
         f"variant {escape(variant)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
     )
@@ -307,9 +300,10 @@ def show_command(target: str, config: str | None, variant: str | None) -> None:
     )
 
 
-def _tree(model: FeatureModel, config: Configuration | None, states: list[set[str]]) -> Tree:
+def _tree(model: FeatureModel, config: Configuration | None, states: list[set[FeatureState]]) -> Tree:
     from rich.tree import Tree
 
+    order: list[FeatureState] = [OFF, *Binding]
     nodes: dict[int, Tree] = {}
     root_tree: Tree | None = None
     for f in model.features:
@@ -330,7 +324,6 @@ def _tree(model: FeatureModel, config: Configuration | None, states: list[set[st
             else:
                 configured = f" set {_short(entry.mode)}{_short(entry.time)}"
         possible = states[f.index]
-        order = ["off", "SE", "SL", "DE", "DL"]
         solver = ",".join(s for s in order if s in possible) or "none"
         colour = "green" if len(possible) == 1 else "cyan"
         label = (
@@ -346,5 +339,6 @@ def _tree(model: FeatureModel, config: Configuration | None, states: list[set[st
     return root_tree
 
 
-def _short(token: str) -> str:
-    return {"Static": "S", "Dynamic": "D", "Early": "E", "Late": "L", "Any": "*"}[token]
+def _short(value: Time | Mode | None) -> str:
+    """A time or mode as the letter it has in a binding's name ("S" of "SE"); `*`: Any."""
+    return "*" if value is None else value[0]

@@ -27,7 +27,7 @@ from ..documents.loader import Document
 from ..documents.robot_folder import ARCHITECTURE_FILE
 from ..documents.schema import check_document
 from ..errors import Diagnostic, error, warning
-from ..language.model import FeatureModel
+from ..language.model import Binding, FeatureModel
 
 COORDINATION = "coordination.schema.json"
 MAX_DEPTH = 64  # nesting of states (the schema check recurses)
@@ -104,7 +104,7 @@ class VariantBindings:
     """What the checks need of a resolved variant: its name and each selected feature's binding."""
 
     name: str
-    bindings: dict[str, str]  # selected feature id -> "SE", "SL", "DE" or "DL"
+    bindings: dict[str, Binding]  # selected feature id -> its binding
 
 
 class _CoordinationChecker:
@@ -313,13 +313,13 @@ class _CoordinationChecker:
                     f"{verb} {feature}: {feature} is not in variant {self.variant.name}",
                     "coordination.variant",
                 )
-            elif binding == "SE":
+            elif binding is Binding.SE:
                 self.error(
                     path,
                     f"{verb} {feature}: {feature} is compiled into variant {self.variant.name} (Static Early)",
                     "coordination.variant",
                 )
-            elif binding == "SL" and (verb == "unload" or (verb == "swap" and path[-1] == 0)):
+            elif binding is Binding.SL and (verb == "unload" or (verb == "swap" and path[-1] == 0)):
                 self.error(
                     path,
                     f"{verb} {feature}: {feature} is Static Late in variant {self.variant.name}: it stays once loaded",

@@ -1,4 +1,4 @@
-"""Model objects: features, groups, configurations. Plain data, no I/O.
+"""Model objects: features, groups, configurations, bindings. Plain data, no I/O.
 
 A `FeatureModel` holds its features in pre-order (definition order): index 0 is the root,
 a parent comes before its children. That order is the one generated files and reports
@@ -6,14 +6,94 @@ use, and the tie-break of the start state (semantics.md section 4).
 
 Where a feature came from is kept as its JSON path, computed on demand from the parent
 links (paths of deep features are long, and most are never shown).
+
+A binding (semantics.md section 3) is one `Binding` everywhere: the variant, the generated
+files, the change impact, the run time and the coordination checks all speak it, and its
+spellings (the document's words, the two letters, the C macro) come from it alone. What
+the model allows and what a configuration entry asks for may leave time or mode open
+(`Any`): that is a `Time` or a `Mode`, or None for `Any`, never a `Binding`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from enum import StrEnum
+from typing import Any, Final, Literal
 
 PathItem = str | int
+
+
+class Time(StrEnum):
+    """When a feature is bound: while the program is built or started, or while it runs."""
+
+    EARLY = "Early"
+    LATE = "Late"
+
+
+class Mode(StrEnum):
+    """Whether a bound feature stays (Static) or can be unloaded and loaded again (Dynamic)."""
+
+    STATIC = "Static"
+    DYNAMIC = "Dynamic"
+
+
+ANY: Final = "Any"  # the documents' token for a time or mode left open (None in the objects)
+
+
+class Binding(StrEnum):
+    """The binding of a selected feature: a mode and a time, named by their initials.
+
+    The value is what reports and generated files have always written ("SE" ...); the
+    other spellings are derived from it: `words` "Static Early" (messages, pictures),
+    `macro` "STATIC_EARLY" (the generated C++ header). The parts are plain attributes,
+    not properties: the run time and code generation read them per feature. The order
+    of the members is the order of reports and the header's numbering (1 to 4).
+    """
+
+    mode: Mode
+    time: Time
+    static: bool
+    early: bool
+    words: str
+    macro: str
+
+    SE = "SE"
+    SL = "SL"
+    DE = "DE"
+    DL = "DL"
+
+    def __init__(self, letters: str) -> None:
+        self.static = letters[0] == "S"
+        self.early = letters[1] == "E"
+        self.mode = Mode.STATIC if self.static else Mode.DYNAMIC
+        self.time = Time.EARLY if self.early else Time.LATE
+        self.words = f"{self.mode} {self.time}"
+        self.macro = f"{self.mode}_{self.time}".upper()
+
+    @staticmethod
+    def of(time: Time, mode: Mode) -> Binding:
+        return _BINDINGS[mode is Mode.STATIC, time is Time.EARLY]
+
+    @staticmethod
+    def from_flags(early: bool, static: bool) -> Binding:
+        """From the truth of E(f) (Early) and S(f) (Static), as the encoding has them."""
+        return _BINDINGS[static, early]
+
+
+_BINDINGS: Final = {
+    (True, True): Binding.SE,
+    (True, False): Binding.SL,
+    (False, True): Binding.DE,
+    (False, False): Binding.DL,
+}  # (static, early) -> Binding
+
+OFF: Final = "off"  # what a variant makes of a feature it does not select
+FeatureState = Binding | Literal["off"]  # what a variant makes of a feature: off, or its binding
+
+
+def token(value: Time | Mode | None) -> str:
+    """A time or mode as the documents write it: `Any` when it is left open."""
+    return ANY if value is None else value.value
 
 
 @dataclass(slots=True)
@@ -27,8 +107,8 @@ class Feature:
     group: str  # the group it really belongs to ("" for one-member groups)
     mandatory: bool  # ungrouped and mandatory (rule 2.2); False for group members
     declared_mandatory: bool | None  # as written, None when absent
-    time_allowed: str
-    mode_allowed: str
+    time_allowed: Time | None  # None: Any
+    mode_allowed: Mode | None
     includes: tuple[str, ...]  # as written (a repeated id is warned about and used once)
     excludes: tuple[str, ...]
     children: list[int] = field(default_factory=list)
@@ -83,8 +163,8 @@ class Entry:
 
     id: str
     selected: bool
-    time: str  # Early | Late | Any (Any: absent or left to the configurator)
-    mode: str  # Static | Dynamic | Any
+    time: Time | None  # None: Any, absent or left to the configurator
+    mode: Mode | None
     position: int  # index in `properties`
 
 

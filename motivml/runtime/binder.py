@@ -39,7 +39,7 @@ from ..language.model import Configuration
 from ..plugins.api import PluginContext
 from ..plugins.python import PluginError, plugin_error
 from ..plugins.registry import loaders
-from .loop import Change, Commit, Fault, Running, Runtime
+from .loop import AppliedReconfiguration, Commit, Fault, Running, Runtime
 from .reconfigure import Plan, Reconfigurer, Refused
 from .requests import Request
 
@@ -58,7 +58,7 @@ class Outcome:
     request: Request
     accepted: bool
     plan: Plan | None = None
-    change: Change | None = None  # when it took effect
+    change: AppliedReconfiguration | None = None  # when it took effect
     latency: float = 0.0  # s, from the request to its commit
     diagnostics: list[Diagnostic] = field(default_factory=list)  # why not
     breaks_relations: bool = False  # refused because the new active set breaks the model's relations
@@ -86,7 +86,7 @@ class Binder:
         self.active = frozenset(active)
         self.reconfigurer = Reconfigurer(variant, config)
         self.loaders = loaders(robot, plugins)
-        self.static = {d.feature.id: d.static for d in variant.decisions}
+        self.static = {d.feature.id: d.binding.static for d in variant.decisions}
         self._lock = threading.Lock()
         self.between_ticks = False  # simulated clock: changes are made on the control thread
         self._inbox: queue.SimpleQueue[tuple[Request, Future[Outcome]]] = queue.SimpleQueue()

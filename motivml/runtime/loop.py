@@ -48,7 +48,7 @@ class Running:
 
 
 @dataclass(frozen=True)
-class Change:
+class AppliedReconfiguration:
     """An accepted reconfiguration, as it took effect."""
 
     tick: int  # the first tick that ran with it
@@ -81,7 +81,7 @@ class Commit:
     remove: tuple[str, ...]  # features whose plugin leaves the loop
     done: threading.Event = field(default_factory=threading.Event)
     removed: list[Running] = field(default_factory=list)  # to stop, off the control thread
-    change: Change | None = None
+    change: AppliedReconfiguration | None = None
     withdrawn: bool = False
     writes: list[tuple[str, Any]] = field(default_factory=list)  # made by plugins in start()
 
@@ -218,7 +218,7 @@ class Runtime:
         self.events: list[Event] = []
         self.stop_requested = threading.Event()
         self.plugins: dict[str, Running] = {}
-        self.changes: list[Change] = []
+        self.changes: list[AppliedReconfiguration] = []
         self.faults: list[Fault] = []
         self.notes: list[tuple[float, int, str]] = []  # (control time, tick, text): the run's log
         self.on_fault: Callable[[Fault], None] | None = None  # Dynamic plugin faults go here
@@ -291,7 +291,7 @@ class Runtime:
                 for space, value in commit.writes:
                     if space in self.assembly.values:
                         self.assembly.values[space] = value
-                commit.change = Change(
+                commit.change = AppliedReconfiguration(
                     self.ticks,
                     self.time,
                     time.time(),

@@ -70,8 +70,9 @@ class Reconfigurer:
         for d in variant.decisions:
             i = d.feature.index
             e = self.encoding
-            self.fixed += [e.s(i) if d.selected else -e.s(i), e.E(i) if d.early else -e.E(i)]
-            self.fixed.append(e.S(i) if d.static else -e.S(i))
+            b = d.binding
+            self.fixed += [e.s(i) if d.selected else -e.s(i), e.E(i) if b.early else -e.E(i)]
+            self.fixed.append(e.S(i) if b.static else -e.S(i))
         self.explainer = Explainer(self.encoding, self.model, None, run_time=True)
 
     # ------------------------------------------------------------------ messages
@@ -83,10 +84,6 @@ class Reconfigurer:
 
     def _refuse(self, feature: str, message: str, rule: str, *keys: str) -> Refused:
         return Refused(error(self._where(feature, *keys), message, rule, feature))
-
-    def _binding(self, feature: str) -> str:
-        d = self.decisions[feature]
-        return ("Static" if d.static else "Dynamic") + (" Early" if d.early else " Late")
 
     # --------------------------------------------------------------------- plan
     def plan(self, active: Collection[str], request: Request) -> Plan:
@@ -177,12 +174,12 @@ class Reconfigurer:
             raise self._refuse(
                 feature, f"{feature} is not active: there is nothing to {verb}", "reconfigure.inactive"
             )
-        d = self.decisions[feature]
-        if d.static:
-            why = "it is compiled in" if d.early else "a Static Late feature stays once it is loaded"
+        binding = self.decisions[feature].binding
+        if binding.static:
+            why = "it is compiled in" if binding.early else "a Static Late feature stays once it is loaded"
             raise self._refuse(
                 feature,
-                f"{feature} is bound {self._binding(feature)}: a Static feature never unloads or reloads; {why} (section 4)",
+                f"{feature} is bound {binding.words}: a Static feature never unloads or reloads; {why} (section 4)",
                 "reconfigure.static",
                 "props",
                 "mode",

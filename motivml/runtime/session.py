@@ -32,7 +32,7 @@ from .binder import Outcome
 from .control import ControlServer
 from .coordinator import Coordinator
 from .launch import Robot
-from .loop import Change, RealClock, RunStats, Runtime, SimulatedClock, Snapshot
+from .loop import AppliedReconfiguration, RealClock, RunStats, Runtime, SimulatedClock, Snapshot
 from .requests import Request
 
 EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by SIGINT
@@ -175,7 +175,7 @@ class Session:
                 self._answers.append((rt.time, rt.ticks, request, self.robot.binder.submit(request)))
         return self.coordinator is not None and self.coordinator.finished is not None
 
-    def new_changes(self) -> list[Change]:
+    def new_changes(self) -> list[AppliedReconfiguration]:
         """The changes committed since the last call, in order."""
         changes = self.runtime.changes[self._reported :]
         self._reported += len(changes)
