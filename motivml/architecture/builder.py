@@ -504,22 +504,41 @@ def build(
     of features that come are new, and `Assembly.fresh` lists the new components, which the
     runtime primes with the space values of the tick the change commits on.
     """
-    kept_functions = previous.functions if previous is not None else {}
-    kept_components = {c.id: c for c in previous.components} if previous is not None else {}
-    whole = architecture
-    arch = architecture.elements_of(active)
-    problems: list[Diagnostic] = []
-    warnings: list[Diagnostic] = []
+    builder = _Builder(architecture, active, rate, previous)
+    builder.make_functions()
+    builder.make_components()
+    if builder.problems:
+        raise BuildError(builder.problems)
+    return builder.assemble(), builder.warnings
+
+
+class _Builder:
+    """One build: what it has made so far, and what it found wrong."""
+
+    def __init__(
+        self, architecture: Architecture, active: set[str], rate: float, previous: Assembly | None
+    ) -> None:
+        self.whole = architecture
+        self.arch = architecture.elements_of(active)
+        self.active, self.rate, self.previous = active, rate, previous
+        self.kept_functions = previous.functions if previous is not None else {}
+        self.kept_components = {c.id: c for c in previous.components} if previous is not None else {}
+        self.problems: list[Diagnostic] = []
+        self.warnings: list[Diagnostic] = []
+        self.functions: dict[str, Function] = {}
+        self.adaptive: dict[str, AdaptiveMappingInstance] = {}
+        self.modules: dict[str, ModuleInstance] = {}
+        self.components: dict[str, ComponentInstance] = {}
 
     def need(
-        user: Mapping | Component, keys: tuple[str, ...], kind: str, used: Space | Mapping | Module
+        self, user: Mapping | Component, keys: tuple[str, ...], kind: str, used: Space | Mapping | Module
     ) -> bool:
         """Is the element `user` uses active too? If not, a located error says which."""
-        if used.feature in active:
+        if used.feature in self.active:
             return True
-        problems.append(
+        self.problems.append(
             error(
-                whole.locate("mappings" if isinstance(user, Mapping) else "components", user.id, *keys),
+                self.whole.locate("mappings" if isinstance(user, Mapping) else "components", user.id, *keys),
                 f"{user.id} of feature {user.feature} needs {kind} {used.id} of feature {used.feature}, which is not active",
                 "build.inactive",
                 user.feature,
@@ -527,125 +546,134 @@ def build(
         )
         return False
 
-    functions: dict[str, Function] = {}
-    adaptive: dict[str, AdaptiveMappingInstance] = {}
-    for element, mapping in arch.mappings.items():
-        if need(mapping, ("from",), "space", mapping.source) and need(
-            mapping, ("to",), "space", mapping.target
-        ):
-            kept = kept_functions.get(element)
-            function = functions[element] = kept if kept is not None else make_function(mapping)
-            if isinstance(function, AdaptiveMappingInstance):
-                adaptive[element] = function
+    def make_functions(self) -> None:
+        for element, mapping in self.arch.mappings.items():
+            if self.need(mapping, ("from",), "space", mapping.source) and self.need(
+                mapping, ("to",), "space", mapping.target
+            ):
+                kept = self.kept_functions.get(element)
+                function = self.functions[element] = kept if kept is not None else make_function(mapping)
+                if isinstance(function, AdaptiveMappingInstance):
+                    self.adaptive[element] = function
 
-    modules: dict[str, ModuleInstance] = {}
-    components: dict[str, ComponentInstance] = {}
-    for element, spec in arch.components.items():
-        ok = need(spec, ("module",), "module", spec.module)
-        ports: dict[PortName, PortInstance | None] = {}
-        for name in PORTS:
-            port = spec.port(name)
-            if port is None:
-                ports[name] = None
+    def make_components(self) -> None:
+        for element, spec in self.arch.components.items():
+            ok = self.need(spec, ("module",), "module", spec.module)
+            ports: dict[PortName, PortInstance | None] = {}
+            for name in PORTS:
+                port = spec.port(name)
+                if port is None:
+                    ports[name] = None
+                    continue
+                ok = self.need(spec, (name, "space"), "space", port.space) and ok
+                through = port.through
+                if through is not None:
+                    ok = self.need(spec, (name, "through"), "mapping", through) and ok
+                ports[name] = PortInstance(
+                    port.space.id, self.functions.get(through.id) if through is not None else None
+                )
+            if not ok:
                 continue
-            ok = need(spec, (name, "space"), "space", port.space) and ok
-            through = port.through
-            if through is not None:
-                ok = need(spec, (name, "through"), "mapping", through) and ok
-            ports[name] = PortInstance(
-                port.space.id, functions.get(through.id) if through is not None else None
+            if element in self.kept_components:
+                self.components[element] = self.kept_components[element]
+                self.modules[spec.module.id] = self.kept_components[element].module
+                continue
+            divider = self.divider(element, spec)
+            module = self.modules[spec.module.id] = make_module(spec.module)
+            self.check_stability(element, spec, module, divider)
+            output = ports["output"]
+            assert output is not None  # required by the schema
+            self.components[element] = ComponentInstance(
+                element,
+                spec.kind,
+                spec.feature,
+                module,
+                output,
+                ports["goal"],
+                ports["feedback"],
+                spec.criterion,
+                divider,
+                divider / self.rate,
+                [np.asarray(p, dtype=float) for p in spec.sequence],
             )
-        if not ok:
-            continue
-        if element in kept_components:
-            components[element] = kept_components[element]
-            modules[spec.module.id] = kept_components[element].module
-            continue
+
+    def divider(self, element: str, spec: Component) -> int:
+        """Every how many loop ticks the component steps; a warning when its rate cannot be kept."""
+        rate = self.rate
         component_rate = spec.rate if spec.rate is not None else rate
         divider = max(1, round(rate / component_rate))
         if component_rate > rate or abs(rate / divider - component_rate) > 1e-9 * rate:
-            warnings.append(
+            self.warnings.append(
                 warning(
-                    whole.locate("components", element, "rate"),
+                    self.whole.locate("components", element, "rate"),
                     f"{element} asks for {component_rate:g} Hz; the loop runs at {rate:g} Hz, so it steps at {rate / divider:g} Hz",
                     "build.rate",
                     spec.feature,
                 )
             )
-        module = modules[spec.module.id] = make_module(spec.module)
-        for system in module.systems:  # semi-implicit Euler diverges once alpha * dt / tau >= 2
+        return divider
+
+    def check_stability(self, element: str, spec: Component, module: ModuleInstance, divider: int) -> None:
+        """Semi-implicit Euler diverges once alpha * dt / tau >= 2: refuse such a step."""
+        step = divider / self.rate
+        for system in module.systems:
             if isinstance(system, PointAttractor | DiscreteDMP):
                 tau = system.tau if isinstance(system, DiscreteDMP) else 1.0
-                if system.alpha * (divider / rate) / tau >= 2.0:
-                    problems.append(
+                if system.alpha * step / tau >= 2.0:
+                    self.problems.append(
                         error(
-                            whole.locate(
+                            self.whole.locate(
                                 "components", element, "rate" if spec.rate is not None else "module"
                             ),
-                            f"{element} steps every {divider / rate:g} s, too coarse for module {module.id} "
+                            f"{element} steps every {step:g} s, too coarse for module {module.id} "
                             f"(alpha {system.alpha:g}{f', duration {tau:g} s' if tau != 1.0 else ''}): the "
                             f"integration diverges unless alpha * step / duration < 2",
                             "build.stability",
                             spec.feature,
                         )
                     )
-        output = ports["output"]
-        assert output is not None  # required by the schema
-        components[element] = ComponentInstance(
-            element,
-            spec.kind,
-            spec.feature,
-            module,
-            output,
-            ports["goal"],
-            ports["feedback"],
-            spec.criterion,
-            divider,
-            divider / rate,
-            [np.asarray(p, dtype=float) for p in spec.sequence],
-        )
-    if problems:
-        raise BuildError(problems)
-    for element, module_spec in arch.modules.items():
-        if element not in modules:
-            kept_module = previous.modules.get(element) if previous is not None else None
-            modules[element] = kept_module if kept_module is not None else make_module(module_spec)
 
-    old = previous.values if previous is not None else {}
-    values = {k: old[k] if k in old else _initial(s) for k, s in arch.spaces.items()}
-    fresh = [c for k, c in components.items() if k not in kept_components]
-    writers: dict[str, list[ComponentInstance]] = {}
-    for component in components.values():
-        writers.setdefault(component.output.space, []).append(component)
-    goal_of = {
-        k: spec.goal.space.id
-        for k, spec in arch.components.items()
-        if spec.goal is not None and k in components
-    }
-    order = _order(components, lambda k: [w.id for w in writers.get(goal_of.get(k, ""), [])])
-    on_any_port = {  # of the whole document: a port's mapping never computes on its own
-        port.through.id
-        for spec in whole.components.values()
-        for _, port in spec.ports()
-        if port.through is not None
-    }
-    free = {k: m for k, m in arch.mappings.items() if k not in on_any_port and k in functions}
-    mapping_order = _order(free, lambda k: [j for j, m in free.items() if m.target.id == free[k].source.id])
-    return (
-        Assembly(
+    def assemble(self) -> Assembly:
+        """The built elements, ordered for the tick: components by goal dependency, free mappings by data flow."""
+        arch, previous, components, functions = self.arch, self.previous, self.components, self.functions
+        for element, module_spec in arch.modules.items():
+            if element not in self.modules:
+                kept_module = previous.modules.get(element) if previous is not None else None
+                self.modules[element] = kept_module if kept_module is not None else make_module(module_spec)
+        old = previous.values if previous is not None else {}
+        values = {k: old[k] if k in old else _initial(s) for k, s in arch.spaces.items()}
+        fresh = [c for k, c in components.items() if k not in self.kept_components]
+        writers: dict[str, list[ComponentInstance]] = {}
+        for component in components.values():
+            writers.setdefault(component.output.space, []).append(component)
+        goal_of = {
+            k: spec.goal.space.id
+            for k, spec in arch.components.items()
+            if spec.goal is not None and k in components
+        }
+        order = _order(components, lambda k: [w.id for w in writers.get(goal_of.get(k, ""), [])])
+        on_any_port = {  # of the whole document: a port's mapping never computes on its own
+            port.through.id
+            for spec in self.whole.components.values()
+            for _, port in spec.ports()
+            if port.through is not None
+        }
+        free = {k: m for k, m in arch.mappings.items() if k not in on_any_port and k in functions}
+        mapping_order = _order(
+            free, lambda k: [j for j, m in free.items() if m.target.id == free[k].source.id]
+        )
+        return Assembly(
             values,
             arch.spaces,
             [components[k] for k in order],
-            modules,
+            self.modules,
             [(k, free[k].source.id, free[k].target.id, functions[k]) for k in mapping_order],
-            adaptive,
+            self.adaptive,
             writers,
             functions,
             fresh,
-            set(active),
-        ),
-        warnings,
-    )
+            set(self.active),
+        )
 
 
 def empty_assembly(features: set[str]) -> Assembly:

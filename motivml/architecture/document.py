@@ -208,6 +208,7 @@ class _ArchitectureChecker:
 
     def run(self) -> None:
         seen: dict[str, str] = {}
+        duplicated = False
         for section in SECTIONS:
             for index, item in enumerate(self.doc.root.get(section, [])):
                 element = item["id"]
@@ -215,6 +216,7 @@ class _ArchitectureChecker:
                     where = self.doc.locate((section, index, "id"))
                     message = f"id {element!r} is used twice (also a {seen[element]})"
                     self.found.append(error(where, message, "architecture.duplicate-id", item.get("feature")))
+                    duplicated = True
                     continue
                 seen[element] = section.removesuffix("s")
                 if item["feature"] not in self.model.index:
@@ -225,7 +227,7 @@ class _ArchitectureChecker:
                         f"{element} is brought by {item['feature']!r}, which is not a feature of the model",
                         "architecture.unknown-feature",
                     )
-        if any(d.rule == "architecture.duplicate-id" for d in self.found):
+        if duplicated:
             return  # references would be ambiguous
         for element, space in self.by_id["spaces"].items():
             if "initial" in space and len(space["initial"]) != space["dimension"]:
