@@ -535,3 +535,26 @@ def test_a_chart_whose_action_fails_stops_the_run(tmp_path: Path, monkeypatch: p
     )  # the error itself, not sismic's wrapper around the code it ran
     assert failed[0].endswith(": the run stops")
     assert "1 ticks, 0.001 s of control time" in result.output  # it stopped at once
+
+
+def test_the_scxml_export_keeps_every_domain_action_and_module_condition(tmp_path: Path) -> None:
+    chart = json.loads(json.dumps(RECONFIGURING))
+    chart["states"][1]["transitions"] = [
+        {"target": "Done", "when": [{"module": "ReachAttractor", "is": "executing"}]}
+    ]
+    folder = robot_with(tmp_path, chart)
+    target = tmp_path / "chart.scxml"
+    result = CliRunner().invoke(main, ["export", "scxml", str(folder), "-o", str(target)])
+    assert result.exit_code == 0, result.output
+    text = target.read_text()
+    for element in (
+        '<m:swap features="dmp_reach attractor_reach" />',
+        '<m:learning module="ReachDMP" state="offlineLearning" />',
+        '<m:start component="DMPReacher" />',
+        '<m:stop component="DMPReacher" />',
+        '<m:unload features="hand_monitor" />',
+        '<m:send space="HandPosition" value="0.0 0.0" />',
+        '<m:load features="dmp_reach" />',
+        'm:when="module ReachAttractor is executing"',
+    ):
+        assert element in text, element
