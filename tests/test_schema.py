@@ -55,7 +55,7 @@ def test_published_schema_accepts_what_the_shallow_check_accepts() -> None:
         (
             '{"id": "r", "name": "R",\n "isMandtory": true}',
             "m.json:2:2: $.isMandtory: unknown key 'isMandtory' (did you mean 'isMandatory'?); known keys are "
-            "$schema, constraints, group, id, isMandatory, isSelected, name, sub (keys starting with x- are free "
+            "$schema, abstract, constraints, group, id, isMandatory, isSelected, name, sub (keys starting with x- are free "
             "for tools)",
         ),
         (
@@ -90,7 +90,7 @@ def test_published_schema_accepts_what_the_shallow_check_accepts() -> None:
         ('{"id": "r", "name": "R", "sub": {}}', "m.json:1:33: $.sub: expected an array, found an object"),
         (
             '{"id": "r", "name": "R", "sub": [{"id": "a", "name": "A", "$schema": "x"}]}',
-            "m.json:1:59: $.sub[0].$schema: unknown key '$schema'; known keys are constraints, group, id, "
+            "m.json:1:59: $.sub[0].$schema: unknown key '$schema'; known keys are abstract, constraints, group, id, "
             "isMandatory, isSelected, name, sub (keys starting with x- are free for tools)",
         ),
         ("[1, 2]", "m.json:1:1: $: a feature model is one JSON object (the root feature), found an array"),

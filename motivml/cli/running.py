@@ -81,6 +81,11 @@ class Number(click.FloatRange):
     "--control/--no-control", default=True, show_default=True, help="Open the control socket for motivml ctl."
 )
 @click.option(
+    "--strict",
+    is_flag=True,
+    help="Refuse a Dynamic feature that nothing implements (no plugin, no architecture element, not abstract).",
+)
+@click.option(
     "--at",
     "scheduled",
     type=(click.FloatRange(min=0), str),
@@ -98,6 +103,7 @@ def run_command(
     prefer: tuple[str, ...],
     run_dir: str | None,
     control: bool,
+    strict: bool,
     scheduled: tuple[tuple[float, str], ...],
 ) -> None:
     """Build the motion architecture of a variant's active features and run it at a fixed rate.
@@ -132,7 +138,7 @@ def run_command(
     from ..runtime.session import EXIT_INTERRUPTED, Session
 
     try:
-        robot = launch(target, variant, rate, prefer)
+        robot = launch(target, variant, rate, prefer, strict)
     except MotivmlError as exc:
         for d in exc.diagnostics:
             print_diagnostic(d)
@@ -357,6 +363,8 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
             f"[green]accepted[/]: {shown(op + ' ' + ' '.join(features))} took effect at tick {answer['tick']} "
             f"({answer['time']:.3f} s), {answer['latency_ms']:.1f} ms after the request; {shown(detail)}"
         )
+        for d in answer.get("warnings", []):
+            out.print(f"[yellow]warning[/]: {shown(d['message'])}")
         return
     for d in answer["diagnostics"]:
         where = f"{d['file']}:{d['line']}:{d['column']}" if d.get("line") else str(d["file"])

@@ -112,6 +112,7 @@ class Feature:
     includes: tuple[str, ...]  # as written (a repeated id is warned about and used once)
     excludes: tuple[str, ...]
     children: list[int] = field(default_factory=list)
+    abstract: bool = False  # only groups others: no implementation is expected for it
 
 
 @dataclass(frozen=True, slots=True)

@@ -75,6 +75,7 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
             mode_allowed=_MODES[constraints.get("bindingModeAllowed", _DEFAULT_MODE)],
             includes=tuple(constraints.get("featuresIncluded", ())),
             excludes=tuple(constraints.get("featuresExcluded", ())),
+            abstract=node.get("abstract", False) is True,
         )
         features.append(feature)
         nodes.append(node)

@@ -126,12 +126,13 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
 
 
 def missing(model: FeatureModel, features: list[str], plugins: dict[str, Plugin]) -> list[Diagnostic]:
-    """Warnings for selected Dynamic or Late features that no declared plugin implements."""
+    """Warnings for selected Dynamic or Late features that no declared plugin implements
+    (abstract features expect none)."""
     found = []
     for feature_id in features:
-        if feature_id in plugins:
-            continue
         index = model.index[feature_id]
+        if feature_id in plugins or model.features[index].abstract:
+            continue
         where = model.source.locate(model.path(index, "id"))
         found.append(
             warning(

@@ -34,8 +34,8 @@ from ..architecture.builder import Assembly, build
 from ..architecture.document import Architecture
 from ..binding.resolve import Variant
 from ..documents.robot_folder import Plugin
-from ..errors import Diagnostic, Location, MotivmlError, describe_exception, error
-from ..language.model import Configuration
+from ..errors import Diagnostic, Location, MotivmlError, Severity, describe_exception, error
+from ..language.model import Configuration, FeatureModel
 from ..plugins.api import PluginContext
 from ..plugins.python import PluginError, plugin_error
 from ..plugins.registry import loaders
@@ -60,7 +60,7 @@ class Outcome:
     plan: Plan | None = None
     change: AppliedReconfiguration | None = None  # when it took effect
     latency: float = 0.0  # s, from the request to its commit
-    diagnostics: list[Diagnostic] = field(default_factory=list)  # why not
+    diagnostics: list[Diagnostic] = field(default_factory=list)  # why not (accepted: warnings)
     breaks_relations: bool = False  # refused because the new active set breaks the model's relations
 
     @property
@@ -78,12 +78,18 @@ class Binder:
         active: list[str],
         config: Configuration | None = None,
         robot: str = "robot",
+        unimplemented: frozenset[str] = frozenset(),
+        strict: bool = False,
     ) -> None:
         self.runtime = runtime
         self.variant = variant
         self.architecture = architecture
         self.plugins = plugins
         self.active = frozenset(active)
+        self.unimplemented = (
+            unimplemented  # Dynamic features nothing implements: warned about (strict: refused)
+        )
+        self.strict = strict
         self.reconfigurer = Reconfigurer(variant, config)
         self.loaders = loaders(robot, plugins)
         self.static = {d.feature.id: d.binding.static for d in variant.decisions}
@@ -281,10 +287,19 @@ class Binder:
                     request, False, diagnostics=refused.diagnostics, breaks_relations=refused.breaks_relations
                 )
             )
+        hollow = [f for f in plan.loads if f in self.unimplemented]
+        if hollow and self.strict:
+            return self._refused(
+                Outcome(request, False, plan, diagnostics=self._hollow(hollow, Severity.ERROR))
+            )
         try:
             return plan, self._prepare(plan)
         except MotivmlError as failed:
             return self._refused(Outcome(request, False, plan, diagnostics=failed.diagnostics))
+
+    def _hollow(self, features: list[str], severity: Severity) -> list[Diagnostic]:
+        verb = "would be" if severity is Severity.ERROR else "is now"
+        return [unimplemented_feature(self.variant.model, f, verb, severity) for f in features]
 
     def _refused(self, outcome: Outcome) -> Outcome:
         """Every refusal goes into the run's log as it happens, with its reason."""
@@ -298,7 +313,19 @@ class Binder:
         self.active = plan.after
         change = commit.change
         assert change is not None
-        return Outcome(plan.request, True, plan, change, change.clock - began)
+        hollow = [f for f in plan.loads if f in self.unimplemented]
+        if hollow:
+            self.runtime.note(
+                f"{plan.request}: nothing implements {', '.join(hollow)}: active as a feature only"
+            )
+        return Outcome(
+            plan.request,
+            True,
+            plan,
+            change,
+            change.clock - began,
+            diagnostics=self._hollow(hollow, Severity.WARNING),
+        )
 
     def _prepare(self, plan: Plan) -> Commit:
         assembly = None
@@ -388,3 +415,18 @@ class Binder:
         self.reconfigurer.close()
         for loader in self.loaders.values():
             loader.close()
+
+
+def unimplemented_feature(model: FeatureModel, feature: str, verb: str, severity: Severity) -> Diagnostic:
+    """A Dynamic feature that nothing implements (no plugin, no architecture element) is active."""
+    where = (
+        model.source.locate(model.path(model.index[feature], "id")) if model.source else Location(model.name)
+    )
+    return Diagnostic(
+        severity,
+        where,
+        f"{feature} {verb} active and Dynamic, but nothing implements it: no plugin and no architecture "
+        f"element (mark it abstract if it only groups others; run --strict refuses it)",
+        "run.unimplemented",
+        feature,
+    )

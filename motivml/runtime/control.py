@@ -172,6 +172,7 @@ class ControlServer:
                 "latency_ms": round(outcome.latency * 1e3, 3),
                 "loads": list(change.loads),
                 "unloads": list(change.unloads),
+                "warnings": [d.as_dict() for d in outcome.diagnostics],
             }
         else:
             answer["diagnostics"] = [d.as_dict() for d in outcome.diagnostics]

@@ -18,13 +18,13 @@ from ..architecture.builder import Assembly, build, empty_assembly
 from ..architecture.document import Architecture, read_architecture
 from ..binding.resolve import Variant, resolve, start_state
 from ..coordination.document import Coordination, VariantBindings, read_coordination
-from ..documents.robot_folder import ARCHITECTURE_FILE, RobotFolder
+from ..documents.robot_folder import ARCHITECTURE_FILE, Plugin, RobotFolder
 from ..documents.schema import read_checked
 from ..errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
 from ..language.model import Configuration, FeatureModel
 from ..language.reader import load_configuration, load_model
 from ..plugins.manifests import discover
-from .binder import Binder
+from .binder import Binder, unimplemented_feature
 from .coordinator import Coordinator
 from .loop import Runtime
 
@@ -119,13 +119,19 @@ def load(
 
 
 def launch(
-    target: str | Path, variant_name: str, rate: float = 1000.0, prefer: tuple[str, ...] = ()
+    target: str | Path,
+    variant_name: str,
+    rate: float = 1000.0,
+    prefer: tuple[str, ...] = (),
+    strict: bool = False,
 ) -> Robot:
     """Build a variant's start state into a runtime at `rate` Hz, its plugins started.
 
     The robot folder needs an architecture.json, plugins (robot.json), or both; the
     start state's architecture elements are built and its features' plugins started (all
     or none: a plugin that fails to start stops the others and raises PluginError).
+    An active Dynamic feature that nothing implements (no plugin, no architecture element,
+    not abstract) is warned about, or with `strict` refused (DocumentError).
     """
     loaded = load(target, variant_name, prefer)
     assert loaded.variant is not None and loaded.active is not None
@@ -141,10 +147,16 @@ def launch(
                 "io",
             )
         )
+    missing = unimplemented(loaded.variant, plugins, loaded.architecture)
+    severity = Severity.ERROR if strict else Severity.WARNING
+    absent = [unimplemented_feature(loaded.model, f, "is", severity) for f in loaded.active if f in missing]
+    if strict and absent:
+        raise DocumentError(absent)
     if loaded.architecture is not None:
         assembly, warnings = build(loaded.architecture, set(loaded.active), rate)
     else:
         assembly, warnings = empty_assembly(set(loaded.active)), []
+    warnings = absent + warnings
     runtime = Runtime(assembly, rate)
     binder = Binder(
         runtime,
@@ -154,6 +166,8 @@ def launch(
         loaded.active,
         loaded.config,
         loaded.folder.name,
+        unimplemented=missing,
+        strict=strict,
     )
     coordination = read_robot_coordination(loaded.folder, loaded.model, loaded.architecture, loaded.variant)
     binder.start()
@@ -166,6 +180,21 @@ def launch(
         binder,
         warnings,
         coordination,
+    )
+
+
+def unimplemented(
+    variant: Variant, plugins: dict[str, Plugin], architecture: Architecture | None
+) -> frozenset[str]:
+    """Selected Dynamic features, not abstract, that neither a plugin nor an architecture element implements."""
+    brought = {e.feature for e in architecture.elements()} if architecture is not None else set()
+    return frozenset(
+        d.feature.id
+        for d in variant.selected()
+        if not d.binding.static
+        and not d.feature.abstract
+        and d.feature.id not in plugins
+        and d.feature.id not in brought
     )
 
 
