@@ -173,10 +173,21 @@ class Broken : public motivml::FeaturePlugin {
   void stop() override { throw std::runtime_error("stuck"); }
 };
 
+class Stumbling : public motivml::FeaturePlugin {  // throws in its second step
+ public:
+  void step(double, motivml::Spaces&) override {
+    if (++steps_ == 2) throw std::out_of_range("lost track");
+  }
+
+ private:
+  long steps_ = 0;
+};
+
 }  // namespace testing_plugins
 
 MOTIVML_PLUGIN(testing_plugins::Echo)
 MOTIVML_PLUGIN(testing_plugins::Broken)
+MOTIVML_PLUGIN(testing_plugins::Stumbling)
 """
 
 
@@ -255,6 +266,24 @@ def test_a_cpp_start_that_throws_refuses_the_load_and_a_throwing_stop_is_noted(
         ]
         assert robot.runtime.plugins == {} and "y" not in robot.binder.active
         assert not mapped(str(tmp_path / "plugins" / "y" / "libtesting.so"))  # released all the same
+    finally:
+        robot.close()
+
+
+def test_a_cpp_step_that_throws_is_a_fault_that_unloads_its_feature(
+    testing_library: Path, tmp_path: Path
+) -> None:
+    folder = cpp_robot(tmp_path, testing_library, {"x": "testing_plugins::Stumbling"})
+    robot = launch(folder, "v")
+    try:
+        robot.binder.make_changes_between_ticks()  # as a simulated run does
+        assert robot.binder.request_between_ticks(Request("load", ("x",))).accepted
+        robot.runtime.run(0.005)
+        assert robot.runtime.ticks == 5 and robot.runtime.failure is None  # the loop went on
+        assert [(f.feature, f.error) for f in robot.runtime.faults] == [("x", "IndexError: lost track")]
+        assert "unloaded x after the fault of x" in [text for _, _, text in robot.runtime.notes]
+        assert robot.runtime.plugins == {} and "x" not in robot.binder.active
+        assert not mapped(str(folder / "plugins" / "x" / "libtesting.so"))  # stopped, released
     finally:
         robot.close()
 

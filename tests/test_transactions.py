@@ -564,11 +564,107 @@ def test_a_failing_start_stops_the_plugins_the_same_request_started(tmp_path: Pa
 
 
 def test_ctrl_c_in_a_plugins_start_stops_the_started_ones_and_says_so(tmp_path: Path) -> None:
+    # a real Ctrl-C (SIGINT to the process) while a2 starts; a KeyboardInterrupt a plugin
+    # raises by itself is its fault instead (test_a_plugin_that_raises_a_base_exception...)
     stopped = "(self.context.folder / 'stopped').write_text('yes')"
-    folder = lifecycle_robot(tmp_path, {"a": {"stop": stopped}, "a2": {"start": "raise KeyboardInterrupt"}})
+    ctrl_c = "import os, signal; os.kill(os.getpid(), signal.SIGINT)"
+    folder = lifecycle_robot(tmp_path, {"a": {"stop": stopped}, "a2": {"start": ctrl_c}})
     result = simulated_run(folder)
     assert result.exit_code == 130 and "interrupted before the run started" in result.output
     assert (folder / "plugins" / "a" / "stopped").read_text() == "yes"  # a had started before a2
+
+
+# ------------------------- SystemExit, KeyboardInterrupt, GeneratorExit: the plugin's fault
+BASE_EXCEPTIONS = {
+    "SystemExit": "raise SystemExit(7)",  # 7: no exit code of motivml's, so an exit with it shows
+    "KeyboardInterrupt": "raise KeyboardInterrupt('from the plugin')",
+    "GeneratorExit": "raise GeneratorExit('from the plugin')",
+}
+
+
+def base_exception_robot(
+    tmp_path: Path, where: str, kind: str, entries: tuple[tuple[Any, ...], ...] = LATE_A2
+) -> Path:
+    """lifecycle_robot, with a2 raising `kind` in `where`: import, constructor, start, step or stop."""
+    raising = BASE_EXCEPTIONS[kind]
+    code = {where: raising} if where in ("start", "step", "stop") else {}
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": code}, entries=entries)
+    module = folder / "plugins" / "a2" / "life_a2.py"
+    text = module.read_text()
+    if where == "import":
+        text += f"\n{raising}\n"
+    elif where == "constructor":
+        text += f"\n    def __init__(self, context):\n        {raising}\n"
+    module.write_text(text)
+    return folder
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+@pytest.mark.parametrize("where", ["import", "constructor", "start"])
+def test_a_plugin_that_raises_a_base_exception_while_loading_is_refused(
+    tmp_path: Path, where: str, kind: str
+) -> None:
+    robot = launch(base_exception_robot(tmp_path, where, kind), "v")
+    try:
+        outcome = ask(robot, "load a2")
+        assert not outcome.accepted and "plugin a2" in outcome.reason and kind in outcome.reason
+        assert "(at life_a2.py:" in outcome.reason  # located in the plugin
+        assert set(robot.runtime.plugins) == {"a"} and "a2" not in robot.binder.active
+        robot.runtime.run(0.01)
+        assert robot.runtime.plugins["a"].instance.steps == 10
+    finally:
+        robot.close()
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+@pytest.mark.parametrize("where", ["import", "constructor", "start"])
+def test_a_plugin_that_raises_a_base_exception_at_launch_is_a_located_launch_error(
+    tmp_path: Path, where: str, kind: str
+) -> None:
+    folder = base_exception_robot(
+        tmp_path, where, kind, entries=(("a", "Early", "Dynamic"), ("a2", "Early", "Dynamic"))
+    )
+    result = simulated_run(folder)
+    assert result.exit_code == 3, result.output  # a plugin that cannot start: never the plugin's 7
+    assert isinstance(result.exception, SystemExit)
+    assert "plugin a2" in result.output and kind in result.output and "cannot run" in result.output
+    assert "interrupted" not in result.output and "Traceback" not in result.output
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+def test_a_dynamic_plugin_that_raises_a_base_exception_in_step_is_unloaded(tmp_path: Path, kind: str) -> None:
+    folder = base_exception_robot(
+        tmp_path, "step", kind, entries=(("a", "Early", "Dynamic"), ("a2", "Early", "Dynamic"))
+    )
+    result = simulated_run(folder)
+    assert result.exit_code == 0, result.output
+    assert f"at 0.001 s (tick 1): a2 raised in step: {kind}: " in result.output
+    assert "at 0.001 s (tick 1): unloaded a2 after the fault of a2" in result.output
+    assert "plugin a: 10 steps" in result.output and "\n10 ticks, 0.010 s of control time\n" in result.output
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+def test_a_static_plugin_that_raises_a_base_exception_in_step_stops_the_run(
+    tmp_path: Path, kind: str
+) -> None:
+    folder = make_robot(tmp_path, {"a": {"step": BASE_EXCEPTIONS[kind]}}, static=("alt", "a"))
+    result = simulated_run(folder)
+    assert result.exit_code == 1, result.output
+    assert f"the run stopped: a raised in its step at 0.001 s (tick 1): {kind}: " in result.output
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+def test_a_base_exception_in_stop_is_noted_and_the_unload_goes_through(tmp_path: Path, kind: str) -> None:
+    folder = base_exception_robot(
+        tmp_path, "stop", kind, entries=(("a", "Early", "Dynamic"), ("a2", "Early", "Dynamic"))
+    )
+    robot = launch(folder, "v")
+    try:
+        outcome = ask(robot, "unload a2")
+        assert outcome.accepted and set(robot.runtime.plugins) == {"a"}
+        assert robot.runtime.notes[-1][2].startswith(f"stop() of plugin a2 raised {kind}: ")
+    finally:
+        robot.close()
 
 
 def test_a_stop_that_raises_is_reported_and_the_unload_goes_through(tmp_path: Path) -> None:

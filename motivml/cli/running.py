@@ -7,6 +7,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -131,16 +132,30 @@ def run_command(
     from ..runtime.launch import launch
     from ..runtime.session import EXIT_INTERRUPTED, Session
 
+    interrupted = []  # a real Ctrl-C while launching (a plugin's KeyboardInterrupt is its fault)
+
+    def interrupt(signum: int, frame: object) -> None:
+        interrupted.append(signum)
+        raise KeyboardInterrupt
+
+    guarding = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, interrupt) if guarding else None
     try:
         robot = launch(target, variant, rate, prefer)
     except MotivmlError as exc:
+        if interrupted:  # the Ctrl-C came while a plugin started: it failed because of it
+            out.print("interrupted before the run started")
+            sys.exit(EXIT_INTERRUPTED)
         for d in exc.diagnostics:
             print_diagnostic(d)
         out.print(f"[bold red]cannot run[/]: {escape(target)} variant {escape(variant)}")
         sys.exit(exc.exit_code)
     except KeyboardInterrupt:
         out.print("interrupted before the run started")
-        sys.exit(130)
+        sys.exit(EXIT_INTERRUPTED)
+    finally:
+        if guarding:
+            signal.signal(signal.SIGINT, previous)
     for d in robot.warnings:
         print_diagnostic(d)
     runtime = robot.runtime

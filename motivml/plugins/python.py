@@ -70,7 +70,7 @@ class PythonPlugins:
                         module.__dict__.clear()
                         module.__dict__.update(saved)
                         raise
-        except Exception as exc:  # a plugin's import may raise anything
+        except BaseException as exc:  # a plugin's import may raise anything, SystemExit too
             raise plugin_error(
                 plugin,
                 "module",
@@ -98,7 +98,7 @@ class PythonPlugins:
             )
         try:
             return cls(context)
-        except Exception as exc:
+        except BaseException as exc:  # SystemExit, KeyboardInterrupt too: the plugin's fault
             raise plugin_error(
                 plugin,
                 "class",

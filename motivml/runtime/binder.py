@@ -140,12 +140,10 @@ class Binder:
         except BaseException as exc:  # plugin code may raise anything
             try:
                 loader.discard(instance)
-            except Exception as problem:
+            except BaseException as problem:
                 self.runtime.note(
                     f"stop() of plugin {feature} raised {describe_exception(problem, plugin.folder)}"
                 )
-            if not isinstance(exc, Exception):
-                raise
             raise plugin_error(
                 plugin,
                 "class",
@@ -156,7 +154,7 @@ class Binder:
     def _stop(self, running: Running) -> None:
         try:
             running.instance.stop()
-        except Exception as exc:
+        except BaseException as exc:  # plugin code may raise anything, SystemExit too
             folder = self.plugins[running.feature].folder
             self.runtime.note(f"stop() of plugin {running.feature} raised {describe_exception(exc, folder)}")
 

@@ -144,7 +144,7 @@ class Snapshot:
 def _status(instance: Any) -> str:
     try:
         return str(instance.status())[:80]
-    except Exception as exc:  # a view never fails because of a plugin
+    except BaseException as exc:  # a view never fails because of a plugin
         return f"status() raised {type(exc).__name__}"
 
 
@@ -248,7 +248,7 @@ class Runtime:
                     continue
                 try:
                     running.instance.step(now)
-                except Exception as exc:  # a plugin may raise anything; the loop goes on
+                except BaseException as exc:  # a plugin may raise anything (SystemExit too); the loop goes on
                     self._fault(running, exc)
         for hook in self.hooks:
             hook()
@@ -303,7 +303,7 @@ class Runtime:
                 self.changes.append(commit.change)
                 commit.done.set()
 
-    def _fault(self, running: Running, exc: Exception) -> None:
+    def _fault(self, running: Running, exc: BaseException) -> None:
         running.faulted = True
         fault = Fault(
             self.ticks, self.time, running.feature, describe_exception(exc, running.folder), running.static
