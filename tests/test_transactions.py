@@ -681,6 +681,19 @@ def test_a_stop_that_raises_is_reported_and_the_unload_goes_through(tmp_path: Pa
         robot.close()
 
 
+@pytest.mark.parametrize("raising", ["raise RuntimeError('device busy')", *BASE_EXCEPTIONS.values()])
+def test_a_stop_that_raises_at_the_end_of_the_run_fails_the_run(tmp_path: Path, raising: str) -> None:
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {"stop": raising}})
+    result = simulated_run(folder)
+    assert result.exit_code == 1, result.output
+    lines = result.output.splitlines()
+    assert lines[-5].startswith("10 ticks")  # the summary, then what the stops said
+    assert lines[-4:-2] == ["at 0.010 s (tick 10): a: stop()", "at 0.010 s (tick 10): a2: stop()"]
+    assert lines[-2].startswith("at 0.010 s (tick 10): stop() of plugin a2 raised ")
+    assert lines[-2].endswith(" (at life_a2.py:16)")
+    assert lines[-1] == "the run did not end cleanly: stop() of a2 raised"
+
+
 def test_a_change_the_loop_does_not_take_in_time_is_withdrawn(tmp_path: Path) -> None:
     folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {}}, entries=LATE_A2)
     robot = launch(folder, "v")

@@ -235,11 +235,16 @@ def run_command(
         )
     session.close()
     _report_notes(session, out)  # what plugins said while they stopped
+    failed_stops = robot.binder.failed_stops
+    if failed_stops:
+        out.print(
+            f"[bold red]the run did not end cleanly[/]: stop() of {escape(', '.join(failed_stops))} raised"
+        )
     sys.exit(
         EXIT_INTERRUPTED
         if session.stopped_by == signal.SIGINT
         else 1
-        if diverged or runtime.failure is not None or session.unsettled
+        if diverged or runtime.failure is not None or session.unsettled or failed_stops
         else 0  # a run stopped by SIGTERM (a service manager's stop) ended normally
     )
 
