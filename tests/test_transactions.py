@@ -223,6 +223,32 @@ def test_plugins_that_cannot_load_are_reported_with_their_manifest(tmp_path: Pat
     assert result.exit_code == 3 and "has no class 'Plugin'" in result.output
 
 
+@pytest.mark.parametrize("linked", ["file", "package"])
+def test_an_entry_module_linked_from_outside_the_plugin_folder_is_refused(
+    tmp_path: Path, linked: str
+) -> None:
+    folder = lifecycle_robot(tmp_path / "robot", {"a": {}, "a2": {}}, entries=LATE_A2)
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    module = folder / "plugins" / "a2" / "life_a2.py"
+    if linked == "file":
+        module.rename(outside / "life_a2.py")
+        module.symlink_to(outside / "life_a2.py")
+    else:
+        (outside / "__init__.py").write_text(module.read_text())
+        module.unlink()
+        (folder / "plugins" / "a2" / "life_a2").symlink_to(outside)
+    robot = launch(folder, "v")
+    try:
+        outcome = ask(robot, "load a2")
+        assert not outcome.accepted
+        assert outcome.reason == "module 'life_a2' leaves the plugin folder (a link)"
+        assert outcome.diagnostics[0].location.path == "$.entry.module"
+        assert set(robot.runtime.plugins) == {"a"}
+    finally:
+        robot.close()
+
+
 def test_two_plugins_with_one_module_name_are_refused(tmp_path: Path) -> None:
     folder = make_robot(tmp_path, {"a": {}, "b": {}})
     manifest = folder / "plugins" / "b" / "plugin.json"
