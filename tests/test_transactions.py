@@ -801,3 +801,51 @@ def test_a_fault_no_unload_can_mend_stops_the_run(tmp_path: Path) -> None:
         "the run stopped: a raised in its step at 0.003 s (tick 3): ValueError: lost track (at life_a.py:12)"
         in result.output
     )
+
+
+# ---------------------------------------------------- slow plugin steps: named, not only counted
+def test_a_step_that_does_not_return_is_noted_by_the_watchdog_naming_its_plugin(tmp_path: Path) -> None:
+    gate = "import threading; self.gate = threading.Event()"
+    folder = lifecycle_robot(
+        tmp_path, {"a": {}, "a2": {"start": gate, "step": "if self.steps == 3: self.gate.wait(60)"}}
+    )
+    robot = launch(folder, "v")
+    runtime = robot.runtime
+    runtime.watchdog = 0.05  # s (1 s in a run)
+    noticed = threading.Event()
+    note = runtime.note
+
+    def noting(text: str) -> None:
+        note(text)
+        if "has not returned" in text:
+            noticed.set()
+
+    runtime.note = noting  # type: ignore[method-assign]
+    loop = threading.Thread(target=runtime.run, args=(0.01,), daemon=True)  # the simulated clock
+    loop.start()
+    try:
+        assert noticed.wait(HANG_GUARD)  # while a2's third step waits
+        assert runtime.notes[-1][1:] == (
+            3,
+            "a2's step has not returned after 0.05 s (the step of tick 3): the loop waits for it",
+        )
+    finally:
+        runtime.plugins["a2"].instance.gate.set()
+        loop.join(HANG_GUARD)
+        robot.close()
+    assert not loop.is_alive() and runtime.ticks == 10
+    log = [text for _, _, text in runtime.notes]
+    assert any(text.startswith("a2's step returned after ") for text in log)
+    assert runtime.slowest["a2"][1] == 3  # its longest step, kept for the summary and ctl status
+    assert runtime.status().slowest[0][0] == "a2"
+
+
+def test_a_real_clock_summary_names_the_slowest_plugin_steps(tmp_path: Path) -> None:
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {}})
+    result = CliRunner().invoke(
+        main, ["run", str(folder), "--variant", "v", "--duration", "0.02", "--no-control"]
+    )
+    assert result.exit_code == 0, result.output
+    [line] = [line for line in result.output.splitlines() if line.startswith("slowest plugin steps: ")]
+    assert sorted(part.split()[0] for part in line.split(": ", 1)[1].split(", ")) == ["a", "a2"]
+    assert "slowest plugin steps" not in simulated_run(folder).output  # wall-clock times: real clock only

@@ -322,6 +322,11 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
             f"{plural(stats.missed, 'missed deadline')}; CPU {stats.cpu_share:.0%}"
         )
     out.print(line)
+    if stats.clock == "real" and snapshot.slowest:  # which plugin made the ticks overrun (wall-clock times)
+        steps = ", ".join(
+            f"{feature} {took * 1e3:.3f} ms (tick {tick})" for feature, took, tick in snapshot.slowest
+        )
+        out.print(escape(printable(f"slowest plugin steps: {steps}")))
 
 
 @click.command("ctl")
@@ -404,4 +409,9 @@ def _print_status(answer: dict[str, object]) -> None:
     plugins = answer["plugins"]
     assert isinstance(plugins, list)
     for plugin in plugins:
-        out.print(shown(f"plugin {plugin['feature']}: {plugin['status']}"))
+        slowest = (
+            f" (slowest step {plugin['slowest_step_ms']:.3f} ms, tick {plugin['slowest_step_tick']})"
+            if isinstance(plugin.get("slowest_step_ms"), float | int)
+            else ""
+        )
+        out.print(shown(f"plugin {plugin['feature']}: {plugin['status']}{slowest}"))
