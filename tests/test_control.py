@@ -53,6 +53,8 @@ def test_status_swap_refusal_and_dump(running: tuple[Robot, ControlServer]) -> N
     status = send(server.run_dir, {"op": "status"})
     assert status["ok"] and "hectorslam" in status["active"]
     assert [p["feature"] for p in status["plugins"]] == ["hectorslam"]
+    [slam] = status["plugins"]  # it has stepped: its longest step is there, to find a slow plugin
+    assert slam["slowest_step_ms"] >= 0 and slam["slowest_step_tick"] >= 1
     refused = send(server.run_dir, {"op": "load", "features": ["kartoslam"]})
     assert refused["ok"] and not refused["accepted"]
     assert refused["diagnostics"][0]["message"].startswith("hectorslam and kartoslam are alternatives")
@@ -107,6 +109,9 @@ def test_ctl_prints_results_and_exit_codes(running: tuple[Robot, ControlServer])
     _, server = running
     runner = CliRunner()
     base = ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(server.run_dir)]
+    before = runner.invoke(main, [*base, "status"])
+    assert before.exit_code == 0 and "plugin hectorslam: pose" in before.output
+    assert " (slowest step " in before.output.split("plugin hectorslam: ")[1]
     refused = runner.invoke(main, [*base, "load", "orbslam"])
     assert refused.exit_code == 1
     assert "refused: hectorslam and orbslam are alternatives in slam's XOR group" in refused.output

@@ -173,10 +173,21 @@ class Broken : public motivml::FeaturePlugin {
   void stop() override { throw std::runtime_error("stuck"); }
 };
 
+class Stumbling : public motivml::FeaturePlugin {  // throws in its second step
+ public:
+  void step(double, motivml::Spaces&) override {
+    if (++steps_ == 2) throw std::out_of_range("lost track");
+  }
+
+ private:
+  long steps_ = 0;
+};
+
 }  // namespace testing_plugins
 
 MOTIVML_PLUGIN(testing_plugins::Echo)
 MOTIVML_PLUGIN(testing_plugins::Broken)
+MOTIVML_PLUGIN(testing_plugins::Stumbling)
 """
 
 
@@ -259,6 +270,24 @@ def test_a_cpp_start_that_throws_refuses_the_load_and_a_throwing_stop_is_noted(
         robot.close()
 
 
+def test_a_cpp_step_that_throws_is_a_fault_that_unloads_its_feature(
+    testing_library: Path, tmp_path: Path
+) -> None:
+    folder = cpp_robot(tmp_path, testing_library, {"x": "testing_plugins::Stumbling"})
+    robot = launch(folder, "v")
+    try:
+        robot.binder.make_changes_between_ticks()  # as a simulated run does
+        assert robot.binder.request_between_ticks(Request("load", ("x",))).accepted
+        robot.runtime.run(0.005)
+        assert robot.runtime.ticks == 5 and robot.runtime.failure is None  # the loop went on
+        assert [(f.feature, f.error) for f in robot.runtime.faults] == [("x", "IndexError: lost track")]
+        assert "unloaded x after the fault of x" in [text for _, _, text in robot.runtime.notes]
+        assert robot.runtime.plugins == {} and "x" not in robot.binder.active
+        assert not mapped(str(folder / "plugins" / "x" / "libtesting.so"))  # stopped, released
+    finally:
+        robot.close()
+
+
 def test_set_up_errors_name_the_manifest_entry(
     testing_library: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -286,3 +315,50 @@ def test_set_up_errors_name_the_manifest_entry(
         "C++ plugin support is not built: run make cpp-plugins (needs cmake, g++, libclass-loader-dev)"
     )
     assert missing.value.diagnostics[0].location.path == "$.entry.library"
+
+
+# ------------------------------------------------ a library that cannot load poisons nothing
+def test_a_library_whose_static_initialiser_throws_leaves_the_running_process_able_to_load(
+    extension: ModuleType, tmp_path: Path
+) -> None:
+    # loaded in the running process, the exception would leave the dynamic loader's lock
+    # held: the next load (from another thread) and the exit would hang; probed in a child
+    # process first, it is only refused
+    source = ROOT / "plugins" / "cpp" / "broken" / "throwing_initialiser"
+    broken = tmp_path / "plugins" / "broken_initialiser"
+    broken.mkdir(parents=True)
+    includes = [ROOT / "cpp_plugins" / "include"] + [
+        Path("/usr/include") / name for name in ("class_loader", "rcpputils", "rcutils")
+    ]
+    command = ["g++", "-std=c++17", "-shared", "-fPIC", "-fno-gnu-unique", "-fvisibility=hidden"]
+    command += [f"-I{path}" for path in includes]
+    command += [str(source / "broken.cpp"), "-o", str(broken / "libthrowing_initialiser.so"), "-Wl,-z,defs"]
+    command += ["-lclass_loader", "-lconsole_bridge", "-lrcpputils", "-lrcutils"]
+    subprocess.run(command, check=True, capture_output=True)
+    entry = {"library": "libthrowing_initialiser.so", "class": "broken::ThrowingInitialiser"}
+    (broken / "plugin.json").write_text(
+        json.dumps({"feature": "broken_initialiser", "kind": "cpp", "entry": entry})
+    )
+    hands = tmp_path / "plugins" / "hands"
+    hands.mkdir()
+    shutil.copy(GESTURES / "hands" / "build" / "libhands.so", hands / "libhands.so")
+    entry = {"library": "libhands.so", "class": "gestures::Hands"}
+    (hands / "plugin.json").write_text(json.dumps({"feature": "hands", "kind": "cpp", "entry": entry}))
+    late = {"bindingTimeAllowed": "Late", "bindingModeAllowed": "Dynamic"}
+    features = ("broken_initialiser", "hands")
+    sub = [{"id": f, "name": f, "isMandatory": False, "constraints": late} for f in features]
+    (tmp_path / "model.json").write_text(json.dumps({"id": "bot", "name": "Bot", "sub": sub}))
+    (tmp_path / "variants").mkdir()
+    variant = {"properties": [{"id": f, "props": {"time": "Late", "mode": "Dynamic"}} for f in features]}
+    (tmp_path / "variants" / "v.json").write_text(json.dumps(variant))
+    (tmp_path / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
+    run = [sys.executable, "-m", "motivml.cli", "run", str(tmp_path), "--variant", "v", "--no-control"]
+    run += ["--duration", "1", "--clock", "real"]  # requests are prepared on the binder's thread
+    run += ["--at", "0.2", "load broken_initialiser", "--at", "0.5", "load hands"]
+    done = subprocess.run(run, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert (
+        "$.entry.library: error: cannot load libthrowing_initialiser.so: Could not load library no calibration file"
+        in done.stdout
+    )
+    assert "request at 0.500 s (tick 500): load hands: accepted" in done.stdout

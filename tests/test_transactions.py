@@ -223,6 +223,32 @@ def test_plugins_that_cannot_load_are_reported_with_their_manifest(tmp_path: Pat
     assert result.exit_code == 3 and "has no class 'Plugin'" in result.output
 
 
+@pytest.mark.parametrize("linked", ["file", "package"])
+def test_an_entry_module_linked_from_outside_the_plugin_folder_is_refused(
+    tmp_path: Path, linked: str
+) -> None:
+    folder = lifecycle_robot(tmp_path / "robot", {"a": {}, "a2": {}}, entries=LATE_A2)
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    module = folder / "plugins" / "a2" / "life_a2.py"
+    if linked == "file":
+        module.rename(outside / "life_a2.py")
+        module.symlink_to(outside / "life_a2.py")
+    else:
+        (outside / "__init__.py").write_text(module.read_text())
+        module.unlink()
+        (folder / "plugins" / "a2" / "life_a2").symlink_to(outside)
+    robot = launch(folder, "v")
+    try:
+        outcome = ask(robot, "load a2")
+        assert not outcome.accepted
+        assert outcome.reason == "module 'life_a2' leaves the plugin folder (a link)"
+        assert outcome.diagnostics[0].location.path == "$.entry.module"
+        assert set(robot.runtime.plugins) == {"a"}
+    finally:
+        robot.close()
+
+
 def test_two_plugins_with_one_module_name_are_refused(tmp_path: Path) -> None:
     folder = make_robot(tmp_path, {"a": {}, "b": {}})
     manifest = folder / "plugins" / "b" / "plugin.json"
@@ -564,11 +590,107 @@ def test_a_failing_start_stops_the_plugins_the_same_request_started(tmp_path: Pa
 
 
 def test_ctrl_c_in_a_plugins_start_stops_the_started_ones_and_says_so(tmp_path: Path) -> None:
+    # a real Ctrl-C (SIGINT to the process) while a2 starts; a KeyboardInterrupt a plugin
+    # raises by itself is its fault instead (test_a_plugin_that_raises_a_base_exception...)
     stopped = "(self.context.folder / 'stopped').write_text('yes')"
-    folder = lifecycle_robot(tmp_path, {"a": {"stop": stopped}, "a2": {"start": "raise KeyboardInterrupt"}})
+    ctrl_c = "import os, signal; os.kill(os.getpid(), signal.SIGINT)"
+    folder = lifecycle_robot(tmp_path, {"a": {"stop": stopped}, "a2": {"start": ctrl_c}})
     result = simulated_run(folder)
     assert result.exit_code == 130 and "interrupted before the run started" in result.output
     assert (folder / "plugins" / "a" / "stopped").read_text() == "yes"  # a had started before a2
+
+
+# ------------------------- SystemExit, KeyboardInterrupt, GeneratorExit: the plugin's fault
+BASE_EXCEPTIONS = {
+    "SystemExit": "raise SystemExit(7)",  # 7: no exit code of motivml's, so an exit with it shows
+    "KeyboardInterrupt": "raise KeyboardInterrupt('from the plugin')",
+    "GeneratorExit": "raise GeneratorExit('from the plugin')",
+}
+
+
+def base_exception_robot(
+    tmp_path: Path, where: str, kind: str, entries: tuple[tuple[Any, ...], ...] = LATE_A2
+) -> Path:
+    """lifecycle_robot, with a2 raising `kind` in `where`: import, constructor, start, step or stop."""
+    raising = BASE_EXCEPTIONS[kind]
+    code = {where: raising} if where in ("start", "step", "stop") else {}
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": code}, entries=entries)
+    module = folder / "plugins" / "a2" / "life_a2.py"
+    text = module.read_text()
+    if where == "import":
+        text += f"\n{raising}\n"
+    elif where == "constructor":
+        text += f"\n    def __init__(self, context):\n        {raising}\n"
+    module.write_text(text)
+    return folder
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+@pytest.mark.parametrize("where", ["import", "constructor", "start"])
+def test_a_plugin_that_raises_a_base_exception_while_loading_is_refused(
+    tmp_path: Path, where: str, kind: str
+) -> None:
+    robot = launch(base_exception_robot(tmp_path, where, kind), "v")
+    try:
+        outcome = ask(robot, "load a2")
+        assert not outcome.accepted and "plugin a2" in outcome.reason and kind in outcome.reason
+        assert "(at life_a2.py:" in outcome.reason  # located in the plugin
+        assert set(robot.runtime.plugins) == {"a"} and "a2" not in robot.binder.active
+        robot.runtime.run(0.01)
+        assert robot.runtime.plugins["a"].instance.steps == 10
+    finally:
+        robot.close()
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+@pytest.mark.parametrize("where", ["import", "constructor", "start"])
+def test_a_plugin_that_raises_a_base_exception_at_launch_is_a_located_launch_error(
+    tmp_path: Path, where: str, kind: str
+) -> None:
+    folder = base_exception_robot(
+        tmp_path, where, kind, entries=(("a", "Early", "Dynamic"), ("a2", "Early", "Dynamic"))
+    )
+    result = simulated_run(folder)
+    assert result.exit_code == 3, result.output  # a plugin that cannot start: never the plugin's 7
+    assert isinstance(result.exception, SystemExit)
+    assert "plugin a2" in result.output and kind in result.output and "cannot run" in result.output
+    assert "interrupted" not in result.output and "Traceback" not in result.output
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+def test_a_dynamic_plugin_that_raises_a_base_exception_in_step_is_unloaded(tmp_path: Path, kind: str) -> None:
+    folder = base_exception_robot(
+        tmp_path, "step", kind, entries=(("a", "Early", "Dynamic"), ("a2", "Early", "Dynamic"))
+    )
+    result = simulated_run(folder)
+    assert result.exit_code == 0, result.output
+    assert f"at 0.001 s (tick 1): a2 raised in step: {kind}: " in result.output
+    assert "at 0.001 s (tick 1): unloaded a2 after the fault of a2" in result.output
+    assert "plugin a: 10 steps" in result.output and "\n10 ticks, 0.010 s of control time\n" in result.output
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+def test_a_static_plugin_that_raises_a_base_exception_in_step_stops_the_run(
+    tmp_path: Path, kind: str
+) -> None:
+    folder = make_robot(tmp_path, {"a": {"step": BASE_EXCEPTIONS[kind]}}, static=("alt", "a"))
+    result = simulated_run(folder)
+    assert result.exit_code == 1, result.output
+    assert f"the run stopped: a raised in its step at 0.001 s (tick 1): {kind}: " in result.output
+
+
+@pytest.mark.parametrize("kind", BASE_EXCEPTIONS)
+def test_a_base_exception_in_stop_is_noted_and_the_unload_goes_through(tmp_path: Path, kind: str) -> None:
+    folder = base_exception_robot(
+        tmp_path, "stop", kind, entries=(("a", "Early", "Dynamic"), ("a2", "Early", "Dynamic"))
+    )
+    robot = launch(folder, "v")
+    try:
+        outcome = ask(robot, "unload a2")
+        assert outcome.accepted and set(robot.runtime.plugins) == {"a"}
+        assert robot.runtime.notes[-1][2].startswith(f"stop() of plugin a2 raised {kind}: ")
+    finally:
+        robot.close()
 
 
 def test_a_stop_that_raises_is_reported_and_the_unload_goes_through(tmp_path: Path) -> None:
@@ -583,6 +705,19 @@ def test_a_stop_that_raises_is_reported_and_the_unload_goes_through(tmp_path: Pa
         )
     finally:
         robot.close()
+
+
+@pytest.mark.parametrize("raising", ["raise RuntimeError('device busy')", *BASE_EXCEPTIONS.values()])
+def test_a_stop_that_raises_at_the_end_of_the_run_fails_the_run(tmp_path: Path, raising: str) -> None:
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {"stop": raising}})
+    result = simulated_run(folder)
+    assert result.exit_code == 1, result.output
+    lines = result.output.splitlines()
+    assert lines[-5].startswith("10 ticks")  # the summary, then what the stops said
+    assert lines[-4:-2] == ["at 0.010 s (tick 10): a: stop()", "at 0.010 s (tick 10): a2: stop()"]
+    assert lines[-2].startswith("at 0.010 s (tick 10): stop() of plugin a2 raised ")
+    assert lines[-2].endswith(" (at life_a2.py:16)")
+    assert lines[-1] == "the run did not end cleanly: stop() of a2 raised"
 
 
 def test_a_change_the_loop_does_not_take_in_time_is_withdrawn(tmp_path: Path) -> None:
@@ -666,3 +801,51 @@ def test_a_fault_no_unload_can_mend_stops_the_run(tmp_path: Path) -> None:
         "the run stopped: a raised in its step at 0.003 s (tick 3): ValueError: lost track (at life_a.py:12)"
         in result.output
     )
+
+
+# ---------------------------------------------------- slow plugin steps: named, not only counted
+def test_a_step_that_does_not_return_is_noted_by_the_watchdog_naming_its_plugin(tmp_path: Path) -> None:
+    gate = "import threading; self.gate = threading.Event()"
+    folder = lifecycle_robot(
+        tmp_path, {"a": {}, "a2": {"start": gate, "step": "if self.steps == 3: self.gate.wait(60)"}}
+    )
+    robot = launch(folder, "v")
+    runtime = robot.runtime
+    runtime.watchdog = 0.05  # s (1 s in a run)
+    noticed = threading.Event()
+    note = runtime.note
+
+    def noting(text: str) -> None:
+        note(text)
+        if "has not returned" in text:
+            noticed.set()
+
+    runtime.note = noting  # type: ignore[method-assign]
+    loop = threading.Thread(target=runtime.run, args=(0.01,), daemon=True)  # the simulated clock
+    loop.start()
+    try:
+        assert noticed.wait(HANG_GUARD)  # while a2's third step waits
+        assert runtime.notes[-1][1:] == (
+            3,
+            "a2's step has not returned after 0.05 s (the step of tick 3): the loop waits for it",
+        )
+    finally:
+        runtime.plugins["a2"].instance.gate.set()
+        loop.join(HANG_GUARD)
+        robot.close()
+    assert not loop.is_alive() and runtime.ticks == 10
+    log = [text for _, _, text in runtime.notes]
+    assert any(text.startswith("a2's step returned after ") for text in log)
+    assert runtime.slowest["a2"][1] == 3  # its longest step, kept for the summary and ctl status
+    assert runtime.status().slowest[0][0] == "a2"
+
+
+def test_a_real_clock_summary_names_the_slowest_plugin_steps(tmp_path: Path) -> None:
+    folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {}})
+    result = CliRunner().invoke(
+        main, ["run", str(folder), "--variant", "v", "--duration", "0.02", "--no-control"]
+    )
+    assert result.exit_code == 0, result.output
+    [line] = [line for line in result.output.splitlines() if line.startswith("slowest plugin steps: ")]
+    assert sorted(part.split()[0] for part in line.split(": ", 1)[1].split(", ")) == ["a", "a2"]
+    assert "slowest plugin steps" not in simulated_run(folder).output  # wall-clock times: real clock only

@@ -7,6 +7,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -137,16 +138,30 @@ def run_command(
     from ..runtime.launch import launch
     from ..runtime.session import EXIT_INTERRUPTED, Session
 
+    interrupted = []  # a real Ctrl-C while launching (a plugin's KeyboardInterrupt is its fault)
+
+    def interrupt(signum: int, frame: object) -> None:
+        interrupted.append(signum)
+        raise KeyboardInterrupt
+
+    guarding = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, interrupt) if guarding else None
     try:
         robot = launch(target, variant, rate, prefer, strict)
     except MotivmlError as exc:
+        if interrupted:  # the Ctrl-C came while a plugin started: it failed because of it
+            out.print("interrupted before the run started")
+            sys.exit(EXIT_INTERRUPTED)
         for d in exc.diagnostics:
             print_diagnostic(d)
         out.print(f"[bold red]cannot run[/]: {escape(target)} variant {escape(variant)}")
         sys.exit(exc.exit_code)
     except KeyboardInterrupt:
         out.print("interrupted before the run started")
-        sys.exit(130)
+        sys.exit(EXIT_INTERRUPTED)
+    finally:
+        if guarding:
+            signal.signal(signal.SIGINT, previous)
     for d in robot.warnings:
         print_diagnostic(d)
     runtime = robot.runtime
@@ -226,11 +241,16 @@ def run_command(
         )
     session.close()
     _report_notes(session, out)  # what plugins said while they stopped
+    failed_stops = robot.binder.failed_stops
+    if failed_stops:
+        out.print(
+            f"[bold red]the run did not end cleanly[/]: stop() of {escape(', '.join(failed_stops))} raised"
+        )
     sys.exit(
         EXIT_INTERRUPTED
         if session.stopped_by == signal.SIGINT
         else 1
-        if diverged or runtime.failure is not None or session.unsettled
+        if diverged or runtime.failure is not None or session.unsettled or failed_stops
         else 0  # a run stopped by SIGTERM (a service manager's stop) ended normally
     )
 
@@ -308,6 +328,11 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
             f"{plural(stats.missed, 'missed deadline')}; CPU {stats.cpu_share:.0%}"
         )
     out.print(line)
+    if stats.clock == "real" and snapshot.slowest:  # which plugin made the ticks overrun (wall-clock times)
+        steps = ", ".join(
+            f"{feature} {took * 1e3:.3f} ms (tick {tick})" for feature, took, tick in snapshot.slowest
+        )
+        out.print(escape(printable(f"slowest plugin steps: {steps}")))
 
 
 @click.command("ctl")
@@ -392,4 +417,9 @@ def _print_status(answer: dict[str, object]) -> None:
     plugins = answer["plugins"]
     assert isinstance(plugins, list)
     for plugin in plugins:
-        out.print(shown(f"plugin {plugin['feature']}: {plugin['status']}"))
+        slowest = (
+            f" (slowest step {plugin['slowest_step_ms']:.3f} ms, tick {plugin['slowest_step_tick']})"
+            if isinstance(plugin.get("slowest_step_ms"), float | int)
+            else ""
+        )
+        out.print(shown(f"plugin {plugin['feature']}: {plugin['status']}{slowest}"))

@@ -11,7 +11,10 @@ constructs the class with a `PluginContext` and calls, in this order:
   raising here unloads a Dynamic feature (with its subtree) and stops the run for a Static
   one;
 * `stop()` once, when the feature unloads or the run ends (errors here are reported, never
-  raised into the loop).
+  raised into the loop; at the end of a run they make `motivml run` exit 1).
+
+"Raising" is anything, `SystemExit`, `KeyboardInterrupt` and `GeneratorExit` included: each is
+the plugin's fault, never the end of the loop or of the process.
 
 Subclass `FeaturePlugin` (its methods do nothing) and override what you need.
 """

@@ -8,12 +8,21 @@ stop, status): its stop() also releases the C++ object and unloads the library.
 Every failure is a `PluginError` at the manifest's `entry.library` or `entry.class`:
 - the extension is not built;
 - the library file is missing;
-- dlopen fails (an undefined symbol, say);
+- dlopen fails (an undefined symbol, say, or a static initialiser that throws);
 - the library does not declare the class (the message lists the classes it does).
+
+A library is loaded in a child process first (once per file: path, mtime and size), and
+only when that succeeded in the running process: a library that cannot load must never
+poison it (a static initialiser that throws unwinds through dlopen and leaves the dynamic
+loader's lock held, so every later load from another thread, and the exit, would hang).
 """
 
 from __future__ import annotations
 
+import signal
+import subprocess
+import sys
+import threading
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -31,6 +40,49 @@ def _extension() -> ModuleType | None:
         return None
     module: ModuleType = _cpp_plugins
     return module
+
+
+PROBE_TIMEOUT = 30.0  # s for a child process to load a library
+_PROBE = """
+import importlib.util, sys
+spec = importlib.util.spec_from_file_location("_cpp_plugins", sys.argv[1])
+extension = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(extension)
+try:
+    extension.Library(sys.argv[2])
+except RuntimeError as exc:
+    lines = str(exc).strip().splitlines()
+    print(lines[0] if lines else type(exc).__name__)
+    sys.exit(1)
+"""
+_verdicts: dict[tuple[str, int, int], str | None] = {}  # (path, mtime, size) -> why it cannot load
+_probing = threading.Lock()
+
+
+def probe(extension: ModuleType, path: Path) -> str | None:
+    """Why the library cannot load, found by loading it in a child process; None if it can."""
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    with _probing:
+        if key in _verdicts:
+            return _verdicts[key]
+        command = [sys.executable, "-c", _PROBE, str(extension.__file__), str(path)]
+        try:
+            done = subprocess.run(command, capture_output=True, text=True, timeout=PROBE_TIMEOUT)
+        except subprocess.TimeoutExpired:
+            verdict: str | None = f"loading it did not finish within {PROBE_TIMEOUT:g} s"
+        else:
+            said = done.stdout.strip().splitlines()
+            if done.returncode == 0:
+                verdict = None
+            elif done.returncode == 1 and said:
+                verdict = said[-1]
+            elif done.returncode < 0:
+                verdict = f"loading it killed the process ({signal.Signals(-done.returncode).name})"
+            else:
+                verdict = f"loading it ended the process with exit code {done.returncode}"
+        _verdicts[key] = verdict
+        return verdict
 
 
 class CppPlugin:
@@ -85,6 +137,9 @@ def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
         )
     if not path.is_file():
         raise plugin_error(plugin, "library", f"library {path} does not exist (build it: make cpp-plugins)")
+    verdict = probe(extension, path)
+    if verdict is not None:
+        raise plugin_error(plugin, "library", f"cannot load {path.name}: {verdict}")
     try:
         library = extension.Library(str(path))
     except RuntimeError as exc:  # LoadError: dlopen failed

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import importlib
 import itertools
+from pathlib import Path
 from types import ModuleType
 from typing import Any
 
@@ -39,6 +40,20 @@ def plugin_error(plugin: Plugin, key: str, message: str) -> PluginError:
     return PluginError(error(where, message, "plugins.load", plugin.feature))
 
 
+def _refuse_links_out(plugin: Plugin, name: str) -> None:
+    """The entry module (its file, or its package's folders) must not be a link that leaves the
+    plugin folder: what is imported is what the folder holds, as for a C++ library."""
+    folder = Path(plugin.folder).resolve()
+    here = Path(plugin.folder)
+    for part in name.split("."):
+        for candidate in (here / part, here / f"{part}.py"):
+            if (candidate.exists() or candidate.is_symlink()) and not candidate.resolve().is_relative_to(
+                folder
+            ):
+                raise plugin_error(plugin, "module", f"module {name!r} leaves the plugin folder (a link)")
+        here = here / part
+
+
 class PythonPlugins:
     """The Python plugins of one robot: import, construct, reload."""
 
@@ -58,6 +73,8 @@ class PythonPlugins:
     def _module(self, plugin: Plugin, fresh: bool) -> ModuleType:
         name = plugin.entry["module"]
         module = self.modules.get(plugin.feature)
+        if module is None or fresh:
+            _refuse_links_out(plugin, name)
         try:
             with self.source:
                 if module is None:
@@ -70,7 +87,7 @@ class PythonPlugins:
                         module.__dict__.clear()
                         module.__dict__.update(saved)
                         raise
-        except Exception as exc:  # a plugin's import may raise anything
+        except BaseException as exc:  # a plugin's import may raise anything, SystemExit too
             raise plugin_error(
                 plugin,
                 "module",
@@ -98,7 +115,7 @@ class PythonPlugins:
             )
         try:
             return cls(context)
-        except Exception as exc:
+        except BaseException as exc:  # SystemExit, KeyboardInterrupt too: the plugin's fault
             raise plugin_error(
                 plugin,
                 "class",

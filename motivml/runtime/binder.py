@@ -102,6 +102,7 @@ class Binder:
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="motivml-binder")
         self._closing = threading.Event()  # the run has ended: no tick will take a commit any more
         self._in_flight: Commit | None = None  # the commit a request waits for
+        self.failed_stops: list[str] = []  # plugins whose stop() raised at the end of the run
         runtime.on_fault = self._on_fault
 
     # ---------------------------------------------------------------- plugins
@@ -146,12 +147,10 @@ class Binder:
         except BaseException as exc:  # plugin code may raise anything
             try:
                 loader.discard(instance)
-            except Exception as problem:
+            except BaseException as problem:
                 self.runtime.note(
                     f"stop() of plugin {feature} raised {describe_exception(problem, plugin.folder)}"
                 )
-            if not isinstance(exc, Exception):
-                raise
             raise plugin_error(
                 plugin,
                 "class",
@@ -159,12 +158,15 @@ class Binder:
             ) from None
         return Running(feature, instance, self.static[feature], plugin.folder)
 
-    def _stop(self, running: Running) -> None:
+    def _stop(self, running: Running) -> bool:
+        """Stop a plugin; False (and a note) if its stop() raised."""
         try:
             running.instance.stop()
-        except Exception as exc:
+        except BaseException as exc:  # plugin code may raise anything, SystemExit too
             folder = self.plugins[running.feature].folder
             self.runtime.note(f"stop() of plugin {running.feature} raised {describe_exception(exc, folder)}")
+            return False
+        return True
 
     def start(self) -> None:
         """Start the plugins of the start state (before the loop runs); all or none."""
@@ -407,7 +409,8 @@ class Binder:
         settled = self._lock.acquire(timeout=10.0)  # a request from the socket may be preparing
         try:
             for running in list(self.runtime.plugins.values()):
-                self._stop(running)
+                if not self._stop(running):
+                    self.failed_stops.append(running.feature)
         finally:
             if settled:
                 self._lock.release()

@@ -188,7 +188,9 @@ class ControlServer:
                 {"id": c.id, "kind": c.kind, "feature": c.feature, "status": c.status, "learning": c.learning}
                 for c in snapshot.components
             ],
-            "plugins": [{"feature": f, "status": s} for f, s in snapshot.plugins],
+            "plugins": [
+                {"feature": f, "status": s} | _slowest(snapshot.slowest, f) for f, s in snapshot.plugins
+            ],
         }
 
     def dump(self) -> dict[str, Any]:
@@ -272,3 +274,11 @@ def send(run_dir: Path, request: dict[str, Any], timeout: float = 30.0) -> dict[
         raise _problem(path, "the run closed the connection without an answer")
     answer: dict[str, Any] = json.loads(line)
     return answer
+
+
+def _slowest(slowest: tuple[tuple[str, float, int], ...], feature: str) -> dict[str, Any]:
+    """A plugin's longest step so far, if it has stepped: which plugin holds the loop up."""
+    for name, took, tick in slowest:
+        if name == feature:
+            return {"slowest_step_ms": round(took * 1e3, 3), "slowest_step_tick": tick}
+    return {}

@@ -45,6 +45,7 @@ class Running:
     static: bool  # a fault stops the run (Dynamic: the feature is unloaded instead)
     folder: object = None  # the plugin's folder: where a fault's frame is looked for
     faulted: bool = False
+    slowest: float = 0.0  # s, its longest step so far
 
 
 @dataclass(frozen=True)
@@ -139,12 +140,13 @@ class Snapshot:
     components: tuple[ComponentStatus, ...]
     modules: tuple[tuple[str, str, int], ...]  # (id, learning state, times learned)
     plugins: tuple[tuple[str, str], ...] = ()  # (feature, status line or "faulted")
+    slowest: tuple[tuple[str, float, int], ...] = ()  # (feature, longest step in s, its tick), longest first
 
 
 def _status(instance: Any) -> str:
     try:
         return str(instance.status())[:80]
-    except Exception as exc:  # a view never fails because of a plugin
+    except BaseException as exc:  # a view never fails because of a plugin
         return f"status() raised {type(exc).__name__}"
 
 
@@ -224,6 +226,9 @@ class Runtime:
         self.on_fault: Callable[[Fault], None] | None = None  # Dynamic plugin faults go here
         self.hooks: list[Callable[[], None]] = []  # after every tick, on the control thread
         self.failure: Fault | None = None  # a Static plugin's fault, which ends the run
+        self.slowest: dict[str, tuple[float, int]] = {}  # feature -> its longest step (s) and its tick
+        self.watchdog = 1.0  # s: a plugin step running this long is noted, naming the plugin
+        self._stepping: tuple[Running, float, int] | None = None  # the plugin step under way
         self._commits: queue.SimpleQueue[Commit] = queue.SimpleQueue()
         self._lock = threading.Lock()  # commit versus withdraw
         assembly.prime()
@@ -246,10 +251,19 @@ class Runtime:
                 # faulted, or unloaded during this tick (a fault's unload between ticks): stopped
                 if running.faulted or self.plugins.get(running.feature) is not running:
                     continue
+                began = time.perf_counter()
+                self._stepping = (running, began, self.ticks)
+                failure: BaseException | None = None
                 try:
                     running.instance.step(now)
-                except Exception as exc:  # a plugin may raise anything; the loop goes on
-                    self._fault(running, exc)
+                except BaseException as exc:  # a plugin may raise anything (SystemExit too); the loop goes on
+                    failure = exc
+                took = time.perf_counter() - began
+                self._stepping = None
+                if took > running.slowest:
+                    self._slow_step(running, took)
+                if failure is not None:
+                    self._fault(running, failure)
         for hook in self.hooks:
             hook()
 
@@ -303,7 +317,7 @@ class Runtime:
                 self.changes.append(commit.change)
                 commit.done.set()
 
-    def _fault(self, running: Running, exc: Exception) -> None:
+    def _fault(self, running: Running, exc: BaseException) -> None:
         running.faulted = True
         fault = Fault(
             self.ticks, self.time, running.feature, describe_exception(exc, running.folder), running.static
@@ -315,6 +329,29 @@ class Runtime:
             self.stop()
         elif self.on_fault is not None:
             self.on_fault(fault)
+
+    def _slow_step(self, running: Running, took: float) -> None:
+        """A plugin's longest step so far: kept per feature (for the summary and `ctl status`)."""
+        running.slowest = took
+        if took > self.slowest.get(running.feature, (0.0, 0))[0]:
+            self.slowest[running.feature] = (took, self.ticks)
+        if took >= self.watchdog:
+            self.note(f"{running.feature}'s step returned after {took:.3f} s: the loop waited for it")
+
+    def _watch(self, ended: threading.Event) -> None:
+        """The watchdog's thread: note a plugin step that has not returned within `watchdog` s."""
+        reported: tuple[Running, float, int] | None = None
+        while not ended.wait(self.watchdog / 4):
+            stepping = self._stepping
+            if stepping is None or stepping is reported:
+                continue
+            running, began, tick = stepping
+            if time.perf_counter() - began >= self.watchdog:
+                reported = stepping
+                self.note(
+                    f"{running.feature}'s step has not returned after {self.watchdog:g} s (the step of tick "
+                    f"{tick}): the loop waits for it"
+                )
 
     def note(self, text: str) -> None:
         """A line in the run's log, stamped with the control time and tick."""
@@ -363,7 +400,10 @@ class Runtime:
         plugins = tuple(
             (r.feature, "faulted" if r.faulted else _status(r.instance)) for r in list(self.plugins.values())
         )
-        return Snapshot(self.ticks, self.time, components, modules, plugins)
+        slowest = tuple(
+            sorted(((f, took, tick) for f, (took, tick) in list(self.slowest.items())), key=lambda s: -s[1])
+        )
+        return Snapshot(self.ticks, self.time, components, modules, plugins, slowest)
 
     def run(
         self,
@@ -373,8 +413,14 @@ class Runtime:
     ) -> RunStats:
         """Tick for `duration` seconds of clock time (or until `until` or `stop()`)."""
         clock = clock or SimulatedClock()
-        with np.errstate(all="ignore"):  # a diverging system shows in the values, not as warnings
-            return self._run(duration, clock, until)
+        ended = threading.Event()
+        watchdog = threading.Thread(target=self._watch, args=(ended,), daemon=True, name="motivml-watchdog")
+        watchdog.start()
+        try:
+            with np.errstate(all="ignore"):  # a diverging system shows in the values, not as warnings
+                return self._run(duration, clock, until)
+        finally:
+            ended.set()
 
     def _run(
         self, duration: float, clock: SimulatedClock | RealClock, until: Callable[[Runtime], bool] | None
