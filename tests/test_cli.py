@@ -309,3 +309,13 @@ def test_the_live_view_shows_the_coordination() -> None:
     )
     assert code == 0, output
     assert output.splitlines()[-1].startswith("coordination reached its final state Done")
+
+
+def test_ids_differing_only_in_case_fail_validate_as_configure_would(tmp_path: Path) -> None:
+    model = tmp_path / "model.json"
+    model.write_text(
+        '{"id": "r", "name": "R", "sub": [{"id": "slam", "name": "a"}, {"id": "SLAM", "name": "b"}]}'
+    )
+    code, output = run("validate", str(model))
+    assert code == 1
+    assert "$.sub[1].id: error: SLAM and slam differ only in case" in output

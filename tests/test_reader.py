@@ -122,3 +122,13 @@ def test_any_is_read_as_an_open_value_and_a_binding_is_spelled_from_its_time_and
         assert Binding.of(b.time, b.mode) is b is Binding.from_flags(b.early, b.static)
         assert (b.early, b.static) == (b.time is Time.EARLY, b.mode is Mode.STATIC)
     assert [token(v) for v in (Time.LATE, Mode.DYNAMIC, None)] == ["Late", "Dynamic", "Any"]
+
+
+def test_ids_differing_only_in_case_are_an_error_of_the_model() -> None:
+    # configure would refuse them (their C++ macros clash), so validate must too
+    _, diagnostics = read(feature("r", [feature("slam"), feature("SLAM"), feature("slam")]))
+    assert lines(diagnostics) == [
+        "error: m.json:10:13: $.sub[1].id: SLAM and slam differ only in case, "
+        "so their C++ macros would be the same name",
+        "error: m.json:14:13: $.sub[2].id: duplicate feature id 'slam' (first defined at line 6, column 13)",
+    ]

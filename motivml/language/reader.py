@@ -1,7 +1,7 @@
 """From schema-valid documents to model objects, with the checks a schema cannot make.
 
-Errors: duplicate feature ids, includes/excludes of unknown ids or of the feature itself,
-configuration entries for unknown features or given twice, and (unless partial
+Errors: duplicate feature ids, ids differing only in case (their C++ macros would clash),
+includes/excludes of unknown ids or of the feature itself, configuration entries for unknown features or given twice, and (unless partial
 configurations are accepted) features without an entry. Warnings: one-member groups,
 `isMandatory: true` on a group member, `isSelected` away from the root, props of a
 deselected feature. Everything else about meaning is the SAT encoding's job.
@@ -53,6 +53,7 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
     diagnostics: list[Diagnostic] = []
     features: list[Feature] = []
     index: dict[str, int] = {}
+    folded: dict[str, int] = {}  # upper-cased id -> first feature with it (C++ macro names)
     nodes: list[dict[str, Any]] = []
     stack: list[tuple[dict[str, Any], int | None, int]] = [(doc.root, None, 0)]
     model = FeatureModel(features, index, [], str(doc.root.get("name", "")), doc)
@@ -93,6 +94,17 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
             )
         else:
             index[feature.id] = i
+            other = folded.setdefault(feature.id.upper(), i)
+            if other != i:
+                diagnostics.append(
+                    error(
+                        doc.locate(model.path(i, "id")),
+                        f"{feature.id} and {features[other].id} differ only in case, "
+                        f"so their C++ macros would be the same name",
+                        "model.case-clash",
+                        feature.id,
+                    )
+                )
         for position_ in range(len(node.get("sub", ())) - 1, -1, -1):
             stack.append((node["sub"][position_], i, position_))
 
