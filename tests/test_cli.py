@@ -319,3 +319,33 @@ def test_ids_differing_only_in_case_fail_validate_as_configure_would(tmp_path: P
     code, output = run("validate", str(model))
     assert code == 1
     assert "$.sub[1].id: error: SLAM and slam differ only in case" in output
+
+
+def _floats(node: object) -> object:
+    """Every dimension, hidden and basis count written as a float (3 -> 3.0)."""
+    if isinstance(node, dict):
+        return {
+            k: float(v) if k in ("dimension", "hidden", "basis") and isinstance(v, int) else _floats(v)
+            for k, v in node.items()
+        }
+    if isinstance(node, list):
+        return [_floats(v) for v in node]
+    return node
+
+
+@pytest.mark.parametrize(("robot", "variant"), [("laundry_gripping", "learned"), ("reaching_arm", "dmp")])
+def test_integral_floats_for_counts_are_accepted_by_run(tmp_path: Path, robot: str, variant: str) -> None:
+    # JSON Schema's "integer" admits 3.0: what validate passes, run must accept (numpy refused a float size)
+    import shutil
+
+    folder = tmp_path / robot
+    shutil.copytree(ROOT / "feature_models" / robot, folder)
+    architecture = folder / "architecture.json"
+    document = json.loads(architecture.read_text())
+    architecture.write_text(json.dumps(_floats(document), indent=2))
+    assert "3.0" in architecture.read_text()
+    assert run("validate", str(folder), "--variant", variant)[0] == 0
+    code, output = run(
+        "run", str(folder), "--variant", variant, "--duration", "0.2", "--clock", "simulated", "--no-control"
+    )
+    assert code == 0, output

@@ -623,12 +623,18 @@ def _vector(numbers: list[float]) -> Vector:
     return tuple(numbers)
 
 
+def _count(number: int | float) -> int:
+    """A dimension, a number of hidden units or of basis functions as an int: JSON Schema's
+    "integer" admits 3.0, and numpy refuses a float for a size."""
+    return int(number)
+
+
 def _space(item: dict[str, Any]) -> Space:
     initial = item.get("initial")
     return Space(
         item["id"],
         item["type"],
-        item["dimension"],
+        _count(item["dimension"]),
         item["feature"],
         item.get("unit"),
         _vector(initial) if initial is not None else None,
@@ -651,7 +657,7 @@ def _function(item: dict[str, Any]) -> MappingFunction:
 
 
 def _learner(item: dict[str, Any]) -> Learner:
-    return Learner(item["type"], item.get("mode"), item.get("hidden", 60))
+    return Learner(item["type"], item.get("mode"), _count(item.get("hidden", 60)))
 
 
 def _mapping(item: dict[str, Any], spaces: dict[str, Space]) -> Mapping:
@@ -668,7 +674,7 @@ def _mapping(item: dict[str, Any], spaces: dict[str, Space]) -> Mapping:
 
 
 def _system(item: dict[str, Any]) -> SystemParameters:
-    kind, dimension = item["type"], item["dimension"]
+    kind, dimension = item["type"], _count(item["dimension"])
     if kind == "pointAttractor":
         return PointAttractorParameters(dimension, item.get("alpha", 25.0))
     if kind == "dmp":
@@ -679,7 +685,11 @@ def _system(item: dict[str, Any]) -> SystemParameters:
             else None
         )
         return DMPParameters(
-            dimension, item.get("alpha", 25.0), item.get("basis", 30), item.get("duration"), demonstration
+            dimension,
+            item.get("alpha", 25.0),
+            _count(item.get("basis", 30)),
+            item.get("duration"),
+            demonstration,
         )
     offsets, phases = item.get("offsets"), item.get("phases")
     return OscillatorParameters(
