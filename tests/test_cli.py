@@ -349,3 +349,33 @@ def test_integral_floats_for_counts_are_accepted_by_run(tmp_path: Path, robot: s
         "run", str(folder), "--variant", variant, "--duration", "0.2", "--clock", "simulated", "--no-control"
     )
     assert code == 0, output
+
+
+def test_a_rate_that_makes_run_diverge_fails_validate_with_the_builders_message(tmp_path: Path) -> None:
+    import shutil
+
+    folder = tmp_path / "arm"
+    shutil.copytree(ROOT / "feature_models" / "reaching_arm", folder)
+    architecture = folder / "architecture.json"
+    document = json.loads(architecture.read_text())
+    [component] = [c for c in document["components"] if c["id"] == "AttractorReacher"]
+    component["rate"] = 5
+    architecture.write_text(json.dumps(document, indent=2))
+    message = (
+        "AttractorReacher steps every 0.2 s, too coarse for module ReachAttractor (alpha 20): "
+        "the integration diverges unless alpha * step / duration < 2"
+    )
+    code, output = run("validate", str(folder), "--variant", "dmp")  # not even the variant that uses it
+    assert code == 1 and message in output, output
+    code, output = run(
+        "run",
+        str(folder),
+        "--variant",
+        "attractor",
+        "--duration",
+        "0.1",
+        "--clock",
+        "simulated",
+        "--no-control",
+    )
+    assert code != 0 and message in output, output
