@@ -379,3 +379,16 @@ def test_a_rate_that_makes_run_diverge_fails_validate_with_the_builders_message(
         "--no-control",
     )
     assert code != 0 and message in output, output
+
+
+@pytest.mark.parametrize("command", ["validate", "show"])
+def test_ctrl_c_ends_any_command_with_one_line_and_130(monkeypatch: pytest.MonkeyPatch, command: str) -> None:
+    import motivml.validate
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(motivml.validate, "validate", interrupted)
+    monkeypatch.setattr(motivml.validate, "validate_model", interrupted)
+    result = CliRunner().invoke(main, [command, str(SIMPLEBOT)])
+    assert result.exit_code == 130 and result.output == "interrupted\n", result.output

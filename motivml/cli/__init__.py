@@ -1,6 +1,7 @@
 """The `motivml` command line: parse, call the library, print with rich, pick exit codes.
 
-Exit codes: 0 valid, 1 invalid (model or configuration), 2 usage, 3 environment.
+Exit codes: 0 valid, 1 invalid (model or configuration), 2 usage, 3 environment, 130
+interrupted (Ctrl-C).
 This package is the only place that imports click or rich, and the only place that turns
 errors into exit codes. One module per family of commands, imported only when one of its
 commands runs (or `--help` lists them), and each command imports the stages it uses only
@@ -18,6 +19,8 @@ import importlib
 import click
 
 from .. import __version__
+
+INTERRUPTED = 130  # the exit code of a command ended by Ctrl-C, as a shell reports SIGINT
 
 COMMANDS = {  # command name -> the module of this package that defines it, and its function
     "validate": ("checking", "validate_command"),
@@ -43,6 +46,14 @@ class LazyGroup(click.Group):
         module, function = COMMANDS[cmd_name]
         command: click.Command = getattr(importlib.import_module(f".{module}", __name__), function)
         return command
+
+    def invoke(self, ctx: click.Context) -> object:
+        """Run the command; Ctrl-C anywhere (a solver, a file read) ends it with one line and 130."""
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            click.echo("interrupted", err=True)
+            raise click.exceptions.Exit(INTERRUPTED) from None
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
