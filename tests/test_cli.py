@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -392,3 +393,87 @@ def test_ctrl_c_ends_any_command_with_one_line_and_130(monkeypatch: pytest.Monke
     monkeypatch.setattr(motivml.validate, "validate_model", interrupted)
     result = CliRunner().invoke(main, [command, str(SIMPLEBOT)])
     assert result.exit_code == 130 and result.output == "interrupted\n", result.output
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["validate"],
+        ["show"],
+        ["graph"],
+        ["configure", "--variant", "lab"],
+        ["run", "--variant", "lab", "--clock", "simulated", "--duration", "0.1", "--no-control"],
+    ],
+)
+def test_a_path_component_over_255_characters_exits_3_with_the_path(tmp_path: Path, args: list[str]) -> None:
+    long = tmp_path / ("a" * 300)
+    code, output = run(args[0], str(long), *args[1:])
+    assert code == 3, output
+    assert f"{long}: " in output and "cannot read: File name too long" in output
+
+
+def _refuse(monkeypatch: pytest.MonkeyPatch, method: str, where: Path) -> None:
+    """What a folder at mode 000 does for a user other than root: pathlib raises PermissionError."""
+    original = getattr(Path, method)
+
+    def refused(self: Path, *args: object) -> object:
+        if self == where or where in self.parents:
+            raise PermissionError(13, "Permission denied", str(self))
+        return original(self, *args)
+
+    monkeypatch.setattr(Path, method, refused)
+
+
+@pytest.mark.parametrize("command", ["validate", "show", "graph", "configure", "run"])
+def test_an_unreadable_robot_folder_exits_3_with_the_path(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, command: str
+) -> None:
+    import shutil
+
+    folder = tmp_path / "bot"
+    shutil.copytree(SIMPLEBOT, folder)
+    _refuse(monkeypatch, "is_dir", folder)
+    extra = ["--variant", "lab"] if command in ("configure", "run") else []
+    code, output = run(command, str(folder), *extra)
+    assert code == 3, output
+    assert f"{folder}: " in output and "cannot read: Permission denied" in output
+
+
+def test_robot_folder_open_makes_a_permission_error_an_environment_problem(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from motivml.documents.robot_folder import RobotFolder
+    from motivml.errors import EnvironmentProblem
+
+    _refuse(monkeypatch, "is_dir", tmp_path)
+    with pytest.raises(EnvironmentProblem) as caught:
+        RobotFolder.open(tmp_path)
+    assert str(caught.value) == f"{tmp_path}: cannot read: Permission denied"
+
+
+def test_an_unreadable_plugin_folder_exits_3_with_the_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    plugins = (SIMPLEBOT / "../../plugins/python").resolve()
+    original = Path.iterdir
+
+    def refused(self: Path):  # type: ignore[no-untyped-def]
+        if self.resolve() == plugins:
+            raise PermissionError(13, "Permission denied", str(self))
+        return original(self)
+
+    monkeypatch.setattr(Path, "iterdir", refused)
+    code, output = run("validate", str(SIMPLEBOT))
+    assert code == 3 and "plugins/python: cannot read: Permission denied" in output, output
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root reads a folder at mode 000")
+def test_a_robot_folder_at_mode_000_exits_3(tmp_path: Path) -> None:
+    import shutil
+
+    folder = tmp_path / "bot"
+    shutil.copytree(SIMPLEBOT, folder)
+    folder.chmod(0)
+    try:
+        code, output = run("validate", str(folder))
+    finally:
+        folder.chmod(0o755)
+    assert code == 3 and "Permission denied" in output
