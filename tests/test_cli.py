@@ -477,3 +477,20 @@ def test_a_robot_folder_at_mode_000_exits_3(tmp_path: Path) -> None:
     finally:
         folder.chmod(0o755)
     assert code == 3 and "Permission denied" in output
+
+
+def test_a_learner_above_the_size_bound_is_warned_about_located(tmp_path: Path) -> None:
+    import shutil
+
+    folder = tmp_path / "laundry"
+    shutil.copytree(ROOT / "feature_models" / "laundry_gripping", folder)
+    architecture = folder / "architecture.json"
+    architecture.write_text(architecture.read_text().replace('"hidden": 120', '"hidden": 10000'))
+    code, output = run("validate", str(folder), "--variant", "learned")
+    assert code == 0, output
+    [line] = [line for line in output.splitlines() if "hidden units" in line]
+    assert line.startswith(f"{architecture}:37:62: ")
+    assert line.endswith(
+        "$.mappings[2].learner.hidden: warning: RedundancyLearner has 10,000 hidden units, over the bound of 500: "
+        "a run may be too slow for its loop or run out of memory"
+    ), line
