@@ -494,3 +494,23 @@ def test_a_learner_above_the_size_bound_is_warned_about_located(tmp_path: Path) 
         "$.mappings[2].learner.hidden: warning: RedundancyLearner has 10,000 hidden units, over the bound of 500: "
         "a run may be too slow for its loop or run out of memory"
     ), line
+
+
+def test_a_large_xor_group_is_explained_as_one_statement(tmp_path: Path) -> None:
+    # above encoding.PAIRWISE_EXPLAINED members the explain build has one fact for the group's pairs
+    model, config = tmp_path / "model.json", tmp_path / "c.json"
+    model.write_text(
+        json.dumps(
+            {"id": "r", "name": "R", "sub": [{"id": f"m{i}", "name": "M", "group": "XOR"} for i in range(70)]}
+        )
+    )
+    config.write_text(json.dumps({"properties": [{"id": f"m{i}", "selected": i < 2} for i in range(70)]}))
+    code, output = run("validate", str(model), "--config", str(config))
+    assert code == 1
+    assert (
+        "error: the 70 members of r's XOR group are alternatives, but m0 allows only Early binding, m0 is "
+        "selected, m1 allows only Early binding and m1 is selected: members of an XOR group can be selected "
+        "together only as Dynamic alternatives, at most one of them Early, and only one of them is active at "
+        "a time (rules 2.2 and 3.3)" in output
+    ), output
+    assert f"    {model}:1:69: the 70 members of r's XOR group are alternatives" in output
