@@ -14,6 +14,7 @@ from pathlib import Path
 
 from .architecture.document import Architecture, read_architecture
 from .architecture.family import architecture_bindings
+from .architecture.stability import stability
 from .binding.check import analyse_model, check_variant
 from .binding.resolve import resolve
 from .coordination.document import VariantBindings, read_coordination
@@ -79,7 +80,8 @@ def validate_configuration(model: FeatureModel, config_path: str | Path, partial
 
 
 def validate_architecture(model: FeatureModel, path: str | Path) -> Report:
-    """Check an architecture document against its schema and the model."""
+    """Check an architecture document against its schema and the model, and every component's
+    integration at the default loop rate (what a build at `run`'s default rate would refuse)."""
     report = Report(str(path), "architecture", model=model)
     doc, problems = read_checked(path, lambda d: [])
     report.diagnostics += problems
@@ -88,6 +90,7 @@ def validate_architecture(model: FeatureModel, path: str | Path) -> Report:
         report.diagnostics += problems
         if architecture is not None:
             report.diagnostics += architecture_bindings(model, architecture)
+            report.diagnostics += stability(architecture)
     return _sorted(report)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -309,3 +310,207 @@ def test_the_live_view_shows_the_coordination() -> None:
     )
     assert code == 0, output
     assert output.splitlines()[-1].startswith("coordination reached its final state Done")
+
+
+def test_ids_differing_only_in_case_fail_validate_as_configure_would(tmp_path: Path) -> None:
+    model = tmp_path / "model.json"
+    model.write_text(
+        '{"id": "r", "name": "R", "sub": [{"id": "slam", "name": "a"}, {"id": "SLAM", "name": "b"}]}'
+    )
+    code, output = run("validate", str(model))
+    assert code == 1
+    assert "$.sub[1].id: error: SLAM and slam differ only in case" in output
+
+
+def _floats(node: object) -> object:
+    """Every dimension, hidden and basis count written as a float (3 -> 3.0)."""
+    if isinstance(node, dict):
+        return {
+            k: float(v) if k in ("dimension", "hidden", "basis") and isinstance(v, int) else _floats(v)
+            for k, v in node.items()
+        }
+    if isinstance(node, list):
+        return [_floats(v) for v in node]
+    return node
+
+
+@pytest.mark.parametrize(("robot", "variant"), [("laundry_gripping", "learned"), ("reaching_arm", "dmp")])
+def test_integral_floats_for_counts_are_accepted_by_run(tmp_path: Path, robot: str, variant: str) -> None:
+    # JSON Schema's "integer" admits 3.0: what validate passes, run must accept (numpy refused a float size)
+    import shutil
+
+    folder = tmp_path / robot
+    shutil.copytree(ROOT / "feature_models" / robot, folder)
+    architecture = folder / "architecture.json"
+    document = json.loads(architecture.read_text())
+    architecture.write_text(json.dumps(_floats(document), indent=2))
+    assert "3.0" in architecture.read_text()
+    assert run("validate", str(folder), "--variant", variant)[0] == 0
+    code, output = run(
+        "run", str(folder), "--variant", variant, "--duration", "0.2", "--clock", "simulated", "--no-control"
+    )
+    assert code == 0, output
+
+
+def test_a_rate_that_makes_run_diverge_fails_validate_with_the_builders_message(tmp_path: Path) -> None:
+    import shutil
+
+    folder = tmp_path / "arm"
+    shutil.copytree(ROOT / "feature_models" / "reaching_arm", folder)
+    architecture = folder / "architecture.json"
+    document = json.loads(architecture.read_text())
+    [component] = [c for c in document["components"] if c["id"] == "AttractorReacher"]
+    component["rate"] = 5
+    architecture.write_text(json.dumps(document, indent=2))
+    message = (
+        "AttractorReacher steps every 0.2 s, too coarse for module ReachAttractor (alpha 20): "
+        "the integration diverges unless alpha * step / duration < 2"
+    )
+    code, output = run("validate", str(folder), "--variant", "dmp")  # not even the variant that uses it
+    assert code == 1 and message in output, output
+    code, output = run(
+        "run",
+        str(folder),
+        "--variant",
+        "attractor",
+        "--duration",
+        "0.1",
+        "--clock",
+        "simulated",
+        "--no-control",
+    )
+    assert code != 0 and message in output, output
+
+
+@pytest.mark.parametrize("command", ["validate", "show"])
+def test_ctrl_c_ends_any_command_with_one_line_and_130(monkeypatch: pytest.MonkeyPatch, command: str) -> None:
+    import motivml.validate
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(motivml.validate, "validate", interrupted)
+    monkeypatch.setattr(motivml.validate, "validate_model", interrupted)
+    result = CliRunner().invoke(main, [command, str(SIMPLEBOT)])
+    assert result.exit_code == 130 and result.output == "interrupted\n", result.output
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["validate"],
+        ["show"],
+        ["graph"],
+        ["configure", "--variant", "lab"],
+        ["run", "--variant", "lab", "--clock", "simulated", "--duration", "0.1", "--no-control"],
+    ],
+)
+def test_a_path_component_over_255_characters_exits_3_with_the_path(tmp_path: Path, args: list[str]) -> None:
+    long = tmp_path / ("a" * 300)
+    code, output = run(args[0], str(long), *args[1:])
+    assert code == 3, output
+    assert f"{long}: " in output and "cannot read: File name too long" in output
+
+
+def _refuse(monkeypatch: pytest.MonkeyPatch, method: str, where: Path) -> None:
+    """What a folder at mode 000 does for a user other than root: pathlib raises PermissionError."""
+    original = getattr(Path, method)
+
+    def refused(self: Path, *args: object) -> object:
+        if self == where or where in self.parents:
+            raise PermissionError(13, "Permission denied", str(self))
+        return original(self, *args)
+
+    monkeypatch.setattr(Path, method, refused)
+
+
+@pytest.mark.parametrize("command", ["validate", "show", "graph", "configure", "run"])
+def test_an_unreadable_robot_folder_exits_3_with_the_path(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, command: str
+) -> None:
+    import shutil
+
+    folder = tmp_path / "bot"
+    shutil.copytree(SIMPLEBOT, folder)
+    _refuse(monkeypatch, "is_dir", folder)
+    extra = ["--variant", "lab"] if command in ("configure", "run") else []
+    code, output = run(command, str(folder), *extra)
+    assert code == 3, output
+    assert f"{folder}: " in output and "cannot read: Permission denied" in output
+
+
+def test_robot_folder_open_makes_a_permission_error_an_environment_problem(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    from motivml.documents.robot_folder import RobotFolder
+    from motivml.errors import EnvironmentProblem
+
+    _refuse(monkeypatch, "is_dir", tmp_path)
+    with pytest.raises(EnvironmentProblem) as caught:
+        RobotFolder.open(tmp_path)
+    assert str(caught.value) == f"{tmp_path}: cannot read: Permission denied"
+
+
+def test_an_unreadable_plugin_folder_exits_3_with_the_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    plugins = (SIMPLEBOT / "../../plugins/python").resolve()
+    original = Path.iterdir
+
+    def refused(self: Path):  # type: ignore[no-untyped-def]
+        if self.resolve() == plugins:
+            raise PermissionError(13, "Permission denied", str(self))
+        return original(self)
+
+    monkeypatch.setattr(Path, "iterdir", refused)
+    code, output = run("validate", str(SIMPLEBOT))
+    assert code == 3 and "plugins/python: cannot read: Permission denied" in output, output
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root reads a folder at mode 000")
+def test_a_robot_folder_at_mode_000_exits_3(tmp_path: Path) -> None:
+    import shutil
+
+    folder = tmp_path / "bot"
+    shutil.copytree(SIMPLEBOT, folder)
+    folder.chmod(0)
+    try:
+        code, output = run("validate", str(folder))
+    finally:
+        folder.chmod(0o755)
+    assert code == 3 and "Permission denied" in output
+
+
+def test_a_learner_above_the_size_bound_is_warned_about_located(tmp_path: Path) -> None:
+    import shutil
+
+    folder = tmp_path / "laundry"
+    shutil.copytree(ROOT / "feature_models" / "laundry_gripping", folder)
+    architecture = folder / "architecture.json"
+    architecture.write_text(architecture.read_text().replace('"hidden": 120', '"hidden": 10000'))
+    code, output = run("validate", str(folder), "--variant", "learned")
+    assert code == 0, output
+    [line] = [line for line in output.splitlines() if "hidden units" in line]
+    assert line.startswith(f"{architecture}:37:62: ")
+    assert line.endswith(
+        "$.mappings[2].learner.hidden: warning: RedundancyLearner has 10,000 hidden units, over the bound of 500: "
+        "a run may be too slow for its loop or run out of memory"
+    ), line
+
+
+def test_a_large_xor_group_is_explained_as_one_statement(tmp_path: Path) -> None:
+    # above encoding.PAIRWISE_EXPLAINED members the explain build has one fact for the group's pairs
+    model, config = tmp_path / "model.json", tmp_path / "c.json"
+    model.write_text(
+        json.dumps(
+            {"id": "r", "name": "R", "sub": [{"id": f"m{i}", "name": "M", "group": "XOR"} for i in range(70)]}
+        )
+    )
+    config.write_text(json.dumps({"properties": [{"id": f"m{i}", "selected": i < 2} for i in range(70)]}))
+    code, output = run("validate", str(model), "--config", str(config))
+    assert code == 1
+    assert (
+        "error: the 70 members of r's XOR group are alternatives, but m0 allows only Early binding, m0 is "
+        "selected, m1 allows only Early binding and m1 is selected: members of an XOR group can be selected "
+        "together only as Dynamic alternatives, at most one of them Early, and only one of them is active at "
+        "a time (rules 2.2 and 3.3)" in output
+    ), output
+    assert f"    {model}:1:69: the 70 members of r's XOR group are alternatives" in output

@@ -210,8 +210,8 @@ def test_ids_differing_only_in_case_are_refused(tmp_path: Path) -> None:
     code, output = configure(str(tmp_path), "--variant", "v", "-o", str(tmp_path / "out"))
     assert code == 1
     assert (
-        "model.json:1:70: SLAM and slam differ only in case, so their C++ macros would be the same name"
-        in output
+        "model.json:1:70: $.sub[1].id: error: SLAM and slam differ only in case, "
+        "so their C++ macros would be the same name" in output
     )
     assert not (tmp_path / "out").exists()
 

@@ -179,3 +179,70 @@ def test_reported_conflicts_are_minimal(data: st.DataObject) -> None:
     for diagnostic in analyse_model(feature_model):
         if diagnostic.facts:
             assert_minimal_conflict(model, explanation_statements(diagnostic, model, None))
+
+
+# XOR groups of more than a few members are encoded linearly (encoding._all_alternatives),
+# and in the explain build above PAIRWISE_EXPLAINED members; the random models above are
+# small, so these run the same properties with every XOR group encoded linearly.
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.data())
+def test_linear_xor_encoding_verdict_equals_brute_force(data: st.DataObject) -> None:
+    from motivml.binding import encoding
+
+    saved = encoding.PAIRWISE_UP_TO, encoding.PAIRWISE_EXPLAINED
+    encoding.PAIRWISE_UP_TO = encoding.PAIRWISE_EXPLAINED = 1
+    try:
+        test_sat_verdict_equals_brute_force.hypothesis.inner_test(data)  # type: ignore[attr-defined]
+    finally:
+        encoding.PAIRWISE_UP_TO, encoding.PAIRWISE_EXPLAINED = saved
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=9))
+def test_linear_xor_encoding_dead_features_equal_brute_force(model: dict[str, Any]) -> None:
+    from motivml.binding import encoding
+
+    saved = encoding.PAIRWISE_UP_TO
+    encoding.PAIRWISE_UP_TO = 1
+    try:
+        test_dead_features_equal_brute_force.hypothesis.inner_test(model)  # type: ignore[attr-defined]
+    finally:
+        encoding.PAIRWISE_UP_TO = saved
+
+
+@pytest.mark.parametrize("explain", [False, True])
+def test_linear_xor_encoding_admits_exactly_what_the_pairs_admit(explain: bool) -> None:
+    """Every selection, time, mode and activity of a 3-member XOR group's members, asked of
+    both encodings of rule 3.3 (a stronger check than the random models above)."""
+    import itertools
+
+    from motivml.binding import encoding
+
+    free = {"bindingTimeAllowed": "Any", "bindingModeAllowed": "Any"}
+    members = [{"id": f"x{i}", "name": "X", "group": "XOR", "constraints": free} for i in range(3)]
+    model, _ = read_model(parse(json.dumps({"id": "r", "name": "R", "sub": members}), "m.json"))
+
+    def admitted(pairwise_up_to: int) -> set[tuple[int, ...]]:
+        saved = encoding.PAIRWISE_UP_TO, encoding.PAIRWISE_EXPLAINED
+        encoding.PAIRWISE_UP_TO = encoding.PAIRWISE_EXPLAINED = pairwise_up_to
+        try:
+            found = set()
+            with encoding.Encoding(model, explain=explain) as enc:
+                for bits in itertools.product((0, 1), repeat=12):
+                    literals = [
+                        v if bit else -v
+                        for i in (1, 2, 3)
+                        for v, bit in zip(
+                            (enc.s(i), enc.E(i), enc.S(i), enc.a(i)), bits[4 * i - 4 : 4 * i], strict=True
+                        )
+                    ]
+                    extra = [*enc.literals[: enc.model_facts], *literals] if explain else literals
+                    if enc.solve(with_config=False, extra=extra):
+                        found.add(bits)
+            return found
+        finally:
+            encoding.PAIRWISE_UP_TO, encoding.PAIRWISE_EXPLAINED = saved
+
+    assert admitted(1) == admitted(100)

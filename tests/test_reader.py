@@ -122,3 +122,46 @@ def test_any_is_read_as_an_open_value_and_a_binding_is_spelled_from_its_time_and
         assert Binding.of(b.time, b.mode) is b is Binding.from_flags(b.early, b.static)
         assert (b.early, b.static) == (b.time is Time.EARLY, b.mode is Mode.STATIC)
     assert [token(v) for v in (Time.LATE, Mode.DYNAMIC, None)] == ["Late", "Dynamic", "Any"]
+
+
+def test_ids_differing_only_in_case_are_an_error_of_the_model() -> None:
+    # configure would refuse them (their C++ macros clash), so validate must too
+    _, diagnostics = read(feature("r", [feature("slam"), feature("SLAM"), feature("slam")]))
+    assert lines(diagnostics) == [
+        "error: m.json:10:13: $.sub[1].id: SLAM and slam differ only in case, "
+        "so their C++ macros would be the same name",
+        "error: m.json:14:13: $.sub[2].id: duplicate feature id 'slam' (first defined at line 6, column 13)",
+    ]
+
+
+def test_a_schema_error_in_one_entry_hides_no_other_error(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from motivml.language.reader import load_configuration
+
+    model, _ = read(feature("r", [feature("slam"), feature("amcl")]))
+    path = tmp_path / "c.json"
+    path.write_text(
+        '{"properties": [\n'
+        '  {"id": "slam", "props": {"time": "early"}},\n'
+        '  {"id": "slma"},\n'
+        '  {"id": "amcl"},\n'
+        '  {"id": "amcl", "selected": false}\n'
+        "]}\n"
+    )
+    config, diagnostics = load_configuration(path, model)
+    assert config is None
+    assert [line.replace(str(tmp_path), "") for line in lines(diagnostics)] == [
+        "error: /c.json:2:36: $.properties[0].props.time: 'early' is not one of 'Early', 'Late', 'Any' "
+        "(did you mean 'Early'?)",
+        "error: /c.json:3:10: $.properties[1].id: unknown feature 'slma' (did you mean 'slam'?)",
+        "error: /c.json:5:10: $.properties[3].id: second entry for 'amcl' (the first is at line 4, column 3)",
+    ]
+
+
+def test_a_configuration_whose_shape_is_wrong_reports_only_its_schema_errors(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from motivml.language.reader import load_configuration
+
+    model, _ = read(feature("r", [feature("slam")]))
+    path = tmp_path / "c.json"
+    path.write_text('{"properties": {"id": "slma"}}')
+    config, diagnostics = load_configuration(path, model)
+    assert config is None and [d.rule for d in diagnostics] == ["schema.type"]

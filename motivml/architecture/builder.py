@@ -60,6 +60,7 @@ from .elements import (
     Space,
 )
 from .learners import ExtremeLearningMachine, LinearRLS
+from .stability import unstable
 
 Vector = NDArray[np.float64]
 Function = Callable[[Vector], Vector]
@@ -580,7 +581,7 @@ class _Builder:
                 continue
             divider = self.divider(element, spec)
             module = self.modules[spec.module.id] = make_module(spec.module)
-            self.check_stability(element, spec, module, divider)
+            self.check_stability(element, spec, divider)
             output = ports["output"]
             assert output is not None  # required by the schema
             self.components[element] = ComponentInstance(
@@ -613,25 +614,9 @@ class _Builder:
             )
         return divider
 
-    def check_stability(self, element: str, spec: Component, module: ModuleInstance, divider: int) -> None:
+    def check_stability(self, element: str, spec: Component, divider: int) -> None:
         """Semi-implicit Euler diverges once alpha * dt / tau >= 2: refuse such a step."""
-        step = divider / self.rate
-        for system in module.systems:
-            if isinstance(system, PointAttractor | DiscreteDMP):
-                tau = system.tau if isinstance(system, DiscreteDMP) else 1.0
-                if system.alpha * step / tau >= 2.0:
-                    self.problems.append(
-                        error(
-                            self.whole.locate(
-                                "components", element, "rate" if spec.rate is not None else "module"
-                            ),
-                            f"{element} steps every {step:g} s, too coarse for module {module.id} "
-                            f"(alpha {system.alpha:g}{f', duration {tau:g} s' if tau != 1.0 else ''}): the "
-                            f"integration diverges unless alpha * step / duration < 2",
-                            "build.stability",
-                            spec.feature,
-                        )
-                    )
+        self.problems += unstable(self.whole, spec, self.rate, divider)
 
     def assemble(self) -> Assembly:
         """The built elements, ordered for the tick: components by goal dependency, free mappings by data flow."""

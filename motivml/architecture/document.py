@@ -29,7 +29,7 @@ from typing import Any, TypeVar
 
 from ..documents.loader import Document
 from ..documents.schema import check_document
-from ..errors import Diagnostic, Location, error
+from ..errors import Diagnostic, Location, error, warning
 from ..language.model import FeatureModel
 from .elements import (
     Component,
@@ -600,7 +600,68 @@ def read_architecture(doc: Document, model: FeatureModel) -> tuple[Architecture 
     checker.run()
     if checker.found:
         return None, checker.found
-    return _elements(doc), []
+    architecture = _elements(doc)
+    return architecture, sizes(architecture)
+
+
+# Sizes above which a run is too slow for its loop or too big for memory, warned about: an
+# online ELM updates a hidden x hidden matrix per sample (10,000 hidden units take ~3 s a
+# tick), and a space, a system or a DMP's basis is a numpy vector or matrix of its size.
+MAX_HIDDEN = 500
+MAX_DIMENSION = 1000
+MAX_BASIS = 1000
+
+
+def sizes(architecture: Architecture) -> list[Diagnostic]:
+    """A located warning for each learner, system or space above the size bounds."""
+    found: list[Diagnostic] = []
+
+    def warn(
+        section: str,
+        element: str,
+        keys: tuple[str | int, ...],
+        what: str,
+        size: int,
+        bound: int,
+        feature: str,
+    ) -> None:
+        found.append(
+            warning(
+                architecture.locate(section, element, *keys),
+                f"{element} has {size:,} {what}, over the bound of {bound:,}: "
+                f"a run may be too slow for its loop or run out of memory",
+                "architecture.size",
+                feature,
+            )
+        )
+
+    for space in architecture.spaces.values():
+        if space.dimension > MAX_DIMENSION:
+            warn(
+                "spaces",
+                space.id,
+                ("dimension",),
+                "dimensions",
+                space.dimension,
+                MAX_DIMENSION,
+                space.feature,
+            )
+    for mapping in architecture.mappings.values():
+        learner = mapping.learner
+        if learner is not None and learner.type == "elm" and learner.hidden > MAX_HIDDEN:
+            keys: tuple[str | int, ...] = ("learner", "hidden")
+            warn("mappings", mapping.id, keys, "hidden units", learner.hidden, MAX_HIDDEN, mapping.feature)
+    for module in architecture.modules.values():
+        for number, system in enumerate(module.systems):
+            if system.dimension > MAX_DIMENSION:
+                keys = ("systems", number, "dimension")
+                warn(
+                    "modules", module.id, keys, "dimensions", system.dimension, MAX_DIMENSION, module.feature
+                )
+            if isinstance(system, DMPParameters) and system.basis > MAX_BASIS:
+                keys = ("systems", number, "basis")
+                warn("modules", module.id, keys, "basis functions", system.basis, MAX_BASIS, module.feature)
+    return found
 
 
 # ------------------------------------------------------------- typed elements of the JSON
@@ -623,12 +684,18 @@ def _vector(numbers: list[float]) -> Vector:
     return tuple(numbers)
 
 
+def _count(number: int | float) -> int:
+    """A dimension, a number of hidden units or of basis functions as an int: JSON Schema's
+    "integer" admits 3.0, and numpy refuses a float for a size."""
+    return int(number)
+
+
 def _space(item: dict[str, Any]) -> Space:
     initial = item.get("initial")
     return Space(
         item["id"],
         item["type"],
-        item["dimension"],
+        _count(item["dimension"]),
         item["feature"],
         item.get("unit"),
         _vector(initial) if initial is not None else None,
@@ -651,7 +718,7 @@ def _function(item: dict[str, Any]) -> MappingFunction:
 
 
 def _learner(item: dict[str, Any]) -> Learner:
-    return Learner(item["type"], item.get("mode"), item.get("hidden", 60))
+    return Learner(item["type"], item.get("mode"), _count(item.get("hidden", 60)))
 
 
 def _mapping(item: dict[str, Any], spaces: dict[str, Space]) -> Mapping:
@@ -668,7 +735,7 @@ def _mapping(item: dict[str, Any], spaces: dict[str, Space]) -> Mapping:
 
 
 def _system(item: dict[str, Any]) -> SystemParameters:
-    kind, dimension = item["type"], item["dimension"]
+    kind, dimension = item["type"], _count(item["dimension"])
     if kind == "pointAttractor":
         return PointAttractorParameters(dimension, item.get("alpha", 25.0))
     if kind == "dmp":
@@ -679,7 +746,11 @@ def _system(item: dict[str, Any]) -> SystemParameters:
             else None
         )
         return DMPParameters(
-            dimension, item.get("alpha", 25.0), item.get("basis", 30), item.get("duration"), demonstration
+            dimension,
+            item.get("alpha", 25.0),
+            _count(item.get("basis", 30)),
+            item.get("duration"),
+            demonstration,
         )
     offsets, phases = item.get("offsets"), item.get("phases")
     return OscillatorParameters(

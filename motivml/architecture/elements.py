@@ -10,9 +10,10 @@ element names the feature that brings it.
 `read_architecture` (document.py) makes these once, from a document that passed its checks:
 elements refer to each other as objects (a component's module, a port's space and mapping),
 never by id, and every reference exists. Values are as the document writes them (a number
-is not rounded or converted); where the document leaves a parameter out, the field holds
-the default the builder has always used, or None when leaving it out means something of
-its own. Nothing here runs: the builder (builder.py) makes running instances of these
+is not rounded or converted), except that sizes (dimensions, hidden units, basis functions)
+are ints even where the document writes 3.0, which JSON Schema's "integer" admits. Where
+the document leaves a parameter out, the field holds the default the builder has always
+used, or None when leaving it out means something of its own. Nothing here runs: the builder (builder.py) makes running instances of these
 (`ModuleInstance`, `ComponentInstance`, ...), and nothing here reads files.
 """
 

@@ -45,6 +45,7 @@ MANDATORY = "mandatory"  # 2.2: s(p) -> s(c) for an ungrouped mandatory child
 GROUP_OR = "or-group"  # 2.2: s(p) -> some member
 GROUP_XOR = "xor-group"  # 2.2: s(p) -> some member (at most one: XOR_PAIR)
 XOR_PAIR = "xor-pair"  # 2.2 + 3.3: two members selected together only as Dynamic alternatives
+XOR_ALTERNATIVES = "xor-alternatives"  # XOR_PAIR over a whole group (linear: `_all_alternatives`)
 INCLUDE = "include"  # 2.3: s(x) -> s(y)
 EXCLUDE = "exclude"  # 2.3 + 3.3: like XOR_PAIR
 INCLUDE_STATIC = "include-static"  # 3.1: an included feature is Static
@@ -60,6 +61,11 @@ START = "start"  # 4: the active set is part of the selection and satisfies sect
 START_EARLY = "start-early"  # 4: at start, every selected Early feature is active
 ACTIVE = "active"  # run time: a feature is in the active set a reconfiguration asks for
 INACTIVE = "inactive"  # run time: ... or not
+# XOR groups: pair by pair (one XOR_PAIR fact each) up to PAIRWISE_UP_TO members, beyond that
+# a linear encoding of the same rule; the explain build keeps the pairs, whose facts name two
+# members, for groups up to PAIRWISE_EXPLAINED members, and one XOR_ALTERNATIVES fact above.
+PAIRWISE_UP_TO = 8
+PAIRWISE_EXPLAINED = 64
 # Configuration facts (literals, no selector)
 CONFIG_SELECTED = "config-selected"
 CONFIG_DESELECTED = "config-deselected"
@@ -201,10 +207,17 @@ class Encoding:
             sel = self._fact(kind, g)
             self._add(sel, [-s(p), *(s(m) for m in members)], [-start, -a(p), *(a(m) for m in members)])
             if group.kind == "XOR":
-                for x, m1 in enumerate(members):
-                    for m2 in members[x + 1 :]:
-                        sel = self._fact(XOR_PAIR, m1, m2)
-                        self._alternatives(sel, start, m1, m2)
+                if self.explain and len(members) <= PAIRWISE_EXPLAINED:
+                    for x, m1 in enumerate(members):
+                        for m2 in members[x + 1 :]:
+                            sel = self._fact(XOR_PAIR, m1, m2)
+                            self._alternatives(sel, start, m1, m2)
+                elif len(members) <= PAIRWISE_UP_TO:
+                    for x, m1 in enumerate(members):
+                        for m2 in members[x + 1 :]:
+                            self._alternatives(0, start, m1, m2)
+                else:
+                    self._all_alternatives(self._fact(XOR_ALTERNATIVES, g), start, members)
 
         index = self.model.index
         for f in features:
@@ -236,6 +249,51 @@ class Encoding:
             [-s(x), -s(y), -E(x), -E(y)],
             [-start, -a(x), -a(y)],
         )
+
+    def _all_alternatives(self, sel: int, start: int, members: Sequence[int]) -> None:
+        """Rule 3.3 over every pair of `members` at once, in O(n) clauses instead of O(n^2).
+
+        Pair by pair (`_alternatives`), two members are selected together only if neither is
+        Static and not both are Early, and never both active. The same over the whole group:
+        at most one member selected and Early, at most one active (each a sequential counter,
+        Sinz 2005), and once two members are selected (a counter's "at least two"), none is
+        Static.
+        """
+        s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
+        early: list[int] = []
+        for m in members:
+            both = self._new_var()  # implied by s(m) and E(m)
+            self._add(sel, [-s(m), -E(m), both])
+            early.append(both)
+        self._at_most_one(sel, 0, early)
+        self._at_most_one(sel, start, [a(m) for m in members])
+        two = self._at_least_two(sel, [s(m) for m in members])
+        for m in members:
+            self._add(sel, [-two, -s(m), -S(m)])
+
+    def _at_most_one(self, sel: int, guard: int, literals: Sequence[int]) -> None:
+        """At most one of `literals` (while `guard` holds, if given): r_i = some of the first i."""
+        g = [-guard] if guard else []
+        previous = 0
+        for literal in literals:
+            some = self._new_var()
+            self._add(sel, [*g, -literal, some])
+            if previous:
+                self._add(sel, [*g, -previous, some], [*g, -literal, -previous])
+            previous = some
+
+    def _at_least_two(self, sel: int, literals: Sequence[int]) -> int:
+        """A variable that is true whenever two of `literals` are."""
+        some = two = 0
+        for literal in literals:
+            new_some, new_two = self._new_var(), self._new_var()
+            self._add(sel, [-literal, new_some])
+            if some:
+                self._add(sel, [-some, new_some], [-literal, -some, new_two])
+            if two:
+                self._add(sel, [-two, new_two])
+            some, two = new_some, new_two
+        return two
 
     # ------------------------------------------------------------ configuration
     def set_configuration(self, config: Configuration) -> None:
@@ -343,7 +401,7 @@ class Encoding:
 
     def _first_feature(self, k: int) -> int:
         fact = self.facts[k]
-        if fact.kind in (GROUP_OR, GROUP_XOR):
+        if fact.kind in (GROUP_OR, GROUP_XOR, XOR_ALTERNATIVES):
             return self.model.groups[fact.a].parent
         return fact.a
 

@@ -49,6 +49,11 @@ WHY: dict[str, tuple[str, str]] = {
         "two members of an XOR group can both be selected only as Dynamic alternatives, at most one "
         "of them Early (rules 2.2 and 3.3)",
     ),
+    enc.XOR_ALTERNATIVES: (
+        "3.3",
+        "members of an XOR group can be selected together only as Dynamic alternatives, at most one "
+        "of them Early, and only one of them is active at a time (rules 2.2 and 3.3)",
+    ),
     enc.EXCLUDE: (
         "3.3",
         "features that exclude each other can both be selected only as Dynamic alternatives, at most "
@@ -179,6 +184,13 @@ class Explainer:
                 self.model_location(a, where),
                 rule,
             )
+        if kind == enc.XOR_ALTERNATIVES:
+            group = model.groups[a]
+            return LocatedFact(
+                f"the {len(group.members)} members of {self._id(group.parent)}'s XOR group are alternatives",
+                self.model_location(group.members[0], "group"),
+                rule,
+            )
         if kind == enc.XOR_PAIR:
             parent = model.features[a].parent
             assert parent is not None
@@ -243,7 +255,7 @@ class Explainer:
     def mentions(self, k: int) -> tuple[int, ...]:
         """Features a fact's sentence names, the one a change most likely concerns first."""
         fact = self.encoding.facts[k]
-        if fact.kind in (enc.GROUP_OR, enc.GROUP_XOR):
+        if fact.kind in (enc.GROUP_OR, enc.GROUP_XOR, enc.XOR_ALTERNATIVES):
             group = self.model.groups[fact.a]
             return (*group.members, group.parent)
         if fact.kind in _INCLUDES:
@@ -322,7 +334,7 @@ class Explainer:
     ) -> Diagnostic:
         message, rule, primary, words, facts = self.sentence(mus)
         fact = self.encoding.facts[primary]
-        group = fact.kind in (enc.GROUP_OR, enc.GROUP_XOR)
+        group = fact.kind in (enc.GROUP_OR, enc.GROUP_XOR, enc.XOR_ALTERNATIVES)
         feature = self._id(self.model.groups[fact.a].parent if group else fact.a)
         return Diagnostic(severity, words[primary].location, prefix + message, rule, feature, facts)
 

@@ -1,6 +1,8 @@
 """The `motivml` command line: parse, call the library, print with rich, pick exit codes.
 
-Exit codes: 0 valid, 1 invalid (model or configuration), 2 usage, 3 environment.
+Exit codes: 0 valid, 1 invalid (model or configuration), 2 usage, 3 environment, 130
+interrupted (Ctrl-C). An OSError no stage turned into a located error (a permission, a name
+too long) still ends with its path and reason and exit code 3, never a traceback.
 This package is the only place that imports click or rich, and the only place that turns
 errors into exit codes. One module per family of commands, imported only when one of its
 commands runs (or `--help` lists them), and each command imports the stages it uses only
@@ -14,10 +16,14 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 from __future__ import annotations
 
 import importlib
+import os
 
 import click
 
 from .. import __version__
+from ..errors import EnvironmentProblem, Location, error
+
+INTERRUPTED = 130  # the exit code of a command ended by Ctrl-C, as a shell reports SIGINT
 
 COMMANDS = {  # command name -> the module of this package that defines it, and its function
     "validate": ("checking", "validate_command"),
@@ -43,6 +49,19 @@ class LazyGroup(click.Group):
         module, function = COMMANDS[cmd_name]
         command: click.Command = getattr(importlib.import_module(f".{module}", __name__), function)
         return command
+
+    def invoke(self, ctx: click.Context) -> object:
+        """Run the command; Ctrl-C anywhere (a solver, a file read) ends it with one line and 130."""
+        try:
+            return super().invoke(ctx)
+        except KeyboardInterrupt:
+            click.echo("interrupted", err=True)
+            raise click.exceptions.Exit(INTERRUPTED) from None
+        except OSError as exc:  # the environment (permissions, a name too long): exit 3, located
+            from .common import fail
+
+            place = os.fsdecode(exc.filename) if exc.filename is not None else "motivml"
+            fail(EnvironmentProblem(error(Location(place), f"cannot read: {exc.strerror or exc}", "io")))
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

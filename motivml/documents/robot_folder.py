@@ -8,6 +8,7 @@ sub-folders hold a `plugin.json` manifest each).
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,6 +39,15 @@ class UnknownVariant(EnvironmentProblem):
     exit_code = 2
 
 
+def _is(test: Callable[[Path], bool], path: Path) -> bool:
+    """`path.is_dir()` or `is_file()`, with a permission or a name too long an environment problem
+    of that path (pathlib raises those instead of answering False)."""
+    try:
+        return test(path)
+    except OSError as exc:
+        raise EnvironmentProblem(error(Location(str(path)), f"cannot read: {exc.strerror}", "io")) from None
+
+
 @dataclass(frozen=True)
 class RobotFolder:
     path: Path
@@ -45,9 +55,9 @@ class RobotFolder:
     @classmethod
     def open(cls, path: str | Path) -> RobotFolder:
         folder = cls(Path(path))
-        if not folder.path.is_dir():
+        if not _is(Path.is_dir, folder.path):
             raise EnvironmentProblem(error(Location(str(folder.path)), "no such robot folder", "io"))
-        if not folder.model_path.is_file():
+        if not _is(Path.is_file, folder.model_path):
             raise EnvironmentProblem(
                 error(
                     Location(str(folder.model_path)),
@@ -80,7 +90,7 @@ class RobotFolder:
     def variant_names(self) -> list[str]:
         """Names of the regular, non-hidden `variants/*.json` files."""
         folder = self.path / VARIANTS_FOLDER
-        if not folder.exists():
+        if not _is(Path.exists, folder):
             return []
         try:
             entries = list(os.scandir(folder))

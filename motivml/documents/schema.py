@@ -354,6 +354,15 @@ def read_checked(
     Only invalid documents become diagnostics; environment problems (a missing file)
     propagate, so that the caller's exit code says so.
     """
+    doc, problems = read_with_problems(path, schema_check)
+    return (None, problems) if problems else (doc, [])
+
+
+def read_with_problems(
+    path: str | Path, schema_check: Callable[[Document], list[Diagnostic]]
+) -> tuple[Document | None, list[Diagnostic]]:
+    """Like `read_checked`, but the document comes back with its schema errors (None only when
+    it cannot be loaded at all), for a reader that checks its sound parts all the same."""
     try:
         doc = load_file(path)
     except MotivmlError as exc:
@@ -362,4 +371,4 @@ def read_checked(
         return None, exc.diagnostics
     with no_gc():
         problems = schema_check(doc)
-    return (None, problems) if problems else (doc, [])
+    return doc, problems

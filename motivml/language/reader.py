@@ -1,7 +1,7 @@
 """From schema-valid documents to model objects, with the checks a schema cannot make.
 
-Errors: duplicate feature ids, includes/excludes of unknown ids or of the feature itself,
-configuration entries for unknown features or given twice, and (unless partial
+Errors: duplicate feature ids, ids differing only in case (their C++ macros would clash),
+includes/excludes of unknown ids or of the feature itself, configuration entries for unknown features or given twice, and (unless partial
 configurations are accepted) features without an entry. Warnings: one-member groups,
 `isMandatory: true` on a group member, `isSelected` away from the root, props of a
 deselected feature. Everything else about meaning is the SAT encoding's job.
@@ -10,11 +10,12 @@ deselected feature. Everything else about meaning is the SAT encoding's job.
 from __future__ import annotations
 
 import difflib
+import re
 from pathlib import Path
 from typing import Any
 
 from ..documents.loader import Document, no_gc
-from ..documents.schema import check_configuration, check_feature_model, read_checked
+from ..documents.schema import check_configuration, check_feature_model, read_checked, read_with_problems
 from ..errors import Diagnostic, Severity, error, warning
 from .model import ANY, Configuration, Entry, Feature, FeatureModel, Group, Mode, Time
 
@@ -53,6 +54,7 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
     diagnostics: list[Diagnostic] = []
     features: list[Feature] = []
     index: dict[str, int] = {}
+    folded: dict[str, int] = {}  # upper-cased id -> first feature with it (C++ macro names)
     nodes: list[dict[str, Any]] = []
     stack: list[tuple[dict[str, Any], int | None, int]] = [(doc.root, None, 0)]
     model = FeatureModel(features, index, [], str(doc.root.get("name", "")), doc)
@@ -94,6 +96,17 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
             )
         else:
             index[feature.id] = i
+            other = folded.setdefault(feature.id.upper(), i)
+            if other != i:
+                diagnostics.append(
+                    error(
+                        doc.locate(model.path(i, "id")),
+                        f"{feature.id} and {features[other].id} differ only in case, "
+                        f"so their C++ macros would be the same name",
+                        "model.case-clash",
+                        feature.id,
+                    )
+                )
         for position_ in range(len(node.get("sub", ())) - 1, -1, -1):
             stack.append((node["sub"][position_], i, position_))
 
@@ -199,14 +212,23 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
 
 
 def read_configuration(
-    doc: Document, model: FeatureModel, partial: bool = False
+    doc: Document, model: FeatureModel, partial: bool = False, skip: frozenset[int] = frozenset()
 ) -> tuple[Configuration, list[Diagnostic]]:
-    """Build a configuration of `model`; report unknown, duplicate and missing entries."""
+    """Build a configuration of `model`; report unknown, duplicate and missing entries.
+
+    Entries at the positions in `skip` (those with schema errors) are not read; their id, if
+    it is a string, still counts as an entry, so that it is not also reported missing.
+    """
     diagnostics: list[Diagnostic] = []
     entries: dict[str, Entry] = {}
+    skipped: set[str] = set()
     config = Configuration(entries, source=doc)
     suggest = _Suggestions(model.index)
     for position, raw in enumerate(doc.root.get("properties", [])):
+        if position in skip:
+            if isinstance(raw, dict) and isinstance(raw.get("id"), str):
+                skipped.add(raw["id"])
+            continue
         feature_id = raw["id"]
         props = raw.get("props", {})
         entry = Entry(
@@ -247,7 +269,7 @@ def read_configuration(
                 )
             )
         entries[feature_id] = entry
-    missing = [f.id for f in model.features[1:] if f.id not in entries]
+    missing = [f.id for f in model.features[1:] if f.id not in entries and f.id not in skipped]
     if missing and not partial:
         shown = ", ".join(missing[:10]) + (f" and {len(missing) - 10} more" if len(missing) > 10 else "")
         diagnostics.append(
@@ -260,6 +282,15 @@ def read_configuration(
             )
         )
     return config, diagnostics
+
+
+def _entry_position(diagnostic: Diagnostic) -> int | None:
+    """The position of the configuration entry a schema error is about, if it is about one."""
+    match = _ENTRY.match(diagnostic.location.path)
+    return int(match.group(1)) if match else None
+
+
+_ENTRY = re.compile(r"\$\.properties\[(\d+)\]")
 
 
 def _usable(diagnostics: list[Diagnostic]) -> bool:
@@ -280,9 +311,20 @@ def load_configuration(
     path: str | Path, model: FeatureModel, partial: bool = False
 ) -> tuple[Configuration | None, list[Diagnostic]]:
     """Read a configuration of `model`; None when it cannot be used (the diagnostics say why)."""
-    doc, problems = read_checked(path, check_configuration)
+    doc, problems = read_with_problems(path, check_configuration)
     if doc is None:
         return None, problems
+    if problems:
+        # The entries without schema errors are still checked (unknown ids, duplicates), so
+        # that one bad entry does not hide the others' errors; schema errors come first.
+        # Only when every schema error is inside an entry: the document's shape is sound.
+        positions = [_entry_position(p) for p in problems]
+        if any(p is None for p in positions):
+            return None, problems
+        skip = frozenset(p for p in positions if p is not None)
+        with no_gc():
+            _, more = read_configuration(doc, model, partial, skip)
+        return None, problems + more
     with no_gc():
         config, diagnostics = read_configuration(doc, model, partial)
     config.name = Path(path).stem
