@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import socket
 import stat
 import threading
@@ -329,3 +330,49 @@ def test_closing_the_server_ends_its_threads_and_removes_the_socket(tmp_path: Pa
     assert not accepting.is_alive() and not server.path.exists()
     server.close()  # twice is harmless
     robot.close()
+
+
+# ------------------------------------- an existing run directory
+def test_an_existing_run_directory_keeps_its_mode(tmp_path: Path) -> None:
+    run_dir = tmp_path / "mine"
+    run_dir.mkdir()
+    run_dir.chmod(0o755)
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(run_dir, robot.runtime, robot.binder)
+    try:
+        server.open()
+        assert stat.S_IMODE(run_dir.stat().st_mode) == 0o755  # not changed to 0700
+        assert send(run_dir, {"op": "status"})["ok"] is True
+    finally:
+        server.close()
+        robot.close()
+
+
+@pytest.mark.parametrize("mode", [0o1777, 0o777, 0o770, 0o702])
+def test_a_run_directory_others_may_write_in_is_refused_and_left_alone(tmp_path: Path, mode: int) -> None:
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(mode)
+    result = CliRunner().invoke(
+        main,
+        ["run", str(SIMPLEBOT), "--variant", "field", "--clock", "simulated", "--run-dir", str(shared)],
+    )
+    assert result.exit_code == 3, result.output
+    assert f"{shared}: others may write in this directory (mode {mode:04o})" in " ".join(
+        result.output.split()
+    )
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+    assert stat.S_IMODE(shared.stat().st_mode) == mode and not (shared / "control.sock").exists()
+
+
+def test_a_new_run_directory_is_made_0700_whatever_the_umask(tmp_path: Path) -> None:
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(tmp_path / "a" / "run", robot.runtime, robot.binder)
+    old = os.umask(0o077)
+    try:
+        server.open()
+        assert stat.S_IMODE(server.run_dir.stat().st_mode) == 0o700
+    finally:
+        os.umask(old)
+        server.close()
+        robot.close()

@@ -1,7 +1,8 @@
 """The run's control endpoint: a Unix domain socket speaking JSON lines.
 
-`motivml run` opens `<run dir>/control.sock`. The run directory is created with mode 0700
-and the socket with mode 0600, so only the owner can connect. Each request is one JSON
+`motivml run` opens `<run dir>/control.sock`. A new run directory is created with mode 0700
+(an existing one keeps its mode, and is refused if others may write in it) and the socket
+with mode 0600, so only the owner can connect. Each request is one JSON
 object on one line, and each answer is one line:
 
     {"op": "swap", "features": ["hectorslam", "kartoslam"]}
@@ -54,14 +55,13 @@ class ControlServer:
         self.coordinator: Any = None  # the run's Coordinator, for events
 
     def open(self) -> None:
-        """Create the run directory (0700) and listen on its socket (0600)."""
+        """Create the run directory (0700) if it is new, and listen on its socket (0600)."""
         if len(os.fsencode(self.path)) >= 104:  # sun_path holds 104 to 108 bytes
             raise _problem(
                 self.path, "the socket path is too long for a Unix socket: choose a shorter --run-dir"
             )
         try:
-            self.run_dir.mkdir(parents=True, exist_ok=True, mode=0o700)
-            os.chmod(self.run_dir, 0o700)
+            self._make_run_dir()
             if self.path.exists() or self.path.is_symlink():
                 if not stat.S_ISSOCK(self.path.lstat().st_mode):
                     raise _problem(self.path, "exists and is not a socket: not replacing it")
@@ -84,6 +84,24 @@ class ControlServer:
         thread = threading.Thread(target=self._accept, name="motivml-control-accept", daemon=True)
         thread.start()
         self._threads.append(thread)
+
+    def _make_run_dir(self) -> None:
+        """A new run directory is made 0700; an existing one keeps its mode, and is refused
+        if others may write in it (the system's shared temporary folder, say)."""
+        try:
+            self.run_dir.mkdir(parents=True, mode=0o700)
+        except FileExistsError:
+            info = self.run_dir.stat()
+            if not stat.S_ISDIR(info.st_mode):
+                raise
+            if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+                raise _problem(
+                    self.run_dir,
+                    f"others may write in this directory (mode {stat.S_IMODE(info.st_mode):04o}): "
+                    "not opening a control socket here; choose another --run-dir",
+                ) from None
+            return
+        os.chmod(self.run_dir, 0o700)  # the one we made: whatever the umask left
 
     def _accept(self) -> None:
         assert self._socket is not None
