@@ -376,3 +376,35 @@ def test_a_new_run_directory_is_made_0700_whatever_the_umask(tmp_path: Path) -> 
         os.umask(old)
         server.close()
         robot.close()
+
+
+# ------------------------------------- many clients at once
+@pytest.mark.parametrize("backlog", [control.BACKLOG, 1])
+def test_fifty_clients_at_once_are_all_answered(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, backlog: int
+) -> None:
+    """Each waits its turn: with a backlog of one, most find it full and connect again."""
+    monkeypatch.setattr(control, "BACKLOG", backlog)
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    server.open()
+    clients = 50
+    start = threading.Barrier(clients)
+    answers: list[Any] = [None] * clients
+
+    def ask(i: int) -> None:
+        start.wait()
+        try:
+            answers[i] = send(server.run_dir, {"op": "status"})
+        except EnvironmentProblem as exc:
+            answers[i] = exc.diagnostics[0].message
+
+    threads = [threading.Thread(target=ask, args=(i,)) for i in range(clients)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    server.close()
+    robot.close()
+    failed = [a for a in answers if not isinstance(a, dict)]
+    assert failed == [] and all(a["ok"] for a in answers)

@@ -23,6 +23,7 @@ import os
 import socket
 import stat
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +36,7 @@ SOCKET = "control.sock"
 LINE_LIMIT = 1 << 16  # bytes per request line
 IDLE = 600.0  # seconds a connection may stay silent
 DRAIN_LIMIT = 1 << 20  # bytes read and dropped after a line over LINE_LIMIT
+BACKLOG = socket.SOMAXCONN  # connections waiting for accept(); clients beyond it try again
 
 
 def _problem(path: Path, message: str) -> EnvironmentProblem:
@@ -77,7 +79,7 @@ class ControlServer:
             finally:
                 os.umask(old)
             os.chmod(self.path, 0o600)
-            server.listen(8)
+            server.listen(BACKLOG)
         except OSError as exc:
             raise _problem(self.path, f"cannot open the control socket: {exc.strerror}") from None
         self._socket = server
@@ -270,18 +272,23 @@ def _alive(path: Path) -> bool:
 
 
 def send(run_dir: Path, request: dict[str, Any], timeout: float = 30.0) -> dict[str, Any]:
-    """One request to a run's control socket; its answer."""
+    """One request to a run's control socket; its answer.
+
+    Connecting waits its turn, up to `timeout` seconds, while the run's backlog is full (a
+    connect on a Unix socket does not queue: it fails at once, so it is tried again).
+    """
     path = run_dir / SOCKET
-    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    client.settimeout(timeout)
     try:
-        client.connect(str(path))
+        client = _connect(path, timeout)
+    except FileNotFoundError:
+        raise _problem(path, "no run is listening here (start one with motivml run)") from None
+    except OSError as exc:
+        raise _problem(path, f"cannot talk to the run: {exc.strerror or exc}") from None
+    try:
         with client.makefile("rwb") as stream:
             stream.write((json.dumps(request) + "\n").encode())
             stream.flush()
             line = stream.readline()
-    except FileNotFoundError:
-        raise _problem(path, "no run is listening here (start one with motivml run)") from None
     except OSError as exc:
         raise _problem(path, f"cannot talk to the run: {exc.strerror or exc}") from None
     finally:
@@ -290,3 +297,28 @@ def send(run_dir: Path, request: dict[str, Any], timeout: float = 30.0) -> dict[
         raise _problem(path, "the run closed the connection without an answer")
     answer: dict[str, Any] = json.loads(line)
     return answer
+
+
+RETRY_FIRST, RETRY_MOST = 0.001, 0.05  # s between two connects while the backlog is full
+
+
+def _connect(path: Path, timeout: float) -> socket.socket:
+    """A socket connected to `path`, trying again while the listener's backlog is full."""
+    deadline = time.monotonic() + timeout
+    pause = RETRY_FIRST
+    while True:
+        client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        client.settimeout(timeout)
+        try:
+            client.connect(str(path))
+            return client
+        except BlockingIOError:  # EAGAIN: the backlog is full; the run is busy, not gone
+            client.close()
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise
+            time.sleep(min(pause, left))
+            pause = min(pause * 2, RETRY_MOST)
+        except BaseException:
+            client.close()
+            raise
