@@ -6,7 +6,9 @@ import json
 import os
 import socket
 import stat
+import sys
 import threading
+import types
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -408,3 +410,88 @@ def test_fifty_clients_at_once_are_all_answered(
     robot.close()
     failed = [a for a in answers if not isinstance(a, dict)]
     assert failed == [] and all(a["ok"] for a in answers)
+
+
+# ------------------------------------- a change that takes long to prepare
+SLOW_START = "import ctl_gate; ctl_gate.started.set(); ctl_gate.release.wait()"
+
+
+@pytest.fixture
+def slow(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[types.SimpleNamespace, Path]]:
+    """A robot whose plugin d starts only when the test lets it, running with its socket open."""
+    from test_transactions import make_robot
+
+    gate = types.SimpleNamespace(started=threading.Event(), release=threading.Event())
+    monkeypatch.setitem(sys.modules, "ctl_gate", gate)
+    robot = launch(make_robot(tmp_path / "bot", {"a": {}, "b": {}, "d": {"start": SLOW_START}}), "v")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    server.open()
+    loop = threading.Thread(target=robot.runtime.run, args=(3600.0, RealClock()), daemon=True)
+    loop.start()
+    yield gate, server.run_dir
+    gate.release.set()
+    robot.runtime.stop()
+    loop.join()
+    server.close()
+    robot.close()
+
+
+def test_a_change_is_waited_for_however_long_its_plugin_takes_to_start(
+    slow: tuple[types.SimpleNamespace, Path],
+) -> None:
+    gate, run_dir = slow
+    answers: list[Any] = []
+
+    def load() -> None:  # a zero timeout: any wait bounded by it would fail at once
+        try:
+            answers.append(send(run_dir, {"op": "load", "features": ["d"]}, 0.0, wait=True))
+        except EnvironmentProblem as exc:
+            answers.append(exc.diagnostics[0].message)
+
+    client = threading.Thread(target=load)
+    client.start()
+    assert gate.started.wait(30)  # d's start() runs, and waits for the test
+    gate.release.set()
+    client.join()
+    (answer,) = answers
+    assert isinstance(answer, dict) and answer["accepted"] and answer["loads"] == ["d"], answer
+    assert "d" in send(run_dir, {"op": "status"})["active"]
+
+
+def test_ctl_waits_for_a_slow_change_and_says_what_it_became(
+    slow: tuple[types.SimpleNamespace, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    gate, run_dir = slow
+    real = control.send
+    monkeypatch.setattr(  # a zero timeout: whatever ctl waits for with a timeout fails at once
+        control, "send", lambda folder, request, timeout=30.0, **wait: real(folder, request, 0.0, **wait)
+    )
+    results: list[Any] = []
+    command = ["ctl", str(run_dir.parent / "bot"), "--variant", "v", "--run-dir", str(run_dir), "load", "d"]
+    client = threading.Thread(target=lambda: results.append(CliRunner().invoke(main, command)))
+    client.start()
+    assert gate.started.wait(30)
+    gate.release.set()
+    client.join()
+    (result,) = results
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("accepted: load d took effect at tick ")
+
+
+def test_ctrl_c_while_ctl_waits_for_a_change_says_it_may_still_be_committed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def interrupted(*args: Any, **kwargs: Any) -> dict[str, Any]:
+        assert kwargs == {"wait": True}
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(control, "send", interrupted)
+    run_dir = tmp_path / "run"
+    result = CliRunner().invoke(
+        main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(run_dir), "swap", "a", "b"]
+    )
+    assert result.exit_code == 130
+    assert " ".join(result.output.split()) == (
+        f"interrupted: swap a b was sent and may still be committed; see with: motivml ctl {SIMPLEBOT} "
+        f"--variant field --run-dir {run_dir} status"
+    )

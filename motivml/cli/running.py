@@ -337,10 +337,21 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
     from ..runtime.control import send
 
     folder = Path(run_dir) if run_dir else Path("build") / Path(target).resolve().name / variant / "run"
+    change = op in ACTIONS  # answered once committed or refused: waited for, however long
     try:
-        answer = send(folder, {"op": op, "features": list(features)} if features else {"op": op})
+        answer = send(folder, {"op": op, "features": list(features)} if features else {"op": op}, wait=change)
     except MotivmlError as exc:
         fail(exc)
+    except KeyboardInterrupt:
+        if not change:
+            raise
+        err.print(
+            f"[bold yellow]interrupted[/]: {shown(op + ' ' + ' '.join(features))} was sent and may still be "
+            f"committed; see with: motivml ctl {shown(target)} --variant {shown(variant)}"
+            + (f" --run-dir {shown(run_dir)}" if run_dir else "")
+            + " status"
+        )
+        sys.exit(130)
     if not answer.get("ok"):
         err.print(f"[bold red]error[/]: {shown(str(answer.get('error')))}")
         sys.exit(2)

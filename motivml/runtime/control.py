@@ -271,15 +271,21 @@ def _alive(path: Path) -> bool:
         probe.close()
 
 
-def send(run_dir: Path, request: dict[str, Any], timeout: float = 30.0) -> dict[str, Any]:
+def send(
+    run_dir: Path, request: dict[str, Any], timeout: float = 30.0, *, wait: bool = False
+) -> dict[str, Any]:
     """One request to a run's control socket; its answer.
 
     Connecting waits its turn, up to `timeout` seconds, while the run's backlog is full (a
-    connect on a Unix socket does not queue: it fails at once, so it is tried again).
+    connect on a Unix socket does not queue: it fails at once, so it is tried again). The
+    answer is waited for up to `timeout` seconds too, unless `wait`: a change (load, unload,
+    reload, swap) answers when it is committed or refused, however long its plugins take to
+    start, and a client that gave up earlier would say it failed when it did not.
     """
     path = run_dir / SOCKET
     try:
         client = _connect(path, timeout)
+        client.settimeout(None if wait else timeout)
     except FileNotFoundError:
         raise _problem(path, "no run is listening here (start one with motivml run)") from None
     except OSError as exc:
