@@ -495,3 +495,40 @@ def test_ctrl_c_while_ctl_waits_for_a_change_says_it_may_still_be_committed(
         f"interrupted: swap a b was sent and may still be committed; see with: motivml ctl {SIMPLEBOT} "
         f"--variant field --run-dir {run_dir} status"
     )
+
+
+# ------------------------------------- status is one moment
+def test_status_under_racing_swaps_describes_states_that_existed(
+    running: tuple[Robot, ControlServer],
+) -> None:
+    """The plugin of an active feature is listed if and only if the feature is active."""
+    robot, server = running
+    with_plugins = set(robot.binder.plugins)
+    assert {"hectorslam", "kartoslam"} <= with_plugins
+    done = threading.Event()
+    answers: list[dict[str, Any]] = []
+
+    def swap() -> None:
+        try:
+            for i in range(30):
+                pair = ["hectorslam", "kartoslam"] if i % 2 == 0 else ["kartoslam", "hectorslam"]
+                assert send(server.run_dir, {"op": "swap", "features": pair})["accepted"]
+        finally:
+            done.set()
+
+    def ask() -> None:
+        while not done.is_set():
+            answers.append(send(server.run_dir, {"op": "status"}))
+
+    threads = [threading.Thread(target=swap), *(threading.Thread(target=ask) for _ in range(3))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert answers
+    torn = [
+        (a["active"], a["plugins"])
+        for a in answers
+        if {p["feature"] for p in a["plugins"]} != set(a["active"]) & with_plugins
+    ]
+    assert torn == []

@@ -203,7 +203,7 @@ class ControlServer:
         return {
             "tick": snapshot.tick,
             "time": round(snapshot.time, 6),
-            "active": sorted(self.binder.active, key=self.binder.variant.model.index.__getitem__),
+            "active": sorted(snapshot.active, key=self.binder.variant.model.index.__getitem__),
             "components": [
                 {"id": c.id, "kind": c.kind, "feature": c.feature, "status": c.status, "learning": c.learning}
                 for c in snapshot.components
