@@ -482,7 +482,7 @@ def test_ctrl_c_while_ctl_waits_for_a_change_says_it_may_still_be_committed(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     def interrupted(*args: Any, **kwargs: Any) -> dict[str, Any]:
-        assert kwargs == {"wait": True}
+        assert kwargs["wait"] is True
         raise KeyboardInterrupt
 
     monkeypatch.setattr(control, "send", interrupted)

@@ -272,7 +272,12 @@ def _alive(path: Path) -> bool:
 
 
 def send(
-    run_dir: Path, request: dict[str, Any], timeout: float = 30.0, *, wait: bool = False
+    run_dir: Path,
+    request: dict[str, Any],
+    timeout: float = 30.0,
+    *,
+    wait: bool = False,
+    address: Path | None = None,
 ) -> dict[str, Any]:
     """One request to a run's control socket; its answer.
 
@@ -280,9 +285,10 @@ def send(
     connect on a Unix socket does not queue: it fails at once, so it is tried again). The
     answer is waited for up to `timeout` seconds too, unless `wait`: a change (load, unload,
     reload, swap) answers when it is committed or refused, however long its plugins take to
-    start, and a client that gave up earlier would say it failed when it did not.
+    start, and a client that gave up earlier would say it failed when it did not. `address`:
+    connect there instead of to the run directory's socket (a registered run's link).
     """
-    path = run_dir / SOCKET
+    path = address or run_dir / SOCKET
     try:
         client = _connect(path, timeout)
         client.settimeout(None if wait else timeout)
