@@ -151,3 +151,53 @@ def test_a_run_whose_socket_path_is_long_is_reached_through_its_short_link(
         session.runtime.stop()
         session.wait(60)
         session.close()
+
+
+def test_a_runs_directory_that_is_not_ours_or_not_a_directory_is_refused(
+    runtime_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    (runtime_dir / "motivml").write_text("not a folder")
+    with pytest.raises(EnvironmentProblem, match="is not a directory: cannot register runs here"):
+        runs.register(SIMPLEBOT, "field", tmp_path / "control.sock")
+    (runtime_dir / "motivml").unlink()
+    uid = os.getuid()
+    monkeypatch.setattr(runs.os, "getuid", lambda: uid + 1)  # as if another user had made it
+    with pytest.raises(EnvironmentProblem, match="belongs to another user: cannot register runs here"):
+        runs.register(SIMPLEBOT, "field", tmp_path / "control.sock")
+    assert runs.reachable() == []  # and nothing is read from it
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path / "missing"))
+    with pytest.raises(EnvironmentProblem, match="no such directory: cannot register runs here"):
+        runs.register(SIMPLEBOT, "field", tmp_path / "control.sock")
+
+
+def test_entries_that_cannot_be_read_are_left_alone(runtime_dir: Path, tmp_path: Path) -> None:
+    folder = runtime_dir / "motivml" / "runs"
+    folder.mkdir(parents=True, mode=0o700)
+    (folder / "half.json").write_text('{"robot": ')
+    assert runs.reachable() == [] and (folder / "half.json").exists()
+
+
+def test_ctl_lists_only_what_it_is_asked_about_and_asks_to_choose_between_two_runs(
+    session: Session, runtime_dir: Path, tmp_path: Path
+) -> None:
+    assert session.server is not None
+    runner = CliRunner()
+    mine = runner.invoke(main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--list"])
+    assert f"{SIMPLEBOT} --variant field: pid " in mine.output
+    by_dir = runner.invoke(main, ["ctl", "--list", "--run-dir", str(session.server.run_dir)])
+    assert by_dir.output == mine.output
+    other = runner.invoke(main, ["ctl", str(SIMPLEBOT), "--variant", "lab", "--list"])
+    assert other.output == "no run is listening (start one with motivml run)\n"
+    elsewhere = runner.invoke(main, ["ctl", "--list", "--run-dir", str(tmp_path)])
+    assert elsewhere.output == "no run is listening (start one with motivml run)\n"
+    second = runs.register(SIMPLEBOT, "field", session.server.path)  # as a second run would
+    try:
+        both = runner.invoke(main, ["ctl", str(SIMPLEBOT), "--variant", "field", "status"])
+        assert both.exit_code == 2
+        assert "2 runs of " in both.output and "choose one with --run-dir" in both.output
+    finally:
+        runs.unregister(second)
+    extra = runner.invoke(main, ["ctl", str(SIMPLEBOT), "--variant", "field", "list", "slam"])
+    assert extra.exit_code == 2 and "list takes no features" in extra.output
+    missing = runner.invoke(main, ["ctl", str(SIMPLEBOT), "status"])
+    assert missing.exit_code == 2 and "Missing option '--variant'" in missing.output

@@ -468,7 +468,7 @@ def _list_runs(target: str | None, variant: str | None, run_dir: str | None) -> 
         runs = [r for r in runs if r.variant == variant]
     if run_dir is not None:
         socket_path = str((Path(run_dir) / SOCKET).absolute())
-        runs = [r for r in runs if r.socket == socket_path]
+        runs = [r for r in runs if Path(r.socket).resolve() == Path(socket_path).resolve()]
         if not runs and answers(Path(socket_path)):  # a run that did not register
             out.print(shown(f"a run is listening at {socket_path}"))
             return
