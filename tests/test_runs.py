@@ -197,7 +197,7 @@ def test_ctl_lists_only_what_it_is_asked_about_and_asks_to_choose_between_two_ru
         assert "2 runs of " in both.output and "choose one with --run-dir" in both.output
     finally:
         runs.unregister(second)
-    extra = runner.invoke(main, ["ctl", str(SIMPLEBOT), "--variant", "field", "list", "slam"])
-    assert extra.exit_code == 2 and "list takes no features" in extra.output
+    extra = runner.invoke(main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--list", "status"])
+    assert extra.exit_code == 2 and "--list takes no op" in extra.output
     missing = runner.invoke(main, ["ctl", str(SIMPLEBOT), "status"])
     assert missing.exit_code == 2 and "Missing option '--variant'" in missing.output

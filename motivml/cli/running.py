@@ -311,7 +311,7 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
 
 
 @click.command("ctl")
-@click.argument("target", type=click.Path(), required=False)
+@click.argument("target", type=click.Path(), required=False, metavar="TARGET")
 @click.option("--variant", help="The variant that runs (to find its run).")
 @click.option(
     "--run-dir", type=click.Path(file_okay=False), help="The run's directory, if run was given one."
@@ -319,8 +319,9 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
 @click.option("--list", "listing", is_flag=True, help="List the runs ctl can reach, and exit.")
 @click.argument(
     "op",
-    type=click.Choice(["load", "unload", "reload", "swap", "event", "status", "dump", "list"]),
+    type=click.Choice(["load", "unload", "reload", "swap", "event", "status", "dump"]),
     required=False,
+    metavar="{load|unload|reload|swap|event|status|dump}",
 )
 @click.argument("features", nargs=-1)
 def ctl_command(
@@ -336,23 +337,23 @@ def ctl_command(
     TARGET and --variant name the run, from any working directory: every run registers in a
     per-user directory ($XDG_RUNTIME_DIR/motivml/runs, else /tmp/motivml-<uid>/runs), and
     ctl looks it up there (else in build/<robot>/<variant>/run below the working directory;
-    --run-dir names a run's directory outright). --list (or the op list) prints the runs ctl
-    can reach. A change is checked against the model and the variant first; a refused one
+    --run-dir names a run's directory outright). --list (or ctl list) prints the runs ctl
+    can reach, of TARGET and --variant if given. A change is checked against the model and the variant first; a refused one
     changes nothing and says why (exit 1); ctl waits for a change's outcome, however long
     its plugins take to start. status prints the active set, components and plugins; dump
     prints everything as JSON.
     """
     from ..runtime.control import send
 
-    if listing or op == "list" or (op is None and target == "list"):
-        if features:
-            raise click.UsageError("list takes no features")
+    if listing or (target == "list" and op is None):  # ctl --list [TARGET], or ctl list
+        if op is not None:
+            raise click.UsageError("--list takes no op")
         _list_runs(target if target != "list" else None, variant, run_dir)
         return
     ctx = click.get_current_context()
     params = {p.name: p for p in ctx.command.params}
-    for name, value in (("target", target), ("variant", variant), ("op", op)):
-        if value is None:
+    for name, value in (("target", target), ("op", op), ("variant", variant)):
+        if value is None:  # required unless listing, and said as click says it
             raise click.MissingParameter(ctx=ctx, param=params[name])
     assert target is not None and variant is not None and op is not None
     if op in ("status", "dump") and features:
