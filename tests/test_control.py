@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import json
+import os
 import socket
 import stat
+import sys
 import threading
+import types
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -334,3 +337,203 @@ def test_closing_the_server_ends_its_threads_and_removes_the_socket(tmp_path: Pa
     assert not accepting.is_alive() and not server.path.exists()
     server.close()  # twice is harmless
     robot.close()
+
+
+# ------------------------------------- an existing run directory
+def test_an_existing_run_directory_keeps_its_mode(tmp_path: Path) -> None:
+    run_dir = tmp_path / "mine"
+    run_dir.mkdir()
+    run_dir.chmod(0o755)
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(run_dir, robot.runtime, robot.binder)
+    try:
+        server.open()
+        assert stat.S_IMODE(run_dir.stat().st_mode) == 0o755  # not changed to 0700
+        assert send(run_dir, {"op": "status"})["ok"] is True
+    finally:
+        server.close()
+        robot.close()
+
+
+@pytest.mark.parametrize("mode", [0o1777, 0o777, 0o770, 0o702])
+def test_a_run_directory_others_may_write_in_is_refused_and_left_alone(tmp_path: Path, mode: int) -> None:
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    shared.chmod(mode)
+    result = CliRunner().invoke(
+        main,
+        ["run", str(SIMPLEBOT), "--variant", "field", "--clock", "simulated", "--run-dir", str(shared)],
+    )
+    assert result.exit_code == 3, result.output
+    assert f"{shared}: others may write in this directory (mode {mode:04o})" in " ".join(
+        result.output.split()
+    )
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+    assert stat.S_IMODE(shared.stat().st_mode) == mode and not (shared / "control.sock").exists()
+
+
+def test_a_new_run_directory_is_made_0700_whatever_the_umask(tmp_path: Path) -> None:
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(tmp_path / "a" / "run", robot.runtime, robot.binder)
+    old = os.umask(0o077)
+    try:
+        server.open()
+        assert stat.S_IMODE(server.run_dir.stat().st_mode) == 0o700
+    finally:
+        os.umask(old)
+        server.close()
+        robot.close()
+
+
+# ------------------------------------- many clients at once
+@pytest.mark.parametrize("backlog", [control.BACKLOG, 1])
+def test_fifty_clients_at_once_are_all_answered(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, backlog: int
+) -> None:
+    """Each waits its turn: with a backlog of one, most find it full and connect again."""
+    monkeypatch.setattr(control, "BACKLOG", backlog)
+    robot = launch(SIMPLEBOT, "field")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    server.open()
+    clients = 50
+    start = threading.Barrier(clients)
+    answers: list[Any] = [None] * clients
+
+    def ask(i: int) -> None:
+        start.wait()
+        try:
+            answers[i] = send(server.run_dir, {"op": "status"})
+        except EnvironmentProblem as exc:
+            answers[i] = exc.diagnostics[0].message
+
+    threads = [threading.Thread(target=ask, args=(i,)) for i in range(clients)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    server.close()
+    robot.close()
+    failed = [a for a in answers if not isinstance(a, dict)]
+    assert failed == [] and all(a["ok"] for a in answers)
+
+
+# ------------------------------------- a change that takes long to prepare
+SLOW_START = "import ctl_gate; ctl_gate.started.set(); ctl_gate.release.wait()"
+
+
+@pytest.fixture
+def slow(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[types.SimpleNamespace, Path]]:
+    """A robot whose plugin d starts only when the test lets it, running with its socket open."""
+    from test_transactions import make_robot
+
+    gate = types.SimpleNamespace(started=threading.Event(), release=threading.Event())
+    monkeypatch.setitem(sys.modules, "ctl_gate", gate)
+    robot = launch(make_robot(tmp_path / "bot", {"a": {}, "b": {}, "d": {"start": SLOW_START}}), "v")
+    server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
+    server.open()
+    loop = threading.Thread(target=robot.runtime.run, args=(3600.0, RealClock()), daemon=True)
+    loop.start()
+    yield gate, server.run_dir
+    gate.release.set()
+    robot.runtime.stop()
+    loop.join()
+    server.close()
+    robot.close()
+
+
+def test_a_change_is_waited_for_however_long_its_plugin_takes_to_start(
+    slow: tuple[types.SimpleNamespace, Path],
+) -> None:
+    gate, run_dir = slow
+    answers: list[Any] = []
+
+    def load() -> None:  # a zero timeout: any wait bounded by it would fail at once
+        try:
+            answers.append(send(run_dir, {"op": "load", "features": ["d"]}, 0.0, wait=True))
+        except EnvironmentProblem as exc:
+            answers.append(exc.diagnostics[0].message)
+
+    client = threading.Thread(target=load)
+    client.start()
+    assert gate.started.wait(30)  # d's start() runs, and waits for the test
+    gate.release.set()
+    client.join()
+    (answer,) = answers
+    assert isinstance(answer, dict) and answer["accepted"] and answer["loads"] == ["d"], answer
+    assert "d" in send(run_dir, {"op": "status"})["active"]
+
+
+def test_ctl_waits_for_a_slow_change_and_says_what_it_became(
+    slow: tuple[types.SimpleNamespace, Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    gate, run_dir = slow
+    real = control.send
+    monkeypatch.setattr(  # a zero timeout: whatever ctl waits for with a timeout fails at once
+        control, "send", lambda folder, request, timeout=30.0, **wait: real(folder, request, 0.0, **wait)
+    )
+    results: list[Any] = []
+    command = ["ctl", str(run_dir.parent / "bot"), "--variant", "v", "--run-dir", str(run_dir), "load", "d"]
+    client = threading.Thread(target=lambda: results.append(CliRunner().invoke(main, command)))
+    client.start()
+    assert gate.started.wait(30)
+    gate.release.set()
+    client.join()
+    (result,) = results
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith("accepted: load d took effect at tick ")
+
+
+def test_ctrl_c_while_ctl_waits_for_a_change_says_it_may_still_be_committed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def interrupted(*args: Any, **kwargs: Any) -> dict[str, Any]:
+        assert kwargs["wait"] is True
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(control, "send", interrupted)
+    run_dir = tmp_path / "run"
+    result = CliRunner().invoke(
+        main, ["ctl", str(SIMPLEBOT), "--variant", "field", "--run-dir", str(run_dir), "swap", "a", "b"]
+    )
+    assert result.exit_code == 130
+    assert " ".join(result.output.split()) == (
+        f"interrupted: swap a b was sent and may still be committed; see with: motivml ctl {SIMPLEBOT} "
+        f"--variant field --run-dir {run_dir} status"
+    )
+
+
+# ------------------------------------- status is one moment
+def test_status_under_racing_swaps_describes_states_that_existed(
+    running: tuple[Robot, ControlServer],
+) -> None:
+    """The plugin of an active feature is listed if and only if the feature is active."""
+    robot, server = running
+    with_plugins = set(robot.binder.plugins)
+    assert {"hectorslam", "kartoslam"} <= with_plugins
+    done = threading.Event()
+    answers: list[dict[str, Any]] = []
+
+    def swap() -> None:
+        try:
+            for i in range(30):
+                pair = ["hectorslam", "kartoslam"] if i % 2 == 0 else ["kartoslam", "hectorslam"]
+                assert send(server.run_dir, {"op": "swap", "features": pair})["accepted"]
+        finally:
+            done.set()
+
+    def ask() -> None:
+        while not done.is_set():
+            answers.append(send(server.run_dir, {"op": "status"}))
+
+    threads = [threading.Thread(target=swap), *(threading.Thread(target=ask) for _ in range(3))]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert answers
+    torn = [
+        (a["active"], a["plugins"])
+        for a in answers
+        if {p["feature"] for p in a["plugins"]} != set(a["active"]) & with_plugins
+    ]
+    assert torn == []

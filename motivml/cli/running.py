@@ -185,7 +185,7 @@ def run_command(
         if control
         else None
     )
-    session = Session(robot, duration, clock, plan, folder, on_stuck=stuck)
+    session = Session(robot, duration, clock, plan, folder, on_stuck=stuck, variant=variant)
     try:
         session.open()
     except MotivmlError as exc:
@@ -336,21 +336,51 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
 
 
 @click.command("ctl")
-@click.argument("target", type=click.Path())
-@click.option("--variant", required=True, help="The variant that runs (to find its run directory).")
+@click.argument("target", type=click.Path(), required=False, metavar="TARGET")
+@click.option("--variant", help="The variant that runs (to find its run).")
 @click.option(
     "--run-dir", type=click.Path(file_okay=False), help="The run's directory, if run was given one."
 )
-@click.argument("op", type=click.Choice(["load", "unload", "reload", "swap", "event", "status", "dump"]))
+@click.option("--list", "listing", is_flag=True, help="List the runs ctl can reach, and exit.")
+@click.argument(
+    "op",
+    type=click.Choice(["load", "unload", "reload", "swap", "event", "status", "dump"]),
+    required=False,
+    metavar="{load|unload|reload|swap|event|status|dump}",
+)
 @click.argument("features", nargs=-1)
-def ctl_command(target: str, variant: str, run_dir: str | None, op: str, features: tuple[str, ...]) -> None:
+def ctl_command(
+    target: str | None,
+    variant: str | None,
+    run_dir: str | None,
+    listing: bool,
+    op: str | None,
+    features: tuple[str, ...],
+) -> None:
     """Talk to a running robot: load, unload, reload or swap features, or ask its status.
 
-    TARGET and --variant name the run (its control socket is in build/<robot>/<variant>/run
-    unless run was given --run-dir). A change is checked against the model and the variant
-    first; a refused one changes nothing and says why (exit 1). status prints the active set,
-    components and plugins; dump prints everything as JSON.
+    TARGET and --variant name the run, from any working directory: every run registers in a
+    per-user directory ($XDG_RUNTIME_DIR/motivml/runs, else /tmp/motivml-<uid>/runs), and
+    ctl looks it up there (else in build/<robot>/<variant>/run below the working directory;
+    --run-dir names a run's directory outright). --list (or ctl list) prints the runs ctl
+    can reach, of TARGET and --variant if given. A change is checked against the model and the variant first; a refused one
+    changes nothing and says why (exit 1); ctl waits for a change's outcome, however long
+    its plugins take to start. status prints the active set, components and plugins; dump
+    prints everything as JSON.
     """
+    from ..runtime.control import send
+
+    if listing or (target == "list" and op is None):  # ctl --list [TARGET], or ctl list
+        if op is not None:
+            raise click.UsageError("--list takes no op")
+        _list_runs(target if target != "list" else None, variant, run_dir)
+        return
+    ctx = click.get_current_context()
+    params = {p.name: p for p in ctx.command.params}
+    for name, value in (("target", target), ("op", op), ("variant", variant)):
+        if value is None:  # required unless listing, and said as click says it
+            raise click.MissingParameter(ctx=ctx, param=params[name])
+    assert target is not None and variant is not None and op is not None
     if op in ("status", "dump") and features:
         raise click.UsageError(f"{op} takes no features")
     if op not in ("status", "dump") and not features:
@@ -359,13 +389,28 @@ def ctl_command(target: str, variant: str, run_dir: str | None, op: str, feature
         raise click.UsageError("swap needs two features: the one to unload, then the one to load")
     if op == "event" and len(features) != 1:
         raise click.UsageError("event needs one name")
-    from ..runtime.control import send
-
     folder = Path(run_dir) if run_dir else Path("build") / Path(target).resolve().name / variant / "run"
+    address = None if run_dir else _registered(target, variant)
+    change = op in ACTIONS  # answered once committed or refused: waited for, however long
     try:
-        answer = send(folder, {"op": op, "features": list(features)} if features else {"op": op})
+        answer = send(
+            folder,
+            {"op": op, "features": list(features)} if features else {"op": op},
+            wait=change,
+            address=address,
+        )
     except MotivmlError as exc:
         fail(exc)
+    except KeyboardInterrupt:
+        if not change:
+            raise
+        err.print(
+            f"[bold yellow]interrupted[/]: {shown(op + ' ' + ' '.join(features))} was sent and may still be "
+            f"committed; see with: motivml ctl {shown(target)} --variant {shown(variant)}"
+            + (f" --run-dir {shown(run_dir)}" if run_dir else "")
+            + " status"
+        )
+        sys.exit(130)
     if not answer.get("ok"):
         err.print(f"[bold red]error[/]: {shown(str(answer.get('error')))}")
         sys.exit(2)
@@ -423,3 +468,48 @@ def _print_status(answer: dict[str, object]) -> None:
             else ""
         )
         out.print(shown(f"plugin {plugin['feature']}: {plugin['status']}{slowest}"))
+
+
+def _registered(target: str, variant: str) -> Path | None:
+    """Where the registered run of this robot and variant listens (None: not registered)."""
+    from ..runtime.runs import find
+
+    runs = find(Path(target), variant)
+    if len(runs) > 1:
+        err.print(
+            f"[bold red]error[/]: {len(runs)} runs of {shown(target)} variant {shown(variant)} are "
+            "listening; choose one with --run-dir:"
+        )
+        for run in runs:
+            err.print(shown(f"    {Path(run.socket).parent} (pid {run.pid})"))
+        sys.exit(2)
+    return runs[0].address if runs else None
+
+
+def _list_runs(target: str | None, variant: str | None, run_dir: str | None) -> None:
+    """Print the runs ctl can reach: registered ones (of TARGET and --variant, if given)."""
+    from ..runtime.control import SOCKET
+    from ..runtime.runs import answers, reachable
+
+    runs = reachable()
+    if target is not None:
+        wanted = str(Path(target).resolve())
+        runs = [r for r in runs if r.robot == wanted]
+    if variant is not None:
+        runs = [r for r in runs if r.variant == variant]
+    if run_dir is not None:
+        socket_path = str((Path(run_dir) / SOCKET).absolute())
+        runs = [r for r in runs if Path(r.socket).resolve() == Path(socket_path).resolve()]
+        if not runs and answers(Path(socket_path)):  # a run that did not register
+            out.print(shown(f"a run is listening at {socket_path}"))
+            return
+    if not runs:
+        out.print("no run is listening (start one with motivml run)")
+        return
+    for run in runs:
+        started = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(run.started))
+        out.print(
+            shown(
+                f"{run.robot} --variant {run.variant}: pid {run.pid}, since {started}, control {run.socket}"
+            )
+        )

@@ -86,6 +86,7 @@ class Binder:
         self.architecture = architecture
         self.plugins = plugins
         self.active = frozenset(active)
+        runtime.active = self.active  # what status() reads, with the plugins, at each commit
         self.unimplemented = (
             unimplemented  # Dynamic features nothing implements: warned about (strict: refused)
         )
@@ -349,7 +350,14 @@ class Binder:
             preparing.active = False
         remove = tuple(f for f in plan.unloads if f in self.runtime.plugins)
         return Commit(
-            str(plan.request), plan.loads, plan.unloads, assembly, add, remove, writes=preparing.writes
+            str(plan.request),
+            plan.loads,
+            plan.unloads,
+            assembly,
+            add,
+            remove,
+            writes=preparing.writes,
+            active=plan.after,
         )
 
     def _give_up(self, commit: Commit) -> None:

@@ -1,7 +1,8 @@
 """The run's control endpoint: a Unix domain socket speaking JSON lines.
 
-`motivml run` opens `<run dir>/control.sock`. The run directory is created with mode 0700
-and the socket with mode 0600, so only the owner can connect. Each request is one JSON
+`motivml run` opens `<run dir>/control.sock`. A new run directory is created with mode 0700
+(an existing one keeps its mode, and is refused if others may write in it) and the socket
+with mode 0600, so only the owner can connect. Each request is one JSON
 object on one line, and each answer is one line:
 
     {"op": "swap", "features": ["hectorslam", "kartoslam"]}
@@ -22,6 +23,7 @@ import os
 import socket
 import stat
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +36,7 @@ SOCKET = "control.sock"
 LINE_LIMIT = 1 << 16  # bytes per request line
 IDLE = 600.0  # seconds a connection may stay silent
 DRAIN_LIMIT = 1 << 20  # bytes read and dropped after a line over LINE_LIMIT
+BACKLOG = socket.SOMAXCONN  # connections waiting for accept(); clients beyond it try again
 
 
 def _problem(path: Path, message: str) -> EnvironmentProblem:
@@ -54,14 +57,13 @@ class ControlServer:
         self.coordinator: Any = None  # the run's Coordinator, for events
 
     def open(self) -> None:
-        """Create the run directory (0700) and listen on its socket (0600)."""
+        """Create the run directory (0700) if it is new, and listen on its socket (0600)."""
         if len(os.fsencode(self.path)) >= 104:  # sun_path holds 104 to 108 bytes
             raise _problem(
                 self.path, "the socket path is too long for a Unix socket: choose a shorter --run-dir"
             )
         try:
-            self.run_dir.mkdir(parents=True, exist_ok=True, mode=0o700)
-            os.chmod(self.run_dir, 0o700)
+            self._make_run_dir()
             if self.path.exists() or self.path.is_symlink():
                 if not stat.S_ISSOCK(self.path.lstat().st_mode):
                     raise _problem(self.path, "exists and is not a socket: not replacing it")
@@ -77,13 +79,31 @@ class ControlServer:
             finally:
                 os.umask(old)
             os.chmod(self.path, 0o600)
-            server.listen(8)
+            server.listen(BACKLOG)
         except OSError as exc:
             raise _problem(self.path, f"cannot open the control socket: {exc.strerror}") from None
         self._socket = server
         thread = threading.Thread(target=self._accept, name="motivml-control-accept", daemon=True)
         thread.start()
         self._threads.append(thread)
+
+    def _make_run_dir(self) -> None:
+        """A new run directory is made 0700; an existing one keeps its mode, and is refused
+        if others may write in it (the system's shared temporary folder, say)."""
+        try:
+            self.run_dir.mkdir(parents=True, mode=0o700)
+        except FileExistsError:
+            info = self.run_dir.stat()
+            if not stat.S_ISDIR(info.st_mode):
+                raise
+            if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+                raise _problem(
+                    self.run_dir,
+                    f"others may write in this directory (mode {stat.S_IMODE(info.st_mode):04o}): "
+                    "not opening a control socket here; choose another --run-dir",
+                ) from None
+            return
+        os.chmod(self.run_dir, 0o700)  # the one we made: whatever the umask left
 
     def _accept(self) -> None:
         assert self._socket is not None
@@ -183,7 +203,7 @@ class ControlServer:
         return {
             "tick": snapshot.tick,
             "time": round(snapshot.time, 6),
-            "active": sorted(self.binder.active, key=self.binder.variant.model.index.__getitem__),
+            "active": sorted(snapshot.active, key=self.binder.variant.model.index.__getitem__),
             "components": [
                 {"id": c.id, "kind": c.kind, "feature": c.feature, "status": c.status, "learning": c.learning}
                 for c in snapshot.components
@@ -253,19 +273,36 @@ def _alive(path: Path) -> bool:
         probe.close()
 
 
-def send(run_dir: Path, request: dict[str, Any], timeout: float = 30.0) -> dict[str, Any]:
-    """One request to a run's control socket; its answer."""
-    path = run_dir / SOCKET
-    client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    client.settimeout(timeout)
+def send(
+    run_dir: Path,
+    request: dict[str, Any],
+    timeout: float = 30.0,
+    *,
+    wait: bool = False,
+    address: Path | None = None,
+) -> dict[str, Any]:
+    """One request to a run's control socket; its answer.
+
+    Connecting waits its turn, up to `timeout` seconds, while the run's backlog is full (a
+    connect on a Unix socket does not queue: it fails at once, so it is tried again). The
+    answer is waited for up to `timeout` seconds too, unless `wait`: a change (load, unload,
+    reload, swap) answers when it is committed or refused, however long its plugins take to
+    start, and a client that gave up earlier would say it failed when it did not. `address`:
+    connect there instead of to the run directory's socket (a registered run's link).
+    """
+    path = address or run_dir / SOCKET
     try:
-        client.connect(str(path))
+        client = _connect(path, timeout)
+        client.settimeout(None if wait else timeout)
+    except FileNotFoundError:
+        raise _problem(path, "no run is listening here (start one with motivml run)") from None
+    except OSError as exc:
+        raise _problem(path, f"cannot talk to the run: {exc.strerror or exc}") from None
+    try:
         with client.makefile("rwb") as stream:
             stream.write((json.dumps(request) + "\n").encode())
             stream.flush()
             line = stream.readline()
-    except FileNotFoundError:
-        raise _problem(path, "no run is listening here (start one with motivml run)") from None
     except OSError as exc:
         raise _problem(path, f"cannot talk to the run: {exc.strerror or exc}") from None
     finally:
@@ -282,3 +319,28 @@ def _slowest(slowest: tuple[tuple[str, float, int], ...], feature: str) -> dict[
         if name == feature:
             return {"slowest_step_ms": round(took * 1e3, 3), "slowest_step_tick": tick}
     return {}
+
+
+RETRY_FIRST, RETRY_MOST = 0.001, 0.05  # s between two connects while the backlog is full
+
+
+def _connect(path: Path, timeout: float) -> socket.socket:
+    """A socket connected to `path`, trying again while the listener's backlog is full."""
+    deadline = time.monotonic() + timeout
+    pause = RETRY_FIRST
+    while True:
+        client = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        client.settimeout(timeout)
+        try:
+            client.connect(str(path))
+            return client
+        except BlockingIOError:  # EAGAIN: the backlog is full; the run is busy, not gone
+            client.close()
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise
+            time.sleep(min(pause, left))
+            pause = min(pause * 2, RETRY_MOST)
+        except BaseException:
+            client.close()
+            raise

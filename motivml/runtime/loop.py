@@ -85,6 +85,7 @@ class Commit:
     change: AppliedReconfiguration | None = None
     withdrawn: bool = False
     writes: list[tuple[str, Any]] = field(default_factory=list)  # made by plugins in start()
+    active: frozenset[str] | None = None  # the active set it makes (None: unknown here)
 
 
 @dataclass(frozen=True)
@@ -141,6 +142,7 @@ class Snapshot:
     modules: tuple[tuple[str, str, int], ...]  # (id, learning state, times learned)
     plugins: tuple[tuple[str, str], ...] = ()  # (feature, status line or "faulted")
     slowest: tuple[tuple[str, float, int], ...] = ()  # (feature, longest step in s, its tick), longest first
+    active: frozenset[str] = frozenset()  # the active set these plugins and components belong to
 
 
 def _status(instance: Any) -> str:
@@ -230,7 +232,8 @@ class Runtime:
         self.watchdog = 1.0  # s: a plugin step running this long is noted, naming the plugin
         self._stepping: tuple[Running, float, int] | None = None  # the plugin step under way
         self._commits: queue.SimpleQueue[Commit] = queue.SimpleQueue()
-        self._lock = threading.Lock()  # commit versus withdraw
+        self._lock = threading.Lock()  # commit versus withdraw, and versus status()
+        self.active: frozenset[str] = frozenset()  # the features the applied commits made active
         assembly.prime()
 
     @property
@@ -314,6 +317,8 @@ class Runtime:
                     commit.loads,
                     commit.unloads,
                 )
+                if commit.active is not None:
+                    self.active = commit.active
                 self.changes.append(commit.change)
                 commit.done.set()
 
@@ -384,6 +389,10 @@ class Runtime:
         return next((e for e in self.events if e.component == component and e.status == status), None)
 
     def status(self) -> Snapshot:
+        """The components, plugins and active set of one moment: never half of a commit."""
+        with self._lock:  # the architecture, the plugins and the active set change together
+            assembly, running, active = self.assembly, list(self.plugins.values()), self.active
+            ticks = self.ticks
         components = tuple(
             ComponentStatus(
                 c.id,
@@ -394,16 +403,14 @@ class Runtime:
                 c.module.id,
                 c.module.state,
             )
-            for c in self.assembly.components
+            for c in assembly.components
         )
-        modules = tuple((m.id, m.state, m.learned) for m in self.assembly.modules.values())
-        plugins = tuple(
-            (r.feature, "faulted" if r.faulted else _status(r.instance)) for r in list(self.plugins.values())
-        )
+        modules = tuple((m.id, m.state, m.learned) for m in assembly.modules.values())
+        plugins = tuple((r.feature, "faulted" if r.faulted else _status(r.instance)) for r in running)
         slowest = tuple(
             sorted(((f, took, tick) for f, (took, tick) in list(self.slowest.items())), key=lambda s: -s[1])
         )
-        return Snapshot(self.ticks, self.time, components, modules, plugins, slowest)
+        return Snapshot(ticks, ticks / self.rate, components, modules, plugins, slowest, active)
 
     def run(
         self,

@@ -13,6 +13,8 @@ the exit code from the session's verdict. Everything with threads or signals is 
   plugins' stop() runs, the socket is removed and the caller prints its summary. A second
   signal means the loop is stuck in a plugin, and `on_stuck` is called (by default the
   process exits with 130 at once);
+* the control socket is registered in the per-user runs directory (`runs.py`), so that
+  `motivml ctl` finds the run from anywhere, and unregistered when the socket closes;
 * `close()` closes the control socket and stops the plugins and the binder's thread.
 """
 
@@ -34,6 +36,7 @@ from .coordinator import Coordinator
 from .launch import Robot
 from .loop import AppliedReconfiguration, RealClock, RunStats, Runtime, SimulatedClock, Snapshot
 from .requests import Request
+from .runs import Run, register, unregister
 
 EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by SIGINT
 SIGNALS = (signal.SIGINT, signal.SIGTERM)  # each ends the run cleanly
@@ -74,6 +77,7 @@ class Session:
         plan: Sequence[tuple[float, Request]] = (),
         run_dir: Path | None = None,
         on_stuck: Callable[[], None] = _exit_now,
+        variant: str | None = None,
     ) -> None:
         self.robot = robot
         self.runtime: Runtime = robot.runtime
@@ -82,6 +86,8 @@ class Session:
         self.plan = sorted(plan, key=lambda item: item[0])
         self.server = ControlServer(run_dir, robot.runtime, robot.binder) if run_dir is not None else None
         self.on_stuck = on_stuck
+        self.variant = variant or robot.variant.name  # as ctl names it
+        self.registered: Run | None = None  # in the per-user runs directory, for ctl
         self.coordinator: Coordinator | None = None
         self.stats: RunStats | None = None
         self.finished = threading.Event()
@@ -110,6 +116,7 @@ class Session:
         try:
             if self.server is not None:
                 self.server.open()
+                self.registered = register(self.robot.folder.path, self.variant, self.server.path)
         except BaseException:
             self.close()
             raise
@@ -143,6 +150,9 @@ class Session:
             for signum, previous in self._previous.items():
                 signal.signal(signum, previous)
             self._on_main = False
+        if self.registered is not None:
+            unregister(self.registered)
+            self.registered = None
         if self.server is not None:
             self.server.close()
 
