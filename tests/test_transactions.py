@@ -108,20 +108,34 @@ def make_robot(tmp_path: Path, plugins: dict[str, dict[str, str]], static: tuple
     )
     binding = {f: (("Early", "Static") if f in static else DL) for f in ("alt", "a", "b", "d")}
     binding["alt"] = ("Early", "Static") if "alt" in static else ("Early", "Dynamic")
+    entries = [(f, False) if f == "b" and static else (f, *b) for f, b in binding.items()]
+    sources = {
+        name: PLUGIN.format(start=code.get("start", "pass"), step=code.get("step", "pass"))
+        for name, code in plugins.items()
+    }
+    return write_robot(tmp_path, model, entries, sources, "mod")
+
+
+def write_robot(
+    tmp_path: Path, model: dict[str, Any], entries: Any, sources: dict[str, str], prefix: str
+) -> Path:
+    """A robot folder: the model, variant v, one Out space, and a Python plugin per source."""
     (tmp_path / "variants").mkdir(parents=True)
     (tmp_path / "model.json").write_text(json.dumps(model, indent=1))
-    entries = [(f, False) if f == "b" and static else (f, *b) for f, b in binding.items()]
     (tmp_path / "variants" / "v.json").write_text(json.dumps(config(*entries), indent=1))
     (tmp_path / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
     architecture = {"spaces": [{"id": "Out", "type": "Scalar", "dimension": 1, "feature": "bot"}]}
     (tmp_path / "architecture.json").write_text(json.dumps(architecture))
-    for name, code in plugins.items():
+    for name, text in sources.items():
         folder = tmp_path / "plugins" / name
         folder.mkdir(parents=True)
-        manifest = {"feature": name, "kind": "python", "entry": {"module": f"mod_{name}", "class": "Plugin"}}
+        manifest = {
+            "feature": name,
+            "kind": "python",
+            "entry": {"module": f"{prefix}_{name}", "class": "Plugin"},
+        }
         (folder / "plugin.json").write_text(json.dumps(manifest, indent=1))
-        text = PLUGIN.format(start=code.get("start", "pass"), step=code.get("step", "pass"))
-        (folder / f"mod_{name}.py").write_text(text)
+        (folder / f"{prefix}_{name}.py").write_text(text)
     return tmp_path
 
 
@@ -481,20 +495,11 @@ def lifecycle_robot(
     model = model or feature(
         "bot", [feature("a", [feature("a2", isMandatory=False, **ANY)], isMandatory=False, **ANY)]
     )
-    (tmp_path / "variants").mkdir(parents=True)
-    (tmp_path / "model.json").write_text(json.dumps(model, indent=1))
-    (tmp_path / "variants" / "v.json").write_text(json.dumps(config(*entries), indent=1))
-    (tmp_path / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
-    architecture = {"spaces": [{"id": "Out", "type": "Scalar", "dimension": 1, "feature": "bot"}]}
-    (tmp_path / "architecture.json").write_text(json.dumps(architecture))
-    for name, code in plugins.items():
-        folder = tmp_path / "plugins" / name
-        folder.mkdir(parents=True)
-        manifest = {"feature": name, "kind": "python", "entry": {"module": f"life_{name}", "class": "Plugin"}}
-        (folder / "plugin.json").write_text(json.dumps(manifest, indent=1))
-        text = LIFECYCLE.format(**{k: code.get(k, "pass") for k in ("start", "step", "stop")})
-        (folder / f"life_{name}.py").write_text(text)
-    return tmp_path
+    sources = {
+        name: LIFECYCLE.format(**{k: code.get(k, "pass") for k in ("start", "step", "stop")})
+        for name, code in plugins.items()
+    }
+    return write_robot(tmp_path, model, entries, sources, "life")
 
 
 def simulated_run(folder: Path, *extra: str, duration: str = "0.01") -> Any:
