@@ -81,13 +81,36 @@ def test_manifest_errors_are_located(tmp_path: Path) -> None:
     }
     plugins, problems = found(robot(tmp_path, manifests))
     assert problems == [
-        "a_rust:3: 'rust' is not one of 'python', 'cpp'",
+        "a_rust:3: 'rust' is not one of 'python', 'cpp', 'ros2_lifecycle'",
         "b_escape:5: library '../evil.so' leaves the plugin folder",
         "c_unknown:2: the plugin implements 'legs', which is not a feature of the model",
         "d_nomodule:4: a python plugin's entry needs 'module'",
         f"f_twice:2: a second plugin for slam (the first is {tmp_path / 'plugins' / 'e_ok' / 'plugin.json'})",
     ]
     assert list(plugins) == ["slam"]
+
+
+def test_each_kind_takes_its_own_entry_keys(tmp_path: Path) -> None:
+    """A ros2_lifecycle entry names a node (and may carry its parameters); a python or cpp
+    entry needs its class; a key of another kind is refused at that key; one node, one feature."""
+    manifests = {
+        "a_lamp": {
+            "feature": "slam",
+            "kind": "ros2_lifecycle",
+            "entry": {"node": "/uv/lamp", "parameters": {"power.max": 0.8, "names": ["a", "b"]}, "timeout": 2},
+        },
+        "b_noclass": {"feature": "hands", "kind": "cpp", "entry": {"library": "libh.so"}},
+        "c_class": {"feature": "hands", "kind": "ros2_lifecycle", "entry": {"node": "lamp", "class": "Lamp"}},
+        "d_same_node": {"feature": "hands", "kind": "ros2_lifecycle", "entry": {"node": "/uv/lamp"}},
+    }
+    plugins, problems = found(robot(tmp_path, manifests))
+    assert problems == [
+        "b_noclass:4: a cpp plugin's entry needs 'class'",
+        "c_class:6: a ros2_lifecycle plugin's entry has no 'class' (it has node, parameters, timeout)",
+        f"d_same_node:5: node '/uv/lamp' is also the entry of {tmp_path / 'plugins' / 'a_lamp' / 'plugin.json'}: "
+        "entry nodes need distinct names",
+    ]
+    assert plugins["slam"].entry["parameters"] == {"power.max": 0.8, "names": ["a", "b"]}
 
 
 def test_an_undeclared_directory_is_not_searched(tmp_path: Path) -> None:

@@ -110,7 +110,7 @@ def test_only_the_kinds_in_use_get_a_loader() -> None:
     made = registry.loaders("robot", {})
     assert made == {}
     kinds = {k.name: (k.path_key, k.path_is_file) for k in registry.KINDS.values()}
-    assert kinds == {"python": ("module", False), "cpp": ("library", True)}
+    assert kinds == {"python": ("module", False), "cpp": ("library", True), "ros2_lifecycle": ("node", False)}
 
 
 def test_entry_checks_come_from_the_kind() -> None:

@@ -11,6 +11,7 @@ import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ..errors import EnvironmentProblem, Location, error
 
@@ -27,8 +28,8 @@ class Plugin:
     """One plugin manifest: the implementation of a feature, and where it is."""
 
     feature: str
-    kind: str  # a kind of the plugin registry: "python", "cpp"
-    entry: dict[str, str]
+    kind: str  # a kind of the plugin registry: "python", "cpp", "ros2_lifecycle"
+    entry: dict[str, Any]  # as the manifest has it (strings, and a ros2 node's parameters)
     folder: Path
     manifest: Path
 

@@ -106,21 +106,23 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
                     )
                 )
                 continue
-            if not KINDS[kind].path_is_file:  # module kinds share one namespace per robot
-                root = str(entry[KINDS[kind].path_key]).split(".")[0]
+            if not KINDS[kind].path_is_file:  # modules share one namespace per robot, nodes one graph
+                key = KINDS[kind].path_key
+                root = str(entry[key]).split(".")[0] if key == "module" else str(entry[key])
                 other = modules.setdefault((kind, root), manifest_path)
                 if other != manifest_path:
+                    what = "modules" if key == "module" else "nodes"
                     diagnostics.append(
                         error(
-                            doc.locate(("entry", KINDS[kind].path_key)),
-                            f"module {root!r} is also the entry of {other}: entry modules need distinct names",
+                            doc.locate(("entry", key)),
+                            f"{key} {root!r} is also the entry of {other}: entry {what} need distinct names",
                             "plugins.load",
                             feature,
                         )
                     )
                     continue
             plugins[feature] = Plugin(
-                feature, kind, {k: str(v) for k, v in entry.items()}, candidate, manifest_path
+                feature, kind, dict(entry), candidate, manifest_path
             )
     return plugins, diagnostics
 

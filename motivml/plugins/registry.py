@@ -5,6 +5,7 @@ name and where the kind's loader is. The loader module is imported only when a l
 robot has a plugin of that kind, so reading manifests (`configure`, `validate`) never pays
 for pluginbase or the C++ extension. Adding a kind (ROS 2 lifecycle nodes, say) is one
 module with a `Loader` and one line below, plus the kind in `schemas/plugin.schema.json`.
+`ros2_lifecycle` is such a kind: its instances drive lifecycle nodes of other processes.
 """
 
 from __future__ import annotations
@@ -44,14 +45,21 @@ class Loader(Protocol):
 @dataclass(frozen=True)
 class Kind:
     name: str
-    path_key: str  # the entry key naming what to load, inside the plugin folder
+    path_key: str  # the entry key naming what to load (inside the plugin folder, or a node)
     path_is_file: bool  # a file path (no '..'), or a dotted module name
     loader: str  # "package.module:Class", imported at first use
+    required: tuple[str, ...] = ("class",)  # entry keys this kind needs besides path_key
+    optional: tuple[str, ...] = ()  # entry keys this kind may have
 
     def check_entry(self, entry: dict[str, Any]) -> tuple[str, str] | None:
         """(entry key, problem) when a schema-valid entry cannot be used, else None."""
-        if self.path_key not in entry:
-            return "", f"a {self.name} plugin's entry needs {self.path_key!r}"
+        for key in (self.path_key, *self.required):
+            if key not in entry:
+                return "", f"a {self.name} plugin's entry needs {key!r}"
+        allowed = {self.path_key, *self.required, *self.optional}
+        for key in entry:
+            if key not in allowed and not key.startswith("x-"):
+                return key, f"a {self.name} plugin's entry has no {key!r} (it has {', '.join(sorted(allowed))})"
         if self.path_is_file and ".." in PurePosixPath(entry[self.path_key]).parts:
             return self.path_key, f"library {entry[self.path_key]!r} leaves the plugin folder"
         return None
@@ -68,6 +76,14 @@ KINDS = {
     for kind in (
         Kind("python", "module", path_is_file=False, loader="motivml.plugins.python:PythonPlugins"),
         Kind("cpp", "library", path_is_file=True, loader="motivml.plugins.cpp:CppPlugins"),
+        Kind(
+            "ros2_lifecycle",
+            "node",
+            path_is_file=False,
+            loader="motivml.plugins.ros2:LifecycleNodes",
+            required=(),
+            optional=("parameters", "timeout"),
+        ),
     )
 }
 
