@@ -93,6 +93,26 @@ def test_the_start_state_and_accepted_requests(robot: tuple[Reconfigurer, set[st
     assert reload.after == subtree.after and reload.loads == reload.unloads == ("lidar",)
 
 
+
+def test_a_set_request_loads_and_unloads_in_one_reconfiguration(robot: tuple[Reconfigurer, set[str]]) -> None:
+    """What one ROS parameter call asks: features on and off together, checked as one."""
+    reconfigurer, active = robot
+    slam = reconfigurer.plan(active, Request.set(["slam", "hector"], []))
+    both = reconfigurer.plan(slam.after, Request.set(["karto", "sonar"], ["hector", "lidar"]))
+    assert both.loads == ("karto", "sonar") and both.unloads == ("lidar", "hector")  # reverse definition order
+    assert both.after == {"bot", "base", "slam", "karto", "sonar"}
+    assert str(both.request) == "set +karto +sonar -hector -lidar"
+    with pytest.raises(Refused) as xor:  # karto alone would leave slam's XOR group with two members
+        reconfigurer.plan(slam.after, Request.set(["karto"], []))
+    assert xor.value.breaks_relations
+    with pytest.raises(Refused) as twice:
+        reconfigurer.plan(slam.after, Request.set(["karto"], ["karto"]))
+    assert twice.value.diagnostics[0].message == "karto cannot be loaded and unloaded in one request"
+    with pytest.raises(Refused) as nothing:
+        reconfigurer.plan(slam.after, Request.set([], []))
+    assert nothing.value.diagnostics[0].rule == "reconfigure.usage"
+
+
 REFUSALS = {
     "unknown feature": (["load hectr"], "$: no feature 'hectr' in the model (did you mean 'hector'?)"),
     "not selected": (

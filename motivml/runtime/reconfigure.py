@@ -89,7 +89,7 @@ class Reconfigurer:
     def plan(self, active: Collection[str], request: Request) -> Plan:
         """The new active set of an accepted request; `Refused` says why not."""
         root = self.explainer.model_location(0)
-        if request.action not in ACTIONS:
+        if request.action not in (*ACTIONS, "set"):
             raise Refused(
                 error(
                     root,
@@ -98,7 +98,8 @@ class Reconfigurer:
                 )
             )
         wanted = 2 if request.action == "swap" else None
-        if not request.features or (wanted is not None and len(request.features) != wanted):
+        named = request.features + request.unloading
+        if not named or (wanted is not None and len(request.features) != wanted):
             raise Refused(
                 error(
                     root,
@@ -106,7 +107,7 @@ class Reconfigurer:
                     "reconfigure.usage",
                 )
             )
-        for feature in request.features:
+        for feature in named:
             if feature not in self.model.index:
                 close = difflib.get_close_matches(feature, list(self.model.index), n=1, cutoff=0.75)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
@@ -122,7 +123,13 @@ class Reconfigurer:
             raise Refused(
                 error(root, "swap takes two different features (out, then in)", "reconfigure.usage")
             )
-        request = Request(request.action, features)
+        unloading = tuple(dict.fromkeys(request.unloading))
+        both = [f for f in features if f in unloading]
+        if both:
+            raise self._refuse(
+                both[0], f"{both[0]} cannot be loaded and unloaded in one request", "reconfigure.usage"
+            )
+        request = Request(request.action, features, unloading)
         before = frozenset(active)
         if request.action == "reload":
             for feature in request.features:
@@ -136,15 +143,15 @@ class Reconfigurer:
             )
         to_unload: set[str] = set()
         to_load: set[str] = set()
-        if request.action in ("unload", "swap"):
-            for feature in request.features[:1] if request.action == "swap" else request.features:
-                self._check_unload(feature, before, "unload")
-                subtree = {self.model.features[i].id for i in self.model.subtree(self.model.index[feature])}
-                to_unload |= subtree & before
-        if request.action in ("load", "swap"):
-            for feature in request.features[1:] if request.action == "swap" else request.features:
-                self._check_load(feature, before - to_unload)
-                to_load |= self._unit(feature)
+        outs = {"unload": request.features, "swap": request.features[:1], "set": request.unloading}
+        ins = {"load": request.features, "swap": request.features[1:], "set": request.features}
+        for feature in outs.get(request.action, ()):
+            self._check_unload(feature, before, "unload")
+            subtree = {self.model.features[i].id for i in self.model.subtree(self.model.index[feature])}
+            to_unload |= subtree & before
+        for feature in ins.get(request.action, ()):
+            self._check_load(feature, before - to_unload)
+            to_load |= self._unit(feature)
         after = (before - to_unload) | to_load
         for feature in sorted(to_load, key=self.model.index.__getitem__):
             parent = self.model[feature].parent
