@@ -87,6 +87,17 @@ class Number(click.FloatRange):
     help="Refuse a Dynamic feature that nothing implements (no plugin, no architecture element, not abstract).",
 )
 @click.option(
+    "--ros2",
+    is_flag=True,
+    help="Start the ROS 2 node NS/motivml: features.<id>.active parameters, ~/active_features, /diagnostics (needs make ros2).",
+)
+@click.option(
+    "--ros-namespace",
+    default="/",
+    show_default=True,
+    help="The ROS namespace of the motivml node and of relative ros2_lifecycle node names.",
+)
+@click.option(
     "--at",
     "scheduled",
     type=(click.FloatRange(min=0), str),
@@ -105,6 +116,8 @@ def run_command(
     run_dir: str | None,
     control: bool,
     strict: bool,
+    ros2: bool,
+    ros_namespace: str,
     scheduled: tuple[tuple[float, str], ...],
 ) -> None:
     """Build the motion architecture of a variant's active features and run it at a fixed rate.
@@ -113,7 +126,16 @@ def run_command(
     needs (semantics.md section 4); exactly their spaces, mappings, modules and components
     run. Ends with a summary: each component's status and when its criterion fired, each
     module's learning state, the final space values and the loop's timing.
+
+    With --ros2 the run is also a ROS 2 node (guidelines/running-with-ros2.md): its features
+    are parameters that any ROS 2 client may set, every change checked against the model.
     """
+    from ..plugins.ros2 import namespace
+
+    try:
+        ros_namespace = namespace(ros_namespace)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--ros-namespace") from None
     plan: list[tuple[float, Request]] = []
     for at, text in scheduled:
         action, *features = text.split() or [""]
@@ -147,7 +169,7 @@ def run_command(
     guarding = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, interrupt) if guarding else None
     try:
-        robot = launch(target, variant, rate, prefer, strict)
+        robot = launch(target, variant, rate, prefer, strict, ros_namespace)
     except MotivmlError as exc:
         if interrupted:  # the Ctrl-C came while a plugin started: it failed because of it
             out.print("interrupted before the run started")
@@ -192,6 +214,16 @@ def run_command(
         fail(exc)
     if session.server is not None:
         out.print(f"control: {escape(str(session.server.path))} (motivml ctl)")
+    if ros2:
+        try:
+            from ..ros2.node import start
+
+            door = start(robot, ros_namespace)
+        except MotivmlError as exc:
+            session.close()
+            fail(exc)
+        session.doors.append(door.close)
+        out.print(f"ROS 2: node {escape(door.node.get_fully_qualified_name())} (features.<id>.active parameters)")
     coordinator = session.coordinator
     if coordinator is None and any(request.action == "event" for _, request in plan):
         session.close()

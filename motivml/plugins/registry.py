@@ -50,6 +50,7 @@ class Kind:
     loader: str  # "package.module:Class", imported at first use
     required: tuple[str, ...] = ("class",)  # entry keys this kind needs besides path_key
     optional: tuple[str, ...] = ()  # entry keys this kind may have
+    on_ros: bool = False  # its loader takes the run's ROS namespace
 
     def check_entry(self, entry: dict[str, Any]) -> tuple[str, str] | None:
         """(entry key, problem) when a schema-valid entry cannot be used, else None."""
@@ -64,10 +65,10 @@ class Kind:
             return self.path_key, f"library {entry[self.path_key]!r} leaves the plugin folder"
         return None
 
-    def make_loader(self, robot: str, plugins: dict[str, Plugin]) -> Loader:
+    def make_loader(self, robot: str, plugins: dict[str, Plugin], ros_namespace: str = "/") -> Loader:
         module, name = self.loader.split(":")
         factory = getattr(importlib.import_module(module), name)
-        loader: Loader = factory(robot, plugins)
+        loader: Loader = factory(robot, plugins, ros_namespace) if self.on_ros else factory(robot, plugins)
         return loader
 
 
@@ -83,15 +84,18 @@ KINDS = {
             loader="motivml.plugins.ros2:LifecycleNodes",
             required=(),
             optional=("parameters", "timeout"),
+            on_ros=True,
         ),
     )
 }
 
 
-def loaders(robot: str, plugins: dict[str, Plugin]) -> dict[str, Loader]:
+def loaders(robot: str, plugins: dict[str, Plugin], ros_namespace: str = "/") -> dict[str, Loader]:
     """One loader per kind the robot's plugins use, each given the plugins of its kind."""
     used = sorted({p.kind for p in plugins.values()}, key=list(KINDS).index)
     return {
-        kind: KINDS[kind].make_loader(robot, {f: p for f, p in plugins.items() if p.kind == kind})
+        kind: KINDS[kind].make_loader(
+            robot, {f: p for f, p in plugins.items() if p.kind == kind}, ros_namespace
+        )
         for kind in used
     }

@@ -24,6 +24,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, TimeoutError
 from dataclasses import dataclass, field
 from typing import Any
@@ -80,6 +81,7 @@ class Binder:
         robot: str = "robot",
         unimplemented: frozenset[str] = frozenset(),
         strict: bool = False,
+        ros_namespace: str = "/",
     ) -> None:
         self.runtime = runtime
         self.variant = variant
@@ -92,7 +94,7 @@ class Binder:
         )
         self.strict = strict
         self.reconfigurer = Reconfigurer(variant, config)
-        self.loaders = loaders(robot, plugins)
+        self.loaders = loaders(robot, plugins, ros_namespace)
         self.static = {d.feature.id: d.binding.static for d in variant.decisions}
         self._lock = threading.Lock()
         self.between_ticks = False  # simulated clock: changes are made on the control thread
@@ -104,6 +106,9 @@ class Binder:
         self._closing = threading.Event()  # the run has ended: no tick will take a commit any more
         self._in_flight: Commit | None = None  # the commit a request waits for
         self.failed_stops: list[str] = []  # plugins whose stop() raised at the end of the run
+        # Told of every outcome, accepted or refused, on the requesting thread with the binder
+        # held: a front door (the ROS 2 node) queues it and returns at once.
+        self.watchers: list[Callable[[Outcome], None]] = []
         runtime.on_fault = self._on_fault
 
     # ---------------------------------------------------------------- plugins
@@ -179,6 +184,7 @@ class Binder:
         try:
             for feature in sorted(self.active & set(self.plugins), key=self.variant.model.index.__getitem__):
                 started.append(self._start(feature, preparing))
+            self._switch([], started)
         except BaseException:
             for running in started:
                 self._stop(running)
@@ -246,6 +252,7 @@ class Binder:
             finally:
                 self._in_flight = None
             if (not taken and self.runtime.withdraw(commit)) or commit.withdrawn:
+                self._unswitch(self._leaving(commit), [])
                 for running in commit.add.values():
                     self._stop(running)
                 message = (
@@ -296,9 +303,63 @@ class Binder:
                 Outcome(request, False, plan, diagnostics=self._hollow(hollow, Severity.ERROR))
             )
         try:
-            return plan, self._prepare(plan)
+            commit = self._prepare(plan)
         except MotivmlError as failed:
             return self._refused(Outcome(request, False, plan, diagnostics=failed.diagnostics))
+        try:
+            self._switch(self._leaving(commit), list(commit.add.values()))
+        except MotivmlError as failed:
+            for running in commit.add.values():
+                self._stop(running)
+            return self._refused(Outcome(request, False, plan, diagnostics=failed.diagnostics))
+        return plan, commit
+
+    # ---------------------------------------------------------------- switch
+    def _leaving(self, commit: Commit) -> list[Running]:
+        return [self.runtime.plugins[f] for f in commit.remove if f in self.runtime.plugins]
+
+    def _switch(self, leaving: list[Running], arriving: list[Running]) -> None:
+        """Just before a commit: the plugins that live outside the process (ROS 2 lifecycle
+        nodes) leave, then arrive: deactivated, then activated. If one fails, those already
+        moved are moved back, and PluginError names the one that failed."""
+        moved_out: list[Running] = []
+        moved_in: list[Running] = []
+        moves = [(r, "deactivate", moved_out) for r in leaving] + [(r, "activate", moved_in) for r in arriving]
+        for running, move, moved in moves:
+            if not hasattr(running.instance, move):
+                continue
+            try:
+                getattr(running.instance, move)()
+            except BaseException as exc:  # a node's failure, or plugin code
+                problem = describe_exception(exc, self.plugins[running.feature].folder)
+                undone = self._unswitch(moved_out, moved_in)
+                plugin = self.plugins[running.feature]
+                verb = "stop" if move == "deactivate" else "start"
+                back = f"; moved back: {', '.join(undone)}" if undone else ""
+                raise plugin_error(
+                    plugin,
+                    "node" if plugin.kind == "ros2_lifecycle" else "class",
+                    f"cannot {verb} {running.feature}: {problem}{back}",
+                ) from None
+            moved.append(running)
+
+    def _unswitch(self, moved_out: list[Running], moved_in: list[Running]) -> list[str]:
+        """Move back what `_switch` moved (a failure, or a commit that did not happen)."""
+        undone = []
+        for running, undo in [(r, "deactivate") for r in reversed(moved_in)] + [
+            (r, "activate") for r in reversed(moved_out)
+        ]:
+            if not hasattr(running.instance, undo):
+                continue
+            try:
+                getattr(running.instance, undo)()
+                undone.append(f"{running.feature} {undo}d")
+            except BaseException as exc:
+                self.runtime.note(
+                    f"{running.feature}: could not {undo} it again: "
+                    f"{describe_exception(exc, self.plugins[running.feature].folder)}"
+                )
+        return undone
 
     def _hollow(self, features: list[str], severity: Severity) -> list[Diagnostic]:
         verb = "would be" if severity is Severity.ERROR else "is now"
@@ -307,6 +368,14 @@ class Binder:
     def _refused(self, outcome: Outcome) -> Outcome:
         """Every refusal goes into the run's log as it happens, with its reason."""
         self.runtime.note(f"refused {outcome.request}: {outcome.reason}")
+        return self._tell(outcome)
+
+    def _tell(self, outcome: Outcome) -> Outcome:
+        for watcher in self.watchers:
+            try:
+                watcher(outcome)
+            except Exception as exc:  # a front door's bug never undoes a commit
+                self.runtime.note(f"a watcher of the binder raised {describe_exception(exc)}")
         return outcome
 
     def _committed(self, plan: Plan, commit: Commit, began: float) -> Outcome:
@@ -321,13 +390,15 @@ class Binder:
             self.runtime.note(
                 f"{plan.request}: nothing implements {', '.join(hollow)}: active as a feature only"
             )
-        return Outcome(
-            plan.request,
-            True,
-            plan,
-            change,
-            change.clock - began,
-            diagnostics=self._hollow(hollow, Severity.WARNING),
+        return self._tell(
+            Outcome(
+                plan.request,
+                True,
+                plan,
+                change,
+                change.clock - began,
+                diagnostics=self._hollow(hollow, Severity.WARNING),
+            )
         )
 
     def _prepare(self, plan: Plan) -> Commit:

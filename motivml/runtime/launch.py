@@ -124,6 +124,7 @@ def launch(
     rate: float = 1000.0,
     prefer: tuple[str, ...] = (),
     strict: bool = False,
+    ros_namespace: str = "/",
 ) -> Robot:
     """Build a variant's start state into a runtime at `rate` Hz, its plugins started.
 
@@ -131,7 +132,8 @@ def launch(
     start state's architecture elements are built and its features' plugins started (all
     or none: a plugin that fails to start stops the others and raises PluginError).
     An active Dynamic feature that nothing implements (no plugin, no architecture element,
-    not abstract) is warned about, or with `strict` refused (DocumentError).
+    not abstract) is warned about, or with `strict` refused (DocumentError). Relative node
+    names of ros2_lifecycle plugins are resolved against `ros_namespace`.
     """
     loaded = load(target, variant_name, prefer)
     assert loaded.variant is not None and loaded.active is not None
@@ -168,9 +170,14 @@ def launch(
         loaded.folder.name,
         unimplemented=missing,
         strict=strict,
+        ros_namespace=ros_namespace,
     )
     coordination = read_robot_coordination(loaded.folder, loaded.model, loaded.architecture, loaded.variant)
-    binder.start()
+    try:
+        binder.start()
+    except BaseException:
+        binder.close()  # its thread, and a ROS graph a lifecycle plugin opened
+        raise
     return Robot(
         loaded.folder,
         loaded.variant,

@@ -229,6 +229,7 @@ class Runtime:
         self.hooks: list[Callable[[], None]] = []  # after every tick, on the control thread
         self.failure: Fault | None = None  # a Static plugin's fault, which ends the run
         self.slowest: dict[str, tuple[float, int]] = {}  # feature -> its longest step (s) and its tick
+        self.missed = 0  # deadlines missed so far in a real-clock run (RunStats has them at the end)
         self.watchdog = 1.0  # s: a plugin step running this long is noted, naming the plugin
         self._stepping: tuple[Running, float, int] | None = None  # the plugin step under way
         self._commits: queue.SimpleQueue[Commit] = queue.SimpleQueue()
@@ -477,6 +478,7 @@ class Runtime:
                 if ended > start + slot * period:  # overran: skip to the first slot still ahead
                     ahead = math.ceil((ended - start) / period)
                     stats.missed += min(ahead, total) - slot
+                    self.missed = stats.missed
                     slot = ahead
         finally:
             stats.elapsed = max(clock.now() - start, min(slot, total) * period, 0.0)

@@ -102,6 +102,7 @@ class Session:
         ] = {}
         self._on_main = False
         self._worker: threading.Thread | None = None
+        self.doors: list[Callable[[], None]] = []  # closers of other front doors (the ROS 2 node)
 
     def open(self) -> None:
         """Take over Ctrl-C and SIGTERM, open the control socket, start the coordination.
@@ -155,6 +156,8 @@ class Session:
             self.registered = None
         if self.server is not None:
             self.server.close()
+        while self.doors:
+            self.doors.pop()()
 
     def close(self) -> None:
         """Stop the plugins and the binder's thread (after `stop_watching`)."""

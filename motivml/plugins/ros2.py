@@ -1,0 +1,388 @@
+"""Plugins of kind `ros2_lifecycle`: a feature is a ROS 2 lifecycle node in another process.
+
+The manifest names the node, `{"feature": "uv_lamp_control", "kind": "ros2_lifecycle",
+"entry": {"node": "lamp"}}`; a relative name is resolved against the run's ROS namespace
+(`run --ros-namespace /uv` makes it `/uv/lamp`). The node may run anywhere DDS reaches.
+Its feature's life is the node's lifecycle, driven through the node's standard services
+(`lifecycle_msgs/srv/ChangeState`, `GetState`):
+
+* **prepare**, off the control loop (`start`): wait for the node's services, configure it
+  (unconfigured -> inactive). A node that is not there within the entry's `timeout`
+  (default 5 s), or refuses to configure, refuses the request;
+* **switch**, when the request is about to commit (`activate`, `deactivate`): the binder
+  first deactivates the nodes of the features that leave, then activates those that
+  arrive. If one fails, the nodes already moved are moved back and the request is refused,
+  naming the node and its state; nothing is committed;
+* **release**, after the commit (`stop`): the nodes that left are cleaned up (inactive ->
+  unconfigured), as at the end of the run.
+
+While its feature is active a node is watched from the ROS executor's thread: its state is
+asked every 0.2 s, and a node that leaves the graph, stops answering within 0.8 s or leaves
+the active state on its own is *lost*. Its instance's next `step` raises, which makes it a
+fault of the feature like any plugin's: a Dynamic feature is unloaded with its subtree, a
+Static one stops the run. So a dead node is noticed within about a second.
+
+rclpy is imported only when a robot has such a plugin (it is the optional extra
+`motivml[ros2]`, kept in `.venv-ros` by `make ros2`). Every robot launched in one process
+with one namespace shares one `Graph`: an rclpy context of its own (no signal handlers of
+rclpy's: the run session has Ctrl-C), a node `motivml_binder`, and an executor thread. The
+ROS 2 front door (`motivml.ros2`) adds its `motivml` node to the same graph.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+import time
+from typing import Any
+
+from ..documents.robot_folder import Plugin
+from ..errors import Diagnostic, EnvironmentProblem, Location, error
+from .api import PluginContext
+
+DEFAULT_TIMEOUT = 5.0  # s: waiting for a node's services, and for each transition
+WATCH_PERIOD = 0.2  # s between two questions to a watched node
+WATCH_DEADLINE = 0.8  # s: a node that has not answered by then is lost
+NAMESPACE = re.compile(r"^/([A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*)?$")
+
+INSTALL_HINT = (
+    "install ROS 2's Python packages: make ros2, then use .venv-ros/bin/motivml "
+    "(or pip install 'motivml[ros2]')"
+)
+
+
+def namespace(text: str | None) -> str:
+    """A ROS namespace, absolute: '' and None are '/', 'uv' is '/uv'; ValueError if not a name."""
+    value = "/" + (text or "").strip("/") if not (text or "").startswith("/") else (text or "/")
+    value = value.rstrip("/") or "/"
+    if not NAMESPACE.match(value):
+        raise ValueError(
+            f"{text!r} is not a ROS namespace: names of letters, digits and '_' (not first), joined by '/'"
+        )
+    return value
+
+
+def resolve_node(name: str, ns: str) -> str:
+    """The fully qualified name of a node named in a manifest."""
+    if name.startswith("/"):
+        return name
+    return f"{ns.rstrip('/')}/{name}"
+
+
+def import_rclpy() -> Any:
+    """rclpy, or EnvironmentProblem (exit 3) saying how to install it."""
+    try:
+        import rclpy
+    except ImportError as exc:
+        raise EnvironmentProblem(
+            error(Location("ros2"), f"ROS 2 is not available in this Python ({exc}): {INSTALL_HINT}", "ros2.missing")
+        ) from None
+    return rclpy
+
+
+class Graph:
+    """rclpy for the robots of one namespace in this process: context, node, executor thread."""
+
+    def __init__(self, ns: str) -> None:
+        rclpy = import_rclpy()
+        from rclpy.callback_groups import ReentrantCallbackGroup
+        from rclpy.executors import MultiThreadedExecutor
+
+        self.namespace = ns
+        self.users = 0
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)  # ROS_DOMAIN_ID from the environment
+        try:
+            # Service clients answer on a reentrant group: a service callback that waits for
+            # a lifecycle transition (the front door's set_parameters) never blocks its reply.
+            self.clients = ReentrantCallbackGroup()
+            self.node = rclpy.create_node(
+                "motivml_binder",
+                namespace=ns,
+                context=self.context,
+                start_parameter_services=False,
+            )
+            # Threads: the front door's services, the watch timer, client replies, and one spare.
+            self.executor = MultiThreadedExecutor(num_threads=4, context=self.context)
+            self.executor.add_node(self.node)
+        except BaseException:
+            self.context.try_shutdown()
+            raise
+        self._thread = threading.Thread(target=self._spin, daemon=True, name="motivml-ros2")
+        self._thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except BaseException:  # the context shut down under it: the graph is closing
+            pass
+
+    def call(self, client: Any, request: Any, timeout: float) -> Any:
+        """A service call from any thread but the executor's; None when no answer came in time."""
+        done = threading.Event()
+        future = client.call_async(request)
+        future.add_done_callback(lambda _: done.set())
+        if not done.wait(timeout):
+            client.remove_pending_request(future)
+            return None
+        return future.result()
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=2.0)
+        self.node.destroy_node()
+        self.context.try_shutdown()
+        self._thread.join(timeout=2.0)
+
+
+# Where each transition ends when it succeeds (lifecycle_msgs' primary state ids and labels).
+GOALS = {
+    1: (2, "inactive"),  # configure
+    2: (1, "unconfigured"),  # cleanup
+    3: (3, "active"),  # activate
+    4: (2, "inactive"),  # deactivate
+}
+
+_graphs: dict[str, Graph] = {}
+_graphs_lock = threading.Lock()
+
+
+def open_graph(ns: str) -> Graph:
+    """The namespace's graph in this process, made at first use; `release_graph` when done."""
+    with _graphs_lock:
+        graph = _graphs.get(ns)
+        if graph is None:
+            graph = _graphs[ns] = Graph(ns)
+        graph.users += 1
+        return graph
+
+
+def release_graph(graph: Graph) -> None:
+    with _graphs_lock:
+        graph.users -= 1
+        if graph.users == 0:
+            del _graphs[graph.namespace]
+            graph.close()
+
+
+class LifecycleNodes:
+    """The ros2_lifecycle plugins of one launched robot, and the watch over their nodes."""
+
+    def __init__(self, robot: str, plugins: dict[str, Plugin], ros_namespace: str = "/") -> None:
+        self.plugins = plugins
+        self.namespace = ros_namespace
+        self.graph: Graph | None = None
+        self.owners: dict[str, LifecycleFeature] = {}  # node -> the instance that activated it
+        self._timer: Any = None
+        self._lock = threading.Lock()
+
+    def problems(self) -> list[Diagnostic]:
+        """Without rclpy no node can be driven: say so before anything starts."""
+        try:
+            import_rclpy()
+        except EnvironmentProblem as missing:
+            first = min(self.plugins.values(), key=lambda p: str(p.manifest))
+            return [
+                error(
+                    Location(str(first.manifest)),
+                    f"{', '.join(sorted(self.plugins))}: plugins of kind ros2_lifecycle need ROS 2: "
+                    f"{missing.diagnostics[0].message}",
+                    "ros2.missing",
+                    first.feature,
+                )
+            ]
+        return []
+
+    def _graph(self) -> Graph:
+        with self._lock:
+            if self.graph is None:
+                self.graph = open_graph(self.namespace)
+                self._timer = self.graph.node.create_timer(
+                    WATCH_PERIOD, self._watch, callback_group=self.graph.clients
+                )
+            return self.graph
+
+    def create(self, plugin: Plugin, context: PluginContext, fresh: bool = False) -> LifecycleFeature:
+        return LifecycleFeature(self, plugin, context, fresh)
+
+    def discard(self, instance: Any) -> None:
+        instance.stop()
+
+    def close(self) -> None:
+        with self._lock:
+            graph, self.graph = self.graph, None
+        if graph is not None:
+            if self._timer is not None:
+                graph.node.destroy_timer(self._timer)
+            release_graph(graph)
+
+    def _watch(self) -> None:
+        """Every WATCH_PERIOD, on the executor: ask each active node its state."""
+        graph = self.graph
+        if graph is None:
+            return
+        present = None
+        for instance in list(self.owners.values()):
+            if not instance.watched or instance.lost is not None:
+                continue
+            if present is None:
+                present = {
+                    f"{ns.rstrip('/')}/{name}" for name, ns in graph.node.get_node_names_and_namespaces()
+                }
+            instance.check(present)
+
+
+class LifecycleFeature:
+    """One feature's lifecycle node, as the binder and the loop see it."""
+
+    def __init__(self, nodes: LifecycleNodes, plugin: Plugin, context: PluginContext, restart: bool) -> None:
+        from lifecycle_msgs.srv import ChangeState, GetState
+
+        self.nodes = nodes
+        self.feature = plugin.feature
+        self.node = resolve_node(str(plugin.entry["node"]), nodes.namespace)
+        self.timeout = float(plugin.entry.get("timeout", DEFAULT_TIMEOUT))
+        self.restart = restart  # a reload: the node is cleaned up and configured anew at activation
+        self.context = context
+        graph = nodes._graph()
+        self.graph = graph
+        self._change = graph.node.create_client(
+            ChangeState, f"{self.node}/change_state", callback_group=graph.clients
+        )
+        self._get = graph.node.create_client(GetState, f"{self.node}/get_state", callback_group=graph.clients)
+        self.state = "unknown"  # the node's state as last seen (its label)
+        self.state_id = 0  # lifecycle_msgs/State id (0: unknown)
+        self.watched = False  # expected active, and not being moved by us
+        self.lost: str | None = None  # why the node is no longer what its feature needs
+        self._probe: tuple[Any, float] | None = None
+        self._seen = False  # listed on the graph since it was activated
+        self._released = False
+
+    # ------------------------------------------------------------ transitions
+    def _get_state(self) -> int:
+        from lifecycle_msgs.srv import GetState
+
+        answer = self.graph.call(self._get, GetState.Request(), self.timeout)
+        if answer is None:
+            raise RuntimeError(f"node {self.node} did not answer get_state within {self.timeout:g} s")
+        self.state_id, self.state = answer.current_state.id, answer.current_state.label
+        return int(self.state_id)
+
+    def _transition(self, transition: int, verb: str) -> None:
+        """One transition; on success the node is in its goal state (asked only on failure)."""
+        from lifecycle_msgs.msg import Transition
+        from lifecycle_msgs.srv import ChangeState
+
+        request = ChangeState.Request(transition=Transition(id=transition))
+        answer = self.graph.call(self._change, request, self.timeout)
+        if answer is None:
+            raise RuntimeError(f"node {self.node} did not {verb} within {self.timeout:g} s")
+        if not answer.success:
+            try:
+                self._get_state()
+                state = f"it is {self.state}"
+            except RuntimeError:
+                state = "its state is unknown"
+            raise RuntimeError(f"node {self.node} failed to {verb}: {state}")
+        self.state_id, self.state = GOALS[transition]
+
+    def start(self) -> None:
+        """Prepare, off the loop: the node is there, and configured (inactive or active)."""
+        from lifecycle_msgs.msg import State, Transition
+
+        if not self._change.wait_for_service(timeout_sec=self.timeout) or not self._get.wait_for_service(
+            timeout_sec=self.timeout
+        ):
+            raise RuntimeError(
+                f"node {self.node} is not on the ROS graph: no {self.node}/change_state within {self.timeout:g} s"
+            )
+        state = self._get_state()
+        if state == State.PRIMARY_STATE_UNCONFIGURED:
+            self._transition(Transition.TRANSITION_CONFIGURE, "configure")
+        elif state not in (State.PRIMARY_STATE_INACTIVE, State.PRIMARY_STATE_ACTIVE):
+            raise RuntimeError(f"node {self.node} is {self.state}: it cannot be configured")
+
+    def activate(self) -> None:
+        """At the commit: inactive -> active (a reload cleans up and configures first)."""
+        from lifecycle_msgs.msg import State, Transition
+
+        if self.restart:
+            state = self._get_state()  # the instance it replaces has just deactivated it
+            if state == State.PRIMARY_STATE_INACTIVE:
+                self._transition(Transition.TRANSITION_CLEANUP, "clean up")
+                self._transition(Transition.TRANSITION_CONFIGURE, "configure")
+        if self.state_id != State.PRIMARY_STATE_ACTIVE:
+            self._transition(Transition.TRANSITION_ACTIVATE, "activate")
+        previous = self.nodes.owners.get(self.node)
+        if previous is not None and previous is not self:
+            previous.watched = False
+        self.nodes.owners[self.node] = self
+        self.lost = None
+        self._probe = None
+        self._seen = False
+        self.watched = True
+
+    def deactivate(self) -> None:
+        """Leaving (or moved back): active -> inactive. A lost node is left as it is."""
+        from lifecycle_msgs.msg import State, Transition
+
+        self.watched = False
+        if self.lost is None and self.state_id == State.PRIMARY_STATE_ACTIVE:
+            self._transition(Transition.TRANSITION_DEACTIVATE, "deactivate")
+
+    def stop(self) -> None:
+        """Release: back to unconfigured (unless the node is lost, or another instance owns it)."""
+        from lifecycle_msgs.msg import State, Transition
+
+        if self._released:
+            return
+        self._released = True
+        self.watched = False
+        owner = self.nodes.owners.get(self.node)
+        try:
+            if owner is not None and owner is not self:
+                return  # reloaded: the new instance has the node now
+            self.nodes.owners.pop(self.node, None)
+            if self.lost is not None:
+                return
+            if self.state_id == State.PRIMARY_STATE_ACTIVE:
+                self._transition(Transition.TRANSITION_DEACTIVATE, "deactivate")
+            if self.state_id == State.PRIMARY_STATE_INACTIVE:
+                self._transition(Transition.TRANSITION_CLEANUP, "clean up")
+        finally:
+            self.graph.node.destroy_client(self._change)
+            self.graph.node.destroy_client(self._get)
+
+    # --------------------------------------------------------------- the loop
+    def step(self, time: float) -> None:
+        if self.lost is not None:
+            raise RuntimeError(self.lost)
+
+    def status(self) -> str:
+        return f"{self.node}: {'lost' if self.lost else self.state}"
+
+    # -------------------------------------------------------------- the watch
+    def check(self, present: set[str]) -> None:
+        """On the executor thread, every WATCH_PERIOD while active."""
+        from lifecycle_msgs.msg import State
+        from lifecycle_msgs.srv import GetState
+
+        if self.node in present:
+            self._seen = True
+        elif self._seen:  # (discovery may list a node a little after its services)
+            self.lost = f"node {self.node} left the ROS graph"
+            return
+        now = time.monotonic()
+        if self._probe is None:
+            self._probe = (self._get.call_async(GetState.Request()), now)
+            return
+        future, asked = self._probe
+        if future.done():
+            self._probe = None
+            answer = future.result()
+            if answer is not None and self.watched and answer.current_state.id != State.PRIMARY_STATE_ACTIVE:
+                self.state_id, self.state = answer.current_state.id, answer.current_state.label
+                self.lost = f"node {self.node} left the active state: it is {self.state}"
+        elif now - asked > WATCH_DEADLINE:
+            self._get.remove_pending_request(future)
+            self._probe = None
+            self.lost = f"node {self.node} stopped answering (no state within {WATCH_DEADLINE:g} s): it died or hung"
