@@ -1,0 +1,364 @@
+"""The ROS 2 front door and ros2_lifecycle plugins on a real ROS 2 graph (loopback, own domain).
+
+The robot runs in this process (`launch`, a `Session` on the real clock and the `motivml`
+node of `run --ros2`); its features' lifecycle nodes are the example's
+(`plugins/ros2/uv_nodes.py`), each in a process of its own; the test speaks to the robot
+only as any ROS 2 client would: the standard parameter services, the lifecycle services of
+the nodes, and topics. Waiting is always on a condition with a deadline, never a sleep.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pytest
+from ros2_support import ROOT, ROS2, domain, processes, python_process
+
+pytestmark = ROS2
+
+NODES = ROOT / "plugins" / "ros2" / "uv_nodes.py"
+ANY = {"featuresIncluded": [], "featuresExcluded": [], "bindingTimeAllowed": "Any", "bindingModeAllowed": "Any"}
+SE = {**ANY, "bindingTimeAllowed": "Early", "bindingModeAllowed": "Static"}
+
+
+def feature(fid: str, sub: list[dict[str, Any]] | None = None, **more: Any) -> dict[str, Any]:
+    return {"id": fid, "name": fid, "isMandatory": False, "constraints": ANY, "sub": sub or [], **more}
+
+
+# detection: camera XOR thermal (one active at a time: the swap); lamp: optional, with its
+# mandatory dose monitor (they load and unload together: the features that move with a change).
+MODEL = feature(
+    "bot",
+    [
+        feature(
+            "detection",
+            [feature("camera", group="XOR"), feature("thermal", group="XOR")],
+            isMandatory=True,
+            constraints=SE,
+        ),
+        feature("lamp", [feature("dose", isMandatory=True)]),
+    ],
+    isMandatory=True,
+    isSelected=True,
+)
+VARIANT = {
+    "properties": [
+        {"id": "detection", "selected": True, "props": {"time": "Early", "mode": "Static"}},
+        {"id": "camera", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}},
+        {"id": "thermal", "selected": True, "props": {"time": "Late", "mode": "Dynamic"}},
+        {"id": "lamp", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}},
+        {"id": "dose", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}},
+    ]
+}
+PLUGINS = {"camera": "person_detection", "thermal": "thermal_detection", "lamp": "lamp", "dose": "dosimeter"}
+
+
+def write_robot(folder: Path) -> Path:
+    (folder / "variants").mkdir(parents=True)
+    (folder / "model.json").write_text(json.dumps(MODEL, indent=1))
+    (folder / "variants" / "ward.json").write_text(json.dumps(VARIANT, indent=1))
+    (folder / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
+    for feature_id, node in PLUGINS.items():
+        (folder / "plugins" / feature_id).mkdir(parents=True)
+        manifest = {"feature": feature_id, "kind": "ros2_lifecycle", "entry": {"node": node, "timeout": 5}}
+        (folder / "plugins" / feature_id / "plugin.json").write_text(json.dumps(manifest))
+    return folder
+
+
+# ---------------------------------------------------------------------- a client
+class Client:
+    """An rclpy client of the robot's graph, with its own context and executor thread."""
+
+    def __init__(self, domain_id: int, ns: str = "/") -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+
+        self.ns = ns.rstrip("/")
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=domain_id)
+        self.node = rclpy.create_node("test_client", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+        self.clients: dict[str, Any] = {}
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except BaseException:
+            pass
+
+    def call(self, kind: Any, service: str, request: Any, timeout: float = 20.0) -> Any:
+        client = self.clients.get(service)
+        if client is None:
+            client = self.clients[service] = self.node.create_client(kind, service)
+            assert client.wait_for_service(timeout_sec=timeout), f"no service {service}"
+        done = threading.Event()
+        future = client.call_async(request)
+        future.add_done_callback(lambda _: done.set())
+        assert done.wait(timeout), f"{service} did not answer"
+        return future.result()
+
+    def set(self, atomically: bool = True, **values: Any) -> list[Any]:
+        """Set features.<id>.active; the results (one for atomically)."""
+        from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+        from rclpy.parameter import Parameter
+
+        messages = [Parameter(f"features.{k}.active", value=v).to_parameter_msg() for k, v in values.items()]
+        kind = SetParametersAtomically if atomically else SetParameters
+        name = "set_parameters_atomically" if atomically else "set_parameters"
+        answer = self.call(kind, f"{self.ns}/motivml/{name}", kind.Request(parameters=messages))
+        return [answer.result] if atomically else list(answer.results)
+
+    def parameters(self, *features: str) -> dict[str, bool]:
+        from rcl_interfaces.srv import GetParameters
+
+        names = [f"features.{f}.active" for f in features]
+        answer = self.call(GetParameters, f"{self.ns}/motivml/get_parameters", GetParameters.Request(names=names))
+        return {f: v.bool_value for f, v in zip(features, answer.values, strict=True)}
+
+    def state(self, node: str) -> str:
+        from lifecycle_msgs.srv import GetState
+
+        answer = self.call(GetState, f"{self.ns}/{node}/get_state", GetState.Request())
+        return str(answer.current_state.label)
+
+    def subscribe(self, kind: Any, topic: str, latched: bool = False) -> list[Any]:
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+        got: list[Any] = []
+        qos: Any = 10
+        if latched:
+            qos = QoSProfile(
+                depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+            )
+        self.node.create_subscription(kind, topic, got.append, qos)
+        return got
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=2)
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def until(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -> Any:
+    """Poll a condition (cheap, local) until it holds; fail after `timeout`."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = condition()
+        if value:
+            return value
+        threading.Event().wait(0.02)  # a poll interval, not a wait for the outcome
+    pytest.fail(f"timed out waiting for {what or condition}")
+
+
+# ---------------------------------------------------------------------- the robot
+@dataclass
+class Running:
+    session: Any
+    door: Any
+    client: Client
+    nodes: dict[str, Any] = field(default_factory=dict)  # node name -> process
+
+    @property
+    def active(self) -> frozenset[str]:
+        return frozenset(self.session.robot.binder.active)
+
+
+def start_nodes(started: list[Any], domain_id: int, ns: str, fail: dict[str, str] | None = None) -> dict[str, Any]:
+    nodes = {}
+    for node in PLUGINS.values():
+        args = [str(NODES), node, "--ros-args", "-r", f"__ns:={ns}"]
+        if fail and node in fail:
+            args += ["-p", f"fail_on:={fail[node]}"]
+        nodes[node] = python_process(args, domain_id)
+        started.append(nodes[node])
+    return nodes
+
+
+@pytest.fixture
+def ward(tmp_path: Path) -> Iterator[Callable[..., Running]]:
+    """Start the nodes and the robot (in namespace `ns`); everything ends with the test."""
+    from motivml.ros2.node import start
+    from motivml.runtime.launch import launch
+    from motivml.runtime.session import Session
+
+    domain_id = domain()
+    made: list[Running] = []
+    robot_folder = write_robot(tmp_path / "ward")
+    with processes(domain_id) as started:
+
+        def make(ns: str = "/", fail: dict[str, str] | None = None) -> Running:
+            nodes = start_nodes(started, domain_id, ns, fail)
+            client = Client(domain_id, ns)
+            for node in nodes:  # every node is up before the robot starts
+                until(lambda node=node: client.state(node), what=f"node {node}")
+            robot = launch(robot_folder, "ward", rate=500.0, ros_namespace=ns)
+            session = Session(robot, math.inf, "real", run_dir=None)
+            session.open()
+            door = start(robot, ns)
+            session.doors.append(door.close)
+            session.start()
+            running = Running(session, door, client, nodes)
+            made.append(running)
+            return running
+
+        try:
+            yield make
+        finally:
+            for running in made:
+                running.session.runtime.stop()
+                running.session.wait(10)
+                running.session.close()
+                running.client.close()
+
+
+# ---------------------------------------------------------------------- tests
+def test_an_atomic_swap_moves_both_nodes_and_every_parameter(ward: Callable[..., Running]) -> None:
+    robot = ward()
+    client = robot.client
+    assert client.state("person_detection") == "active" and client.state("thermal_detection") == "unconfigured"
+    assert client.parameters("camera", "thermal", "lamp", "dose", "detection") == {
+        "camera": True,
+        "thermal": False,
+        "lamp": True,
+        "dose": True,
+        "detection": True,
+    }
+    [result] = client.set(camera=False, thermal=True)
+    assert result.successful, result.reason
+    # committed before the call returned: the nodes, the active set and the parameters agree
+    assert {"thermal", "detection"} <= robot.active and "camera" not in robot.active
+    assert client.state("person_detection") == "unconfigured" and client.state("thermal_detection") == "active"
+    assert client.parameters("camera", "thermal") == {"camera": False, "thermal": True}
+
+
+def test_the_features_that_move_with_a_change_get_their_parameter_and_event(ward: Callable[..., Running]) -> None:
+    from rcl_interfaces.msg import ParameterEvent
+
+    robot = ward()
+    client = robot.client
+    events = client.subscribe(ParameterEvent, "/parameter_events")
+    [result] = client.set(lamp=False)  # dose is lamp's mandatory sub-feature: it goes too
+    assert result.successful, result.reason
+    assert client.parameters("lamp", "dose") == {"lamp": False, "dose": False}
+    assert client.state("lamp") == "unconfigured" and client.state("dosimeter") == "unconfigured"
+    changed = until(
+        lambda: [
+            {p.name: p.value.bool_value for p in e.changed_parameters}
+            for e in events
+            if e.node == "/motivml" and e.changed_parameters
+        ],
+        what="a parameter event",
+    )
+    assert {"features.lamp.active": False, "features.dose.active": False} in changed
+    # ROS's set_parameters (not atomically), as `ros2 param set` sends it, is one change too
+    results = client.set(atomically=False, lamp=True)
+    assert [r.successful for r in results] == [True]
+    assert client.parameters("lamp", "dose") == {"lamp": True, "dose": True}
+    assert client.state("dosimeter") == "active"
+
+
+def test_a_refused_call_changes_no_node_and_no_parameter(ward: Callable[..., Running]) -> None:
+    robot = ward()
+    client = robot.client
+    before = client.parameters("camera", "thermal", "lamp", "dose")
+    [both] = client.set(thermal=True)  # camera stays: two active members of an XOR group
+    assert not both.successful
+    assert "camera and thermal are alternatives in detection's XOR group" in both.reason
+    [static] = client.set(detection=False)
+    assert not static.successful and "detection is bound Static Early" in static.reason
+    [unknown] = client.set(lidar=True)
+    assert not unknown.successful and "selects no feature 'lidar'" in unknown.reason
+    results = client.set(atomically=False, thermal=True, camera=True)  # one change, so both refused
+    assert [r.successful for r in results] == [False, False]
+    assert client.parameters("camera", "thermal", "lamp", "dose") == before
+    assert client.state("person_detection") == "active" and client.state("thermal_detection") == "unconfigured"
+
+
+def test_a_node_that_fails_to_activate_rolls_the_request_back(ward: Callable[..., Running]) -> None:
+    robot = ward(fail={"thermal_detection": "activate"})
+    client = robot.client
+    [result] = client.set(camera=False, thermal=True)
+    assert not result.successful
+    assert "node /thermal_detection failed to activate: it is inactive" in result.reason
+    assert "moved back: camera activated" in result.reason
+    assert client.state("person_detection") == "active"  # deactivated, then activated again
+    assert client.state("thermal_detection") == "unconfigured"  # configured, then cleaned up
+    assert client.parameters("camera", "thermal") == {"camera": True, "thermal": False}
+    assert "camera" in robot.active and "thermal" not in robot.active
+
+
+def test_a_killed_node_is_a_fault_of_its_feature(ward: Callable[..., Running]) -> None:
+    robot = ward()
+    client = robot.client
+    robot.nodes["lamp"].kill()
+    # noticed within about a second; lamp is Dynamic: unloaded with its subtree, the run goes on
+    until(lambda: "lamp" not in robot.active, timeout=10, what="the lamp's unload")
+    runtime = robot.session.runtime
+    assert [f.feature for f in runtime.faults] == ["lamp"]
+    assert "node /lamp" in runtime.faults[0].error
+    assert runtime.failure is None and not robot.session.finished.is_set()
+    until(lambda: client.parameters("lamp", "dose") == {"lamp": False, "dose": False}, what="the parameters")
+    assert client.state("dosimeter") == "unconfigured"
+
+
+def test_a_late_subscriber_gets_the_current_active_set(ward: Callable[..., Running]) -> None:
+    from std_msgs.msg import String
+
+    robot = ward()
+    client = robot.client
+    [result] = client.set(camera=False, thermal=True)
+    assert result.successful
+    late = client.subscribe(String, "/motivml/active_features", latched=True)
+    message = json.loads(until(lambda: late and late[-1], what="the active set").data)
+    assert message["active"] == ["bot", "detection", "thermal", "lamp", "dose"]
+    assert message["request"] == "set +thermal -camera"
+
+
+def test_a_change_through_ctl_reaches_the_parameters(ward: Callable[..., Running]) -> None:
+    """One binder, two front doors: what another door changes, the node shows."""
+    from motivml.runtime.requests import Request
+
+    robot = ward()
+    outcome = robot.session.robot.binder.request(Request("swap", ("camera", "thermal")))
+    assert outcome.accepted
+    until(
+        lambda: robot.client.parameters("camera", "thermal") == {"camera": False, "thermal": True},
+        what="the parameters",
+    )
+
+
+def test_diagnostics_report_the_loop_and_every_feature(ward: Callable[..., Running]) -> None:
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    robot = ward()
+    arrays = robot.client.subscribe(DiagnosticArray, "/diagnostics")
+    array = until(lambda: arrays and arrays[-1], what="/diagnostics")
+    statuses = {s.name: s for s in array.status}
+    loop = statuses["motivml: ward loop"]
+    values = {v.key: v.value for v in loop.values}
+    assert values["rate"] == "500" and int(values["ticks"]) > 0 and values["faults"] == "0"
+    camera = statuses["motivml: ward feature camera"]
+    assert camera.message == "active" and {v.key: v.value for v in camera.values}["status"] == (
+        "/person_detection: active"
+    )
+    assert statuses["motivml: ward feature thermal"].message == "inactive"
+
+
+def test_two_robots_in_two_namespaces_do_not_see_each_other(ward: Callable[..., Running]) -> None:
+    first, second = ward("/r1"), ward("/r2")
+    [result] = first.client.set(camera=False, thermal=True)
+    assert result.successful
+    assert first.client.state("thermal_detection") == "active"
+    assert second.client.state("thermal_detection") == "unconfigured"
+    assert second.client.parameters("camera", "thermal") == {"camera": True, "thermal": False}
+    assert "camera" in second.active
