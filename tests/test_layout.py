@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-HEAVY = ("numpy", "sismic", "rich.live", "pluginbase", "motivml._cpp_plugins")
+HEAVY = ("numpy", "sismic", "rich.live", "pluginbase", "motivml._cpp_plugins", "rclpy", "motivml.ros2")
 
 PROBE = """
 import sys

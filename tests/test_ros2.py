@@ -362,3 +362,38 @@ def test_two_robots_in_two_namespaces_do_not_see_each_other(ward: Callable[..., 
     assert second.client.state("thermal_detection") == "unconfigured"
     assert second.client.parameters("camera", "thermal") == {"camera": True, "thermal": False}
     assert "camera" in second.active
+
+
+def test_run_ros2_from_the_command_line(tmp_path: Path) -> None:
+    """`motivml run --ros2` as a user starts it: a change through the node shows in the run's
+    output and in rosout, and SIGTERM (a service manager's stop) ends the run cleanly."""
+    import signal
+
+    from rcl_interfaces.msg import Log
+
+    domain_id = domain()
+    robot = write_robot(tmp_path / "ward")
+    with processes(domain_id) as started:
+        nodes = start_nodes(started, domain_id, "/cli")
+        client = Client(domain_id, "/cli")
+        try:
+            for node in nodes:
+                until(lambda node=node: client.state(node), what=f"node {node}")
+            logs = client.subscribe(Log, "/rosout")
+            run = python_process(
+                ["-m", "motivml.cli", "run", str(robot), "--variant", "ward", "--duration", "inf"]
+                + ["--no-live", "--no-control", "--ros2", "--ros-namespace", "/cli"],
+                domain_id,
+            )
+            started.append(run)
+            [result] = client.set(camera=False, thermal=True)
+            assert result.successful, result.reason
+            assert client.state("thermal_detection") == "active"
+            until(lambda: any("accepted set +thermal -camera" in m.msg for m in logs), what="rosout")
+            run.send_signal(signal.SIGTERM)
+            output, _ = run.communicate(timeout=30)
+        finally:
+            client.close()
+    assert run.returncode == 0, output
+    assert "ROS 2: node /cli/motivml (features.<id>.active parameters)" in output
+    assert "set +thermal -camera" in output and "Traceback" not in output

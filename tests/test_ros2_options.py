@@ -1,0 +1,90 @@
+"""ROS 2 options without ROS: names and namespaces, and what a run says when rclpy is missing.
+
+These run in the default .venv, which has no rclpy (the ROS 2 wheels live in .venv-ros);
+test_ros2.py drives a real ROS graph.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from motivml.cli import main
+from motivml.plugins.ros2 import namespace, resolve_node
+
+ROS = importlib.util.find_spec("rclpy") is not None
+
+
+@pytest.mark.parametrize(
+    ("given", "expected"),
+    [("/", "/"), ("", "/"), ("uv", "/uv"), ("/uv/", "/uv"), ("/fleet/uv_2", "/fleet/uv_2")],
+)
+def test_a_namespace_is_made_absolute(given: str, expected: str) -> None:
+    assert namespace(given) == expected
+
+
+@pytest.mark.parametrize("given", ["/2uv", "/uv//x", "/u-v", "/uv x"])
+def test_a_namespace_that_ros_refuses_is_refused(given: str) -> None:
+    with pytest.raises(ValueError, match="is not a ROS namespace"):
+        namespace(given)
+
+
+def test_relative_node_names_resolve_in_the_namespace() -> None:
+    assert resolve_node("lamp", "/uv") == "/uv/lamp"
+    assert resolve_node("lamp", "/") == "/lamp"
+    assert resolve_node("/other/lamp", "/uv") == "/other/lamp"
+
+
+def _robot(folder: Path) -> Path:
+    any_ = {"featuresIncluded": [], "featuresExcluded": [], "bindingTimeAllowed": "Any", "bindingModeAllowed": "Any"}
+    model = {
+        "id": "bot",
+        "name": "Bot",
+        "isMandatory": True,
+        "isSelected": True,
+        "sub": [{"id": "lamp", "name": "Lamp", "isMandatory": False, "constraints": any_}],
+    }
+    (folder / "variants").mkdir(parents=True)
+    (folder / "model.json").write_text(json.dumps(model))
+    (folder / "variants" / "v.json").write_text(
+        json.dumps({"properties": [{"id": "lamp", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}}]})
+    )
+    (folder / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
+    (folder / "plugins" / "lamp").mkdir(parents=True)
+    (folder / "plugins" / "lamp" / "plugin.json").write_text(
+        json.dumps({"feature": "lamp", "kind": "ros2_lifecycle", "entry": {"node": "lamp"}})
+    )
+    return folder
+
+
+def test_a_bad_namespace_is_a_usage_error(tmp_path: Path) -> None:
+    result = CliRunner().invoke(main, ["run", str(_robot(tmp_path)), "--variant", "v", "--ros-namespace", "/2uv"])
+    assert result.exit_code == 2
+    assert "'/2uv' is not a ROS namespace" in result.output
+
+
+@pytest.mark.skipif(ROS, reason="this Python has rclpy")
+def test_without_rclpy_a_lifecycle_plugin_says_how_to_install_it(tmp_path: Path) -> None:
+    robot = _robot(tmp_path)
+    result = CliRunner().invoke(main, ["run", str(robot), "--variant", "v", "--duration", "1", "--no-control"])
+    assert result.exit_code == 3, result.output
+    manifest = robot / "plugins" / "lamp" / "plugin.json"
+    assert f"{manifest}: $: error: lamp: plugins of kind ros2_lifecycle need ROS 2" in result.output
+    assert "make ros2" in result.output and "Traceback" not in result.output
+
+
+@pytest.mark.skipif(ROS, reason="this Python has rclpy")
+def test_without_rclpy_run_ros2_says_how_to_install_it(tmp_path: Path) -> None:
+    robot = tmp_path / "robot"
+    _robot(robot)
+    (robot / "robot.json").unlink()
+    (robot / "architecture.json").write_text(json.dumps({"spaces": [], "modules": [], "components": []}))
+    result = CliRunner().invoke(
+        main, ["run", str(robot), "--variant", "v", "--duration", "1", "--no-control", "--ros2"]
+    )
+    assert result.exit_code == 3, result.output
+    assert "ROS 2 is not available in this Python" in result.output and "make ros2" in result.output
