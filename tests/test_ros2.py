@@ -57,6 +57,12 @@ VARIANT = {
         {"id": "dose", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}},
     ]
 }
+STATIC_LAMP = {
+    "properties": [
+        {**p, "props": {"time": "Early", "mode": "Static"}} if p["id"] in ("lamp", "dose") else p
+        for p in VARIANT["properties"]
+    ]
+}
 PLUGINS = {"camera": "person_detection", "thermal": "thermal_detection", "lamp": "lamp", "dose": "dosimeter"}
 
 
@@ -64,6 +70,7 @@ def write_robot(folder: Path) -> Path:
     (folder / "variants").mkdir(parents=True)
     (folder / "model.json").write_text(json.dumps(MODEL, indent=1))
     (folder / "variants" / "ward.json").write_text(json.dumps(VARIANT, indent=1))
+    (folder / "variants" / "static_lamp.json").write_text(json.dumps(STATIC_LAMP, indent=1))
     (folder / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
     for feature_id, node in PLUGINS.items():
         (folder / "plugins" / feature_id).mkdir(parents=True)
@@ -196,12 +203,12 @@ def ward(tmp_path: Path) -> Iterator[Callable[..., Running]]:
     robot_folder = write_robot(tmp_path / "ward")
     with processes(domain_id) as started:
 
-        def make(ns: str = "/", fail: dict[str, str] | None = None) -> Running:
+        def make(ns: str = "/", fail: dict[str, str] | None = None, variant: str = "ward") -> Running:
             nodes = start_nodes(started, domain_id, ns, fail)
             client = Client(domain_id, ns)
             for node in nodes:  # every node is up before the robot starts
                 until(lambda node=node: client.state(node), what=f"node {node}")
-            robot = launch(robot_folder, "ward", rate=500.0, ros_namespace=ns)
+            robot = launch(robot_folder, variant, rate=500.0, ros_namespace=ns)
             session = Session(robot, math.inf, "real", run_dir=None)
             session.open()
             door = start(robot, ns)
@@ -309,6 +316,33 @@ def test_a_killed_node_is_a_fault_of_its_feature(ward: Callable[..., Running]) -
     assert runtime.failure is None and not robot.session.finished.is_set()
     until(lambda: client.parameters("lamp", "dose") == {"lamp": False, "dose": False}, what="the parameters")
     assert client.state("dosimeter") == "unconfigured"
+
+
+def test_a_killed_node_of_a_static_feature_stops_the_run(ward: Callable[..., Running]) -> None:
+    robot = ward(variant="static_lamp")
+    assert robot.client.parameters("lamp") == {"lamp": True}
+    robot.nodes["dosimeter"].kill()
+    assert robot.session.wait(10), "the run did not stop"
+    failure = robot.session.runtime.failure
+    assert failure is not None and failure.feature == "dose" and "node /dosimeter" in failure.error
+
+
+def test_a_reload_restarts_the_node_and_keeps_the_active_set(ward: Callable[..., Running]) -> None:
+    from lifecycle_msgs.msg import TransitionEvent
+
+    from motivml.runtime.requests import Request
+
+    robot = ward()
+    transitions = robot.client.subscribe(TransitionEvent, "/person_detection/transition_event")
+    outcome = robot.session.robot.binder.request(Request("reload", ("camera",)))
+    assert outcome.accepted, outcome.reason
+    assert robot.client.state("person_detection") == "active"
+    def reached() -> list[str] | None:  # primary states the node reached (ids under 10)
+        goals = [e.goal_state.label for e in transitions if e.goal_state.id < 10]
+        return goals if len(goals) >= 4 else None
+
+    assert until(reached, what="the node's transitions")[-4:] == ["inactive", "unconfigured", "inactive", "active"]
+    assert robot.client.parameters("camera") == {"camera": True}
 
 
 def test_a_late_subscriber_gets_the_current_active_set(ward: Callable[..., Running]) -> None:

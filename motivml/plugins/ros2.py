@@ -173,6 +173,7 @@ class LifecycleNodes:
         self.graph: Graph | None = None
         self.owners: dict[str, LifecycleFeature] = {}  # node -> the instance that activated it
         self._timer: Any = None
+        self._clients: dict[str, tuple[Any, Any]] = {}  # node -> (change_state, get_state)
         self._lock = threading.Lock()
 
     def problems(self) -> list[Diagnostic]:
@@ -201,6 +202,21 @@ class LifecycleNodes:
                 )
             return self.graph
 
+    def clients(self, node: str) -> tuple[Any, Any]:
+        """The node's change_state and get_state clients, made once: a new client must be
+        discovered by the node before its first answer, which costs tens of milliseconds."""
+        from lifecycle_msgs.srv import ChangeState, GetState
+
+        graph = self._graph()
+        with self._lock:
+            made = self._clients.get(node)
+            if made is None:
+                made = self._clients[node] = (
+                    graph.node.create_client(ChangeState, f"{node}/change_state", callback_group=graph.clients),
+                    graph.node.create_client(GetState, f"{node}/get_state", callback_group=graph.clients),
+                )
+            return made
+
     def create(self, plugin: Plugin, context: PluginContext, fresh: bool = False) -> LifecycleFeature:
         return LifecycleFeature(self, plugin, context, fresh)
 
@@ -213,6 +229,10 @@ class LifecycleNodes:
         if graph is not None:
             if self._timer is not None:
                 graph.node.destroy_timer(self._timer)
+            for clients in self._clients.values():
+                for client in clients:
+                    graph.node.destroy_client(client)
+            self._clients.clear()
             release_graph(graph)
 
     def _watch(self) -> None:
@@ -235,20 +255,14 @@ class LifecycleFeature:
     """One feature's lifecycle node, as the binder and the loop see it."""
 
     def __init__(self, nodes: LifecycleNodes, plugin: Plugin, context: PluginContext, restart: bool) -> None:
-        from lifecycle_msgs.srv import ChangeState, GetState
-
         self.nodes = nodes
         self.feature = plugin.feature
         self.node = resolve_node(str(plugin.entry["node"]), nodes.namespace)
         self.timeout = float(plugin.entry.get("timeout", DEFAULT_TIMEOUT))
         self.restart = restart  # a reload: the node is cleaned up and configured anew at activation
         self.context = context
-        graph = nodes._graph()
-        self.graph = graph
-        self._change = graph.node.create_client(
-            ChangeState, f"{self.node}/change_state", callback_group=graph.clients
-        )
-        self._get = graph.node.create_client(GetState, f"{self.node}/get_state", callback_group=graph.clients)
+        self.graph = nodes._graph()
+        self._change, self._get = nodes.clients(self.node)
         self.state = "unknown"  # the node's state as last seen (its label)
         self.state_id = 0  # lifecycle_msgs/State id (0: unknown)
         self.watched = False  # expected active, and not being moved by us
@@ -295,11 +309,14 @@ class LifecycleFeature:
             raise RuntimeError(
                 f"node {self.node} is not on the ROS graph: no {self.node}/change_state within {self.timeout:g} s"
             )
-        state = self._get_state()
-        if state == State.PRIMARY_STATE_UNCONFIGURED:
+        if self.restart:  # active: its instance deactivates it at the switch, this one reconfigures it
+            self._get_state()
+            return
+        try:  # nodes wait unconfigured: configure at once, and ask the state only if that fails
             self._transition(Transition.TRANSITION_CONFIGURE, "configure")
-        elif state not in (State.PRIMARY_STATE_INACTIVE, State.PRIMARY_STATE_ACTIVE):
-            raise RuntimeError(f"node {self.node} is {self.state}: it cannot be configured")
+        except RuntimeError:
+            if self.state_id not in (State.PRIMARY_STATE_INACTIVE, State.PRIMARY_STATE_ACTIVE):
+                raise
 
     def activate(self) -> None:
         """At the commit: inactive -> active (a reload cleans up and configures first)."""
@@ -349,8 +366,7 @@ class LifecycleFeature:
             if self.state_id == State.PRIMARY_STATE_INACTIVE:
                 self._transition(Transition.TRANSITION_CLEANUP, "clean up")
         finally:
-            self.graph.node.destroy_client(self._change)
-            self.graph.node.destroy_client(self._get)
+            self._probe = None
 
     # --------------------------------------------------------------- the loop
     def step(self, time: float) -> None:
