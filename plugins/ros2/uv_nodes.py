@@ -17,16 +17,19 @@ ros2_params.yaml says the node implements. SIGINT and SIGTERM end a node quietly
 from __future__ import annotations
 
 import json
+import signal
 import sys
+import threading
 from typing import Any
 
 import rclpy
 from rcl_interfaces.msg import SetParametersResult
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.qos import qos_profile_sensor_data
+from rclpy.signals import SignalHandlerOptions
 from rclpy.timer import Timer
 from rclpy.utilities import remove_ros_args
 from std_msgs.msg import Bool, Float64, String
@@ -226,13 +229,20 @@ def main(argv: list[str]) -> int:
     if len(own) != 1 or own[0] not in NODES:
         print(f"usage: uv_nodes.py NODE [--ros-args ...] (NODE: one of {names})", file=sys.stderr)
         return 2
-    rclpy.init(args=argv)  # rclpy's signal handlers: SIGINT and SIGTERM shut the context down
+    rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
+    # SIGINT and SIGTERM only ask the loop below to end, between two callbacks: a
+    # KeyboardInterrupt raised inside a callback can leave rclpy's handles half torn down.
+    ending = threading.Event()
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, lambda *_: ending.set())
     node = NODES[own[0]](own[0])
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
     try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass  # asked to end: not an error
+        while not ending.is_set():
+            executor.spin_once(timeout_sec=0.1)
     finally:
+        executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
     return 0
