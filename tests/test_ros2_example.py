@@ -262,9 +262,12 @@ def test_a_node_ends_quietly_on_sigint_and_sigterm() -> None:
     assert not any("Traceback" in text for text in outputs), outputs
 
 
-def test_an_unknown_node_name_is_a_usage_error() -> None:
+def test_an_unknown_node_or_transition_is_a_usage_error() -> None:
     domain_id = domain()
     with processes(domain_id) as started:
         started.append(python_process([SCRIPT, "wiper"], domain_id))
-        output, _ = started[0].communicate(timeout=DEADLINE)
-    assert started[0].returncode == 2 and "NODE: one of lamp, dosimeter" in output
+        started.append(python_process([SCRIPT, "lamp", "--ros-args", "-p", "fail_on:=activation"], domain_id))
+        outputs = [p.communicate(timeout=DEADLINE)[0] for p in started]
+    assert [p.returncode for p in started] == [2, 2]
+    assert "NODE: one of lamp, dosimeter" in outputs[0]
+    assert "fail_on names a transition: one of configure, activate, deactivate, cleanup" in outputs[1]

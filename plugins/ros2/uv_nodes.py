@@ -2,6 +2,11 @@
 
     python plugins/ros2/uv_nodes.py lamp [--ros-args -r __ns:=/uv --params-file ros2_params.yaml]
 
+Nodes: `lamp` (UVLampControl), `dosimeter` (DoseMonitoring), `person_detection`
+(CameraPersonDetection), `thermal_detection` (ThermalPresenceDetection), `irradiation`
+(UVIrradiation's interlock), `low_intensity` and `high_intensity`; the manifests beside this
+script say which feature each implements.
+
 motivml (plugin kind `ros2_lifecycle`) configures and activates a node when its feature
 loads, and deactivates and cleans it up when the feature unloads; any lifecycle manager,
 or `ros2 lifecycle set`, can do the same. Each node publishes its reading only while it is
@@ -236,6 +241,11 @@ def main(argv: list[str]) -> int:
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, lambda *_: ending.set())
     node = NODES[own[0]](own[0])
+    if node.get_parameter("fail_on").value not in ("", *TRANSITIONS):
+        print(f"uv_nodes.py: fail_on names a transition: one of {', '.join(TRANSITIONS)}", file=sys.stderr)
+        node.destroy_node()
+        rclpy.try_shutdown()
+        return 2
     executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
