@@ -205,9 +205,9 @@ def ros2_params_yaml(variant: Variant, plugins: dict[str, Plugin]) -> str:
     namespace, as does `/**/<node>` for a node a manifest names relatively (resolved
     against run's --ros-namespace); an absolute name is its own key. A feature node gets its
     manifest's `parameters`, and `motivml.feature` and `motivml.binding` saying what it
-    implements. Node and parameter names are plain (the plugin schema allows no other
-    characters than letters, digits, `_`, `.` and `/`); ids and strings are quoted (YAML 1.1 reads `on` or `no` as booleans), and
-    floats always have a point or an exponent with one, so ROS reads them as doubles.
+    implements. Node and parameter names stay plain (the plugin schema allows only letters,
+    digits, `_`, `.` and `/` in them); ids and strings are quoted (YAML 1.1 reads `on` or
+    `no` as booleans), and a float always has a point, so ROS reads it as a double.
     """
     active = {f.id for f in start_state(variant)}
     chosen = [d for d in variant.selected() if d.feature.parent is not None]

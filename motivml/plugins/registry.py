@@ -60,11 +60,12 @@ def ros2_parameters(entry: dict[str, Any]) -> tuple[EntryPath, str] | None:
         if name.startswith(RESERVED):
             return here, f"parameter {name!r}: names starting {RESERVED!r} are written by configure"
         items = value if isinstance(value, list) else [value]
+        first = _ros_type(items[0]) if items else ""
         for position, item in enumerate(items):
             where = (*here, position) if isinstance(value, list) else here
-            if _ros_type(item) == "integer" and item not in INT64:
+            found = _ros_type(item)
+            if found == "integer" and item not in INT64:
                 return where, f"parameter {name!r}: {item} does not fit a ROS 2 integer (64 bits)"
-            first, found = _ros_type(items[0]), _ros_type(item)
             if found != first:
                 hint = " (write 1.0 for a double)" if {first, found} == {"integer", "double"} else ""
                 return where, (
@@ -104,9 +105,8 @@ class Kind:
         allowed = {self.path_key, *self.required, *self.optional}
         for key in entry:
             if key not in allowed and not key.startswith("x-"):
-                return (
-                    key,
-                ), f"a {self.name} plugin's entry has no {key!r} (it has {', '.join(sorted(allowed))})"
+                problem = f"a {self.name} plugin's entry has no {key!r} (it has {', '.join(sorted(allowed))})"
+                return (key,), problem
         if self.path_is_file and ".." in PurePosixPath(entry[self.path_key]).parts:
             return (self.path_key,), f"library {entry[self.path_key]!r} leaves the plugin folder"
         return self.check_values(entry) if self.check_values is not None else None
