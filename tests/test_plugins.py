@@ -97,7 +97,11 @@ def test_each_kind_takes_its_own_entry_keys(tmp_path: Path) -> None:
         "a_lamp": {
             "feature": "slam",
             "kind": "ros2_lifecycle",
-            "entry": {"node": "/uv/lamp", "parameters": {"power.max": 0.8, "names": ["a", "b"]}, "timeout": 2},
+            "entry": {
+                "node": "/uv/lamp",
+                "parameters": {"power.max": 0.8, "names": ["a", "b"]},
+                "timeout": 2,
+            },
         },
         "b_noclass": {"feature": "hands", "kind": "cpp", "entry": {"library": "libh.so"}},
         "c_class": {"feature": "hands", "kind": "ros2_lifecycle", "entry": {"node": "lamp", "class": "Lamp"}},
@@ -111,6 +115,26 @@ def test_each_kind_takes_its_own_entry_keys(tmp_path: Path) -> None:
         "entry nodes need distinct names",
     ]
     assert plugins["slam"].entry["parameters"] == {"power.max": 0.8, "names": ["a", "b"]}
+
+
+def test_parameters_ros_2_cannot_take_are_refused_at_the_item(tmp_path: Path) -> None:
+    manifests = {
+        "a_lamp": {
+            "feature": "slam",
+            "kind": "ros2_lifecycle",
+            "entry": {"node": "lamp", "parameters": {"power": 0.8, "gains": [1.0, 2, 3.5]}},
+        },
+    }
+    plugins, problems = found(robot(tmp_path, manifests))
+    assert problems == [
+        "a_lamp:10: parameter 'gains': a ROS 2 array holds one type, but item 1 is an integer after a double "
+        "(write 1.0 for a double)"
+    ]
+    assert plugins == {}
+    result = CliRunner().invoke(main, ["validate", str(tmp_path), "--format", "json"])
+    (problem,) = json.loads(result.output)["errors"]
+    assert result.exit_code == 1 and problem["path"] == "$.entry.parameters.gains[1]"
+    assert problem["rule"] == "plugins.parameter"
 
 
 def test_an_undeclared_directory_is_not_searched(tmp_path: Path) -> None:

@@ -115,13 +115,59 @@ def test_only_the_kinds_in_use_get_a_loader() -> None:
 
 def test_entry_checks_come_from_the_kind() -> None:
     cpp, python = registry.KINDS["cpp"], registry.KINDS["python"]
-    assert cpp.check_entry({"class": "A"}) == ("", "a cpp plugin's entry needs 'library'")
+    assert cpp.check_entry({"class": "A"}) == ((), "a cpp plugin's entry needs 'library'")
     assert cpp.check_entry({"library": "../x.so", "class": "A"}) == (
-        "library",
+        ("library",),
         "library '../x.so' leaves the plugin folder",
     )
     assert python.check_entry({"module": "a.b", "class": "A"}) is None
     assert python.check_entry({"library": "x.so", "class": "A"}) == (
-        "",
+        (),
         "a python plugin's entry needs 'module'",
     )
+
+
+@pytest.mark.parametrize(
+    ("parameters", "problem"),
+    [
+        ({"gains": [1.0, 2.5], "names": ["a"], "on": [True], "n": -(2**63), "s": "x"}, None),
+        (
+            {"gains": [1, 2.5]},
+            (
+                ("parameters", "gains", 1),
+                "parameter 'gains': a ROS 2 array holds one type, but item 1 is a double after an integer "
+                "(write 1.0 for a double)",
+            ),
+        ),
+        (
+            {"flags": [True, 1]},
+            (
+                ("parameters", "flags", 1),
+                "parameter 'flags': a ROS 2 array holds one type, but item 1 is an integer after a boolean",
+            ),
+        ),
+        (
+            {"names": []},
+            (
+                ("parameters", "names"),
+                "parameter 'names': an empty array has no ROS 2 type (leave the parameter out)",
+            ),
+        ),
+        (
+            {"ticks": 2**63},
+            (("parameters", "ticks"), f"parameter 'ticks': {2**63} does not fit a ROS 2 integer (64 bits)"),
+        ),
+        (
+            {"motivml.feature": "x"},
+            (
+                ("parameters", "motivml.feature"),
+                "parameter 'motivml.feature': names starting 'motivml.' are written by configure",
+            ),
+        ),
+    ],
+)
+def test_ros2_parameters_are_what_ros_2_can_take(parameters: dict[str, object], problem: object) -> None:
+    """ROS 2 parameters have one type each: arrays are homogeneous (booleans are not integers,
+    integers not doubles) and not empty; integers have 64 bits."""
+    lifecycle = registry.KINDS["ros2_lifecycle"]
+    assert lifecycle.check_entry({"node": "lamp", "parameters": parameters}) == problem

@@ -354,7 +354,7 @@ def test_run_refuses_invalid_variants_and_robots_without_an_architecture() -> No
     )
     assert broken.exit_code == 1 and "rules 2.2 and 3.3" in broken.output
     assert "cannot run" in broken.output.splitlines()[-1]
-    none = runner.invoke(main, ["run", str(EXAMPLES / "uv_disinfection"), "--variant", "hospital_autonomous"])
+    none = runner.invoke(main, ["run", str(EXAMPLES / "tiago_service"), "--variant", "reception"])
     assert (
         none.exit_code == 3
         and "no architecture.json and no plugins: this robot has nothing to run" in none.output

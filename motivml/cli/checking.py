@@ -138,10 +138,12 @@ def _verdict(report: Report, checked_variants: bool) -> None:
 def configure_command(
     target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str
 ) -> None:
-    """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml, plugins.json.
+    """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml, plugins.json, ros2_params.yaml.
 
-    TARGET is a robot folder (default: the current folder). Files are rewritten only when
-    their content changes; nothing is written when the variant is invalid.
+    TARGET is a robot folder (default: the current folder). ros2_params.yaml holds the ROS 2
+    parameters of the motivml node (features.<id>.active at start) and of each
+    ros2_lifecycle plugin's node, for --ros-args --params-file. Files are rewritten only
+    when their content changes; nothing is written when the variant is invalid.
     """
     from ..binding.codegen import late_or_dynamic, outputs
     from ..binding.resolve import resolve

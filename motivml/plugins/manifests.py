@@ -79,9 +79,15 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
             assert isinstance(entry, dict)
             unusable = KINDS[kind].check_entry(entry)
             if unusable is not None:
-                key, problem = unusable
-                where = doc.locate(("entry", key) if key else ("entry",))
-                rule = "plugins.escape" if key else "plugins.entry"
+                place, problem = unusable
+                where = doc.locate(("entry", *place))
+                rule = (
+                    "plugins.parameter"
+                    if place[:1] == ("parameters",)
+                    else "plugins.escape"
+                    if place
+                    else "plugins.entry"
+                )
                 diagnostics.append(error(where, problem, rule, feature))
                 continue
             if feature not in model.index:
@@ -121,9 +127,7 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
                         )
                     )
                     continue
-            plugins[feature] = Plugin(
-                feature, kind, dict(entry), candidate, manifest_path
-            )
+            plugins[feature] = Plugin(feature, kind, dict(entry), candidate, manifest_path)
     return plugins, diagnostics
 
 

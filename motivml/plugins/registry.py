@@ -11,6 +11,7 @@ module with a `Loader` and one line below, plus the kind in `schemas/plugin.sche
 from __future__ import annotations
 
 import importlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import PurePosixPath
 from typing import TYPE_CHECKING, Any, Protocol
@@ -42,6 +43,50 @@ class Loader(Protocol):
         ...
 
 
+EntryPath = tuple[str | int, ...]  # a place inside a manifest's entry
+INT64 = range(-(2**63), 2**63)  # a ROS 2 integer parameter
+RESERVED = "motivml."  # parameter names configure writes itself (motivml.feature, motivml.binding)
+
+
+def ros2_parameters(entry: dict[str, Any]) -> tuple[EntryPath, str] | None:
+    """What ROS 2 cannot take among a ros2_lifecycle entry's (schema-valid) parameters.
+
+    A ROS parameter has one type: an array's items are all booleans, all integers, all
+    doubles or all strings (the node would refuse `[1, 2.5]` when it reads
+    ros2_params.yaml), and an array is not empty (`[]` has no type); integers fit 64 bits.
+    """
+    for name, value in entry.get("parameters", {}).items():
+        here: EntryPath = ("parameters", name)
+        if name.startswith(RESERVED):
+            return here, f"parameter {name!r}: names starting {RESERVED!r} are written by configure"
+        items = value if isinstance(value, list) else [value]
+        first = _ros_type(items[0]) if items else ""
+        for position, item in enumerate(items):
+            where = (*here, position) if isinstance(value, list) else here
+            found = _ros_type(item)
+            if found == "integer" and item not in INT64:
+                return where, f"parameter {name!r}: {item} does not fit a ROS 2 integer (64 bits)"
+            if found != first:
+                hint = " (write 1.0 for a double)" if {first, found} == {"integer", "double"} else ""
+                return where, (
+                    f"parameter {name!r}: a ROS 2 array holds one type, "
+                    f"but item {position} is {_a(found)} after {_a(first)}{hint}"
+                )
+        if not items:
+            return here, f"parameter {name!r}: an empty array has no ROS 2 type (leave the parameter out)"
+    return None
+
+
+def _ros_type(value: object) -> str:
+    if isinstance(value, bool):
+        return "boolean"
+    return {int: "integer", float: "double", str: "string"}[type(value)]
+
+
+def _a(word: str) -> str:
+    return f"an {word}" if word[0] in "aeiou" else f"a {word}"
+
+
 @dataclass(frozen=True)
 class Kind:
     name: str
@@ -51,19 +96,21 @@ class Kind:
     required: tuple[str, ...] = ("class",)  # entry keys this kind needs besides path_key
     optional: tuple[str, ...] = ()  # entry keys this kind may have
     on_ros: bool = False  # its loader takes the run's ROS namespace
+    check_values: Callable[[dict[str, Any]], tuple[EntryPath, str] | None] | None = None  # the kind's own
 
-    def check_entry(self, entry: dict[str, Any]) -> tuple[str, str] | None:
-        """(entry key, problem) when a schema-valid entry cannot be used, else None."""
+    def check_entry(self, entry: dict[str, Any]) -> tuple[EntryPath, str] | None:
+        """(place in the entry, problem) when a schema-valid entry cannot be used, else None."""
         for key in (self.path_key, *self.required):
             if key not in entry:
-                return "", f"a {self.name} plugin's entry needs {key!r}"
+                return (), f"a {self.name} plugin's entry needs {key!r}"
         allowed = {self.path_key, *self.required, *self.optional}
         for key in entry:
             if key not in allowed and not key.startswith("x-"):
-                return key, f"a {self.name} plugin's entry has no {key!r} (it has {', '.join(sorted(allowed))})"
+                problem = f"a {self.name} plugin's entry has no {key!r} (it has {', '.join(sorted(allowed))})"
+                return (key,), problem
         if self.path_is_file and ".." in PurePosixPath(entry[self.path_key]).parts:
-            return self.path_key, f"library {entry[self.path_key]!r} leaves the plugin folder"
-        return None
+            return (self.path_key,), f"library {entry[self.path_key]!r} leaves the plugin folder"
+        return self.check_values(entry) if self.check_values is not None else None
 
     def make_loader(self, robot: str, plugins: dict[str, Plugin], ros_namespace: str = "/") -> Loader:
         module, name = self.loader.split(":")
@@ -85,6 +132,7 @@ KINDS = {
             required=(),
             optional=("parameters", "timeout"),
             on_ros=True,
+            check_values=ros2_parameters,
         ),
     )
 }
