@@ -269,8 +269,10 @@ class Timings:
             self.undo.pop()()
 
 
-def with_ros(folder: Path, swaps: int, rate: float, domain_id: int) -> dict[str, Any]:
+def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any) -> dict[str, Any]:
     """Floor and swaps by the client; the loop's missed deadlines over the swaps."""
+    import rclpy
+
     from motivml.plugins.ros2 import LifecycleFeature
     from motivml.ros2.node import FrontDoor, start
     from motivml.runtime.binder import Binder
@@ -278,6 +280,10 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int) -> dict[str,
     from motivml.runtime.session import Session
 
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), PYTHONUNBUFFERED="1")
+    # The first rclpy context of a process sets up its logging: keep the motivml node's
+    # log on rosout (part of a swap's cost) but out of this terminal.
+    quiet = rclpy.Context()
+    rclpy.init(args=["--ros-args", "--disable-stdout-logs"], context=quiet)
     timings = Timings()
     for owner, name, label in (
         (FrontDoor, "set_call", "front door set_call"),
@@ -307,6 +313,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int) -> dict[str,
                 env=env,
                 stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE,
+                stderr=errors,
                 text=True,
             )
             started.append(client)
@@ -335,6 +342,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int) -> dict[str,
                 session.close()
     finally:
         timings.restore()
+        quiet.try_shutdown()
     return {
         "floor": floor,
         "swaps": latencies,
@@ -391,7 +399,15 @@ def main() -> None:
     if not NODES.is_file():
         raise SystemExit(f"{NODES} is missing: it comes with the ros2-example branch")
     with tempfile.TemporaryDirectory() as tmp:
-        ros = with_ros(write_robot(Path(tmp) / "ros", ros=True), args.swaps, args.rate, args.domain)
+        with open(Path(tmp) / "client.err", "w+") as errors:  # shown if the client fails
+            try:
+                ros = with_ros(
+                    write_robot(Path(tmp) / "ros", ros=True), args.swaps, args.rate, args.domain, errors
+                )
+            except BaseException:
+                errors.seek(0)
+                sys.stderr.write(errors.read()[-4000:])
+                raise
         missed_alone = without_ros(
             write_robot(Path(tmp) / "alone", ros=False), args.swaps, args.rate, ros["window"]
         )
