@@ -16,7 +16,8 @@ deactivate the leaving one, activate the arriving one (switch), clean up the lea
 
 Missed deadlines over the swaps are compared with the same robot without ROS (the same
 features implemented by Python plugins that do nothing, no front door, no nodes), run for
-the same wall-clock time with the same number of swaps through the binder.
+the same wall-clock time with the same number of swaps through the binder, and with the
+missed deadlines of the ROS robot over the same time again after the swaps, nothing moving.
 
 It also prints where the time goes on motivml's side (the plugin and binder methods timed
 by wrappers around them, a few microseconds each).
@@ -336,6 +337,9 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
                 window = time.perf_counter() - began
                 missed = session.runtime.missed - missed
                 spent = {k: list(v) for k, v in timings.spent.items()}
+                idle = session.runtime.missed  # the same time again, the graph up but no swap
+                time.sleep(window)
+                idle = session.runtime.missed - idle
             finally:
                 session.runtime.stop()
                 session.wait(10)
@@ -348,6 +352,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
         "swaps": latencies,
         "refused": message["refused"],
         "missed": missed,
+        "idle": idle,
         "window": window,
         "spent": spent,
         "commits": commits,
@@ -441,6 +446,10 @@ def report(args: argparse.Namespace, ros: dict[str, Any], missed_alone: int) -> 
         f"  missed deadlines over the swaps ({ros['window']:.1f} s): {ros['missed']} with ROS, "
         f"{missed_alone} without ROS (same features as idle Python plugins, same swaps, same time): "
         f"{'met' if met else 'MISSED'}"
+    )
+    print(
+        f"  missed deadlines with ROS but no swap, the same time after the swaps: {ros['idle']} "
+        f"(what the graph costs the loop when nothing moves)"
     )
     print(f"  target (issue 13): {'met' if all(verdicts) and met else 'MISSED'}")
     print("where a swap's time goes on motivml's side (p50 / p99 ms per call, wrapped methods):")
