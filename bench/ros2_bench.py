@@ -1,0 +1,468 @@
+"""Benchmark: swapping two ros2_lifecycle features through set_parameters_atomically at 1 kHz.
+
+The robot of tests/test_ros2.py cut to its swap: `camera` XOR `thermal` (Dynamic Early and
+Dynamic Late), implemented by the lifecycle nodes person_detection and thermal_detection of
+plugins/ros2/uv_nodes.py, each in a process of its own. The robot runs in this process at
+--rate Hz on the real clock with the `motivml` node of `run --ros2`; a client in another
+process (this script with --client, so that its Python shares no GIL with the loop)
+alternates {camera: false, thermal: true} and {camera: true, thermal: false} --swaps times
+through /NS/motivml/set_parameters_atomically, timing each call from send to answer.
+
+The floor, timed in the same run by the same client against the same two nodes before the
+robot starts (so motivml does not drive them): per swap, the ChangeState round trips a
+swap makes in motivml/plugins/ros2.py, in its order: configure the arriving node (prepare),
+deactivate the leaving one, activate the arriving one (switch), clean up the leaving one
+(release). A successful swap asks no GetState.
+
+Missed deadlines over the swaps are compared with the same robot without ROS (the same
+features implemented by Python plugins that do nothing, no front door, no nodes), run for
+the same wall-clock time with the same number of swaps through the binder, and with the
+missed deadlines of the ROS robot over the same time again after the swaps, nothing moving.
+
+It also prints where the time goes on motivml's side (the plugin and binder methods timed
+by wrappers around them, a few microseconds each).
+
+    .venv-ros/bin/python bench/ros2_bench.py [--swaps 200] [--rate 1000] [--domain 93]
+
+Target (issue 13): p50 and p99 within 1.5 x the floor + 2 ms, and no more missed deadlines
+than without ROS.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections import defaultdict
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+NODES = ROOT / "plugins" / "ros2" / "uv_nodes.py"
+NS = "/bench"
+ANY = {"bindingTimeAllowed": "Any", "bindingModeAllowed": "Any"}
+MODEL = {
+    "id": "bot",
+    "name": "bot",
+    "isMandatory": True,
+    "isSelected": True,
+    "sub": [
+        {
+            "id": "detection",
+            "name": "detection",
+            "isMandatory": True,
+            "constraints": {**ANY, "bindingTimeAllowed": "Early", "bindingModeAllowed": "Static"},
+            "sub": [
+                {"id": "camera", "name": "camera", "group": "XOR", "constraints": ANY},
+                {"id": "thermal", "name": "thermal", "group": "XOR", "constraints": ANY},
+            ],
+        }
+    ],
+}
+VARIANT = {
+    "properties": [
+        {"id": "detection", "selected": True, "props": {"time": "Early", "mode": "Static"}},
+        {"id": "camera", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}},
+        {"id": "thermal", "selected": True, "props": {"time": "Late", "mode": "Dynamic"}},
+    ]
+}
+NODE_OF = {"camera": "person_detection", "thermal": "thermal_detection"}
+PLUGIN = """
+from motivml.plugins.api import FeaturePlugin
+
+
+class Plugin(FeaturePlugin):
+    def step(self, time):
+        pass
+"""
+
+
+def write_robot(folder: Path, ros: bool) -> Path:
+    """The swap robot: ros2_lifecycle plugins, or Python plugins that do nothing."""
+    (folder / "variants").mkdir(parents=True)
+    (folder / "model.json").write_text(json.dumps(MODEL))
+    (folder / "variants" / "swap.json").write_text(json.dumps(VARIANT))
+    (folder / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
+    for feature, node in NODE_OF.items():
+        plugin = folder / "plugins" / feature
+        plugin.mkdir(parents=True)
+        if ros:
+            manifest: dict[str, Any] = {"feature": feature, "kind": "ros2_lifecycle", "entry": {"node": node}}
+        else:
+            manifest = {
+                "feature": feature,
+                "kind": "python",
+                "entry": {"module": f"idle_{feature}", "class": "Plugin"},
+            }
+            (plugin / f"idle_{feature}.py").write_text(PLUGIN)
+        (plugin / "plugin.json").write_text(json.dumps(manifest))
+    return folder
+
+
+def swap_values(k: int) -> dict[str, bool]:
+    """The k-th swap: even ones go to thermal, odd ones back to camera."""
+    return {"camera": k % 2 == 1, "thermal": k % 2 == 0}
+
+
+# ---------------------------------------------------------------------- the client process
+class Client:
+    """An rclpy node of its own context, spun on a thread; calls timed from send to answer."""
+
+    def __init__(self, domain_id: int) -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=domain_id)
+        self.node = rclpy.create_node("bench_client", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except BaseException:
+            pass
+
+    def client(self, kind: Any, service: str) -> Any:
+        made = self.node.create_client(kind, service)
+        if not made.wait_for_service(timeout_sec=20.0):
+            raise SystemExit(f"no service {service} within 20 s")
+        return made
+
+    def call(self, client: Any, request: Any) -> Any:
+        done = threading.Event()
+        future = client.call_async(request)
+        future.add_done_callback(lambda _: done.set())
+        if not done.wait(10.0):
+            raise SystemExit(f"{client.srv_name} did not answer within 10 s")
+        return future.result()
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=2)
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def client_main(swaps: int, domain_id: int) -> None:
+    """Floor first (the nodes free), then, on 'go' from stdin, the swaps through motivml."""
+    from lifecycle_msgs.msg import Transition
+    from lifecycle_msgs.srv import ChangeState
+    from rcl_interfaces.srv import SetParametersAtomically
+    from rclpy.parameter import Parameter
+
+    client = Client(domain_id)
+    try:
+        change = {node: client.client(ChangeState, f"{NS}/{node}/change_state") for node in NODE_OF.values()}
+
+        def move(node: str, transition: int) -> None:
+            answer = client.call(change[node], ChangeState.Request(transition=Transition(id=transition)))
+            if not answer.success:
+                raise SystemExit(f"floor: {node} refused transition {transition}")
+
+        camera, thermal = NODE_OF["camera"], NODE_OF["thermal"]
+        move(camera, Transition.TRANSITION_CONFIGURE)  # the start state, as launch makes it
+        move(camera, Transition.TRANSITION_ACTIVATE)
+        floor = []
+        for k in range(swaps):
+            leaving, arriving = (camera, thermal) if k % 2 == 0 else (thermal, camera)
+            began = time.perf_counter()
+            move(arriving, Transition.TRANSITION_CONFIGURE)  # prepare
+            move(leaving, Transition.TRANSITION_DEACTIVATE)  # switch
+            move(arriving, Transition.TRANSITION_ACTIVATE)
+            move(leaving, Transition.TRANSITION_CLEANUP)  # release
+            floor.append(time.perf_counter() - began)
+        active = camera if swaps % 2 == 0 else thermal
+        move(active, Transition.TRANSITION_DEACTIVATE)  # the nodes wait unconfigured again
+        move(active, Transition.TRANSITION_CLEANUP)
+        print(json.dumps({"floor": floor}), flush=True)
+
+        if sys.stdin.readline().strip() != "go":
+            return
+        service = client.client(SetParametersAtomically, f"{NS}/motivml/set_parameters_atomically")
+        print(json.dumps({"begin": True}), flush=True)
+        latencies, refused = [], []
+        for k in range(swaps):
+            parameters = [
+                Parameter(f"features.{f}.active", value=v).to_parameter_msg()
+                for f, v in swap_values(k).items()
+            ]
+            began = time.perf_counter()
+            answer = client.call(service, SetParametersAtomically.Request(parameters=parameters))
+            latencies.append(time.perf_counter() - began)
+            if not answer.result.successful:
+                refused.append(f"swap {k}: {answer.result.reason}")
+                break
+        print(json.dumps({"swaps": latencies, "refused": refused}), flush=True)
+    finally:
+        client.close()
+
+
+# ---------------------------------------------------------------------- the bench process
+@contextmanager
+def processes() -> Iterator[list[subprocess.Popen[str]]]:
+    """Processes started in the block are ended when it ends, whatever happens."""
+    started: list[subprocess.Popen[str]] = []
+    try:
+        yield started
+    finally:
+        for process in started:
+            if process.poll() is None:
+                process.terminate()
+        for process in started:
+            try:
+                process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+
+
+def read_message(process: subprocess.Popen[str], key: str) -> Any:
+    """The next JSON line of the client that has `key` (other lines are ROS's log: skipped)."""
+    assert process.stdout is not None
+    for line in process.stdout:
+        if line.startswith("{"):
+            message = json.loads(line)
+            if key in message:
+                return message[key], message
+    raise SystemExit(f"the client ended before sending {key!r} (exit {process.wait()})")
+
+
+class Timings:
+    """Wall time of chosen methods, per method, from wrappers installed for the run."""
+
+    def __init__(self) -> None:
+        self.spent: dict[str, list[float]] = defaultdict(list)
+        self.undo: list[Callable[[], None]] = []
+
+    def wrap(self, owner: Any, name: str, label: str) -> None:
+        original = getattr(owner, name)
+
+        @functools.wraps(original)
+        def timed(*args: Any, **kwargs: Any) -> Any:
+            began = time.perf_counter()
+            try:
+                return original(*args, **kwargs)
+            finally:
+                self.spent[label].append(time.perf_counter() - began)
+
+        setattr(owner, name, timed)
+        self.undo.append(lambda: setattr(owner, name, original))
+
+    def clear(self) -> None:
+        self.spent.clear()
+
+    def restore(self) -> None:
+        while self.undo:
+            self.undo.pop()()
+
+
+def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any) -> dict[str, Any]:
+    """Floor and swaps by the client; the loop's missed deadlines over the swaps."""
+    import rclpy
+
+    from motivml.plugins.ros2 import LifecycleFeature
+    from motivml.ros2.node import FrontDoor, start
+    from motivml.runtime.binder import Binder
+    from motivml.runtime.launch import launch
+    from motivml.runtime.session import Session
+
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), PYTHONUNBUFFERED="1")
+    # The first rclpy context of a process sets up its logging: keep the motivml node's
+    # log on rosout (part of a swap's cost) but out of this terminal.
+    quiet = rclpy.Context()
+    rclpy.init(args=["--ros-args", "--disable-stdout-logs"], context=quiet)
+    timings = Timings()
+    for owner, name, label in (
+        (FrontDoor, "set_call", "front door set_call"),
+        (FrontDoor, "_catch_up", "parameters brought in line (_catch_up)"),
+        (Binder, "request", "binder.request"),
+        (Binder, "_check_and_prepare", "check and prepare and switch"),
+        (LifecycleFeature, "start", "prepare: configure (start)"),
+        (LifecycleFeature, "deactivate", "switch: deactivate"),
+        (LifecycleFeature, "activate", "switch: activate"),
+        (LifecycleFeature, "stop", "release: clean up (stop)"),
+    ):
+        timings.wrap(owner, name, label)
+    commits: list[float] = []
+    try:
+        with processes() as started:
+            for node in NODE_OF.values():
+                started.append(
+                    subprocess.Popen(  # noqa: S603 (our own interpreter and script)
+                        [sys.executable, str(NODES), node, "--ros-args", "-r", f"__ns:={NS}"],
+                        env=env,
+                        stdout=subprocess.DEVNULL,
+                        stderr=subprocess.DEVNULL,
+                    )
+                )
+            client = subprocess.Popen(  # noqa: S603
+                [sys.executable, __file__, "--client", "--swaps", str(swaps), "--domain", str(domain_id)],
+                env=env,
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=errors,
+                text=True,
+            )
+            started.append(client)
+            floor, _ = read_message(client, "floor")
+            robot = launch(folder, "swap", rate=rate, ros_namespace=NS)
+            session = Session(robot, math.inf, "real", run_dir=None)
+            try:
+                session.open()
+                door = start(robot, NS)
+                session.doors.append(door.close)
+                robot.binder.watchers.append(lambda o: commits.append(o.latency) if o.accepted else None)
+                session.start()
+                timings.clear()
+                assert client.stdin is not None
+                client.stdin.write("go\n")
+                client.stdin.flush()
+                read_message(client, "begin")
+                missed, began = session.runtime.missed, time.perf_counter()
+                latencies, message = read_message(client, "swaps")
+                window = time.perf_counter() - began
+                missed = session.runtime.missed - missed
+                spent = {k: list(v) for k, v in timings.spent.items()}
+                idle = session.runtime.missed  # the same time again, the graph up but no swap
+                time.sleep(window)
+                idle = session.runtime.missed - idle
+            finally:
+                session.runtime.stop()
+                session.wait(10)
+                session.close()
+    finally:
+        timings.restore()
+        quiet.try_shutdown()
+    return {
+        "floor": floor,
+        "swaps": latencies,
+        "refused": message["refused"],
+        "missed": missed,
+        "idle": idle,
+        "window": window,
+        "spent": spent,
+        "commits": commits,
+    }
+
+
+def without_ros(folder: Path, swaps: int, rate: float, window: float) -> int:
+    """The same swaps, paced over the same wall time, through the binder of a robot without ROS."""
+    from motivml.runtime.launch import launch
+    from motivml.runtime.requests import Request
+    from motivml.runtime.session import Session
+
+    robot = launch(folder, "swap", rate=rate)
+    session = Session(robot, math.inf, "real", run_dir=None)
+    try:
+        session.open()
+        session.start()
+        missed, began = session.runtime.missed, time.perf_counter()
+        for k in range(swaps):
+            values = swap_values(k)
+            loads = [f for f, v in values.items() if v]
+            unloads = [f for f, v in values.items() if not v]
+            outcome = robot.binder.request(Request.set(loads, unloads))
+            if not outcome.accepted:
+                raise SystemExit(f"without ROS: swap {k} refused: {outcome.reason}")
+            pause = began + window * (k + 1) / swaps - time.perf_counter()
+            if pause > 0:
+                time.sleep(pause)
+        return session.runtime.missed - missed
+    finally:
+        session.runtime.stop()
+        session.wait(10)
+        session.close()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--swaps", type=int, default=200)
+    parser.add_argument("--rate", type=float, default=1000.0)
+    parser.add_argument("--domain", type=int, default=93, help="ROS_DOMAIN_ID of the bench's own graph")
+    parser.add_argument("--client", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # never beyond this machine
+    os.environ.pop("ROS_STATIC_PEERS", None)
+    os.environ["ROS_DOMAIN_ID"] = str(args.domain)
+    if args.client:
+        client_main(args.swaps, args.domain)
+        return
+    if not NODES.is_file():
+        raise SystemExit(f"{NODES} is missing: it comes with the ros2-example branch")
+    with tempfile.TemporaryDirectory() as tmp:
+        with open(Path(tmp) / "client.err", "w+") as errors:  # shown if the client fails
+            try:
+                ros = with_ros(
+                    write_robot(Path(tmp) / "ros", ros=True), args.swaps, args.rate, args.domain, errors
+                )
+            except BaseException:
+                errors.seek(0)
+                sys.stderr.write(errors.read()[-4000:])
+                raise
+        missed_alone = without_ros(
+            write_robot(Path(tmp) / "alone", ros=False), args.swaps, args.rate, ros["window"]
+        )
+    report(args, ros, missed_alone)
+
+
+def report(args: argparse.Namespace, ros: dict[str, Any], missed_alone: int) -> None:
+    ms = 1e3
+    floor, swaps = np.array(ros["floor"]), np.array(ros["swaps"])
+    print(
+        f"{args.swaps} swaps of camera/thermal (ros2_lifecycle: person_detection, thermal_detection) "
+        f"through set_parameters_atomically, loop at {args.rate:g} Hz (real clock), {os.cpu_count()} CPUs"
+    )
+    if ros["refused"]:
+        print(f"  stopped: a swap was refused: {ros['refused'][0]}")
+    verdicts = []
+    for q in (50, 99):
+        measured, base = np.percentile(swaps, q) * ms, np.percentile(floor, q) * ms
+        bound = 1.5 * base + 2.0
+        verdicts.append(measured <= bound)
+        print(
+            f"  p{q}  call to answer {measured:7.2f} ms   floor {base:6.2f} ms   ratio {measured / base:4.2f}   "
+            f"target <= {bound:6.2f} ms: {'met' if measured <= bound else 'MISSED'}"
+        )
+    print(
+        f"  max  call to answer {swaps.max() * ms:7.2f} ms   floor {floor.max() * ms:6.2f} ms "
+        f"(floor: the same 4 ChangeState round trips per swap, made directly by the same client)"
+    )
+    met = ros["missed"] <= missed_alone
+    print(
+        f"  missed deadlines over the swaps ({ros['window']:.1f} s): {ros['missed']} with ROS, "
+        f"{missed_alone} without ROS (same features as idle Python plugins, same swaps, same time): "
+        f"{'met' if met else 'MISSED'}"
+    )
+    print(
+        f"  missed deadlines with ROS but no swap, the same time after the swaps: {ros['idle']} "
+        f"(what the graph costs the loop when nothing moves)"
+    )
+    print(f"  target (issue 13): {'met' if all(verdicts) and met else 'MISSED'}")
+    print("where a swap's time goes on motivml's side (p50 / p99 ms per call, wrapped methods):")
+    commits = np.array(ros["commits"])
+    rows = [(label, np.array(values)) for label, values in ros["spent"].items()]
+    rows.append(("binder: request to commit (Outcome.latency)", commits))
+    for label, values in rows:
+        if len(values):
+            print(
+                f"  {label:<44} {np.percentile(values, 50) * ms:6.2f} / {np.percentile(values, 99) * ms:6.2f}"
+                f"  ({len(values)} calls)"
+            )
+
+
+if __name__ == "__main__":
+    main()
