@@ -10,9 +10,10 @@ through /NS/motivml/set_parameters_atomically, timing each call from send to ans
 
 The floor, timed in the same run by the same client against the same two nodes before the
 robot starts (so motivml does not drive them): per swap, the ChangeState round trips a
-swap makes in motivml/plugins/ros2.py, in its order: configure the arriving node (prepare),
-deactivate the leaving one, activate the arriving one (switch), clean up the leaving one
-(release). A successful swap asks no GetState.
+swap makes in motivml/plugins/ros2.py, one after the other: configure the arriving node,
+deactivate the leaving one, activate the arriving one, clean up the leaving one. A
+successful swap asks no GetState. (motivml overlaps the configure with the deactivation
+and does not wait for the clean-up's answer: what it saves that way is part of the figure.)
 
 Missed deadlines over the swaps are compared with the same robot without ROS (the same
 features implemented by Python plugins that do nothing, no front door, no nodes), run for

@@ -6,15 +6,18 @@ The manifest names the node, `{"feature": "uv_lamp_control", "kind": "ros2_lifec
 Its feature's life is the node's lifecycle, driven through the node's standard services
 (`lifecycle_msgs/srv/ChangeState`, `GetState`):
 
-* **prepare**, off the control loop (`start`): wait for the node's services, configure it
-  (unconfigured -> inactive). A node that is not there within the entry's `timeout`
-  (default 5 s), or refuses to configure, refuses the request;
+* **prepare**, off the control loop (`start`): wait for the node's services and ask it to
+  configure (unconfigured -> inactive). A node that is not there within the entry's
+  `timeout` (default 5 s) refuses the request;
 * **switch**, when the request is about to commit (`activate`, `deactivate`): the binder
-  first deactivates the nodes of the features that leave, then activates those that
-  arrive. If one fails, the nodes already moved are moved back and the request is refused,
-  naming the node and its state; nothing is committed;
+  first deactivates the nodes of the features that leave (while the arriving ones
+  configure), then activates those that arrive, once configured. If one fails (a node that
+  refuses to configure or activate, say), the nodes already moved are moved back and the
+  request is refused, naming the node and its state; nothing is committed;
 * **release**, after the commit (`stop`): the nodes that left are cleaned up (inactive ->
-  unconfigured), as at the end of the run.
+  unconfigured), as at the end of the run. The clean-up is sent, not waited for: the
+  feature has left already, so the request returns without that round trip; the next use
+  of the node, and the end of the run, wait for it.
 
 While its feature is active a node is watched from the ROS executor's thread: its state is
 asked every 0.2 s, and a node that leaves the graph, stops answering within 0.8 s or leaves
@@ -25,8 +28,8 @@ Static one stops the run. So a dead node is noticed within about a second.
 rclpy is imported only when a robot has such a plugin (it is the optional extra
 `motivml[ros2]`, kept in `.venv-ros` by `make ros2`). Every robot launched in one process
 with one namespace shares one `Graph`: an rclpy context of its own (no signal handlers of
-rclpy's: the run session has Ctrl-C), a node `motivml_binder`, and an executor thread. The
-ROS 2 front door (`motivml.ros2`) adds its `motivml` node to the same graph.
+rclpy's: the run session has Ctrl-C) and a node `motivml_binder` spinning on a thread of its
+own. The ROS 2 front door (`motivml.ros2`) spins its `motivml` node in the same context.
 """
 
 from __future__ import annotations
@@ -81,57 +84,83 @@ def import_rclpy() -> Any:
 
 
 class Graph:
-    """rclpy for the robots of one namespace in this process: context, node, executor thread."""
+    """rclpy for the robots of one namespace in this process: a context, and a way to spin nodes.
+
+    Each node spins on an executor of its own, on a thread of its own (`spin`): the binder's
+    lifecycle clients never wait behind a service callback of the front door (which itself
+    waits for lifecycle transitions), and a single-threaded executor answers a client
+    sooner than a pool of threads handing work to each other under the GIL.
+    """
 
     def __init__(self, ns: str) -> None:
         rclpy = import_rclpy()
-        from rclpy.callback_groups import ReentrantCallbackGroup
-        from rclpy.executors import MultiThreadedExecutor
 
         self.namespace = ns
         self.users = 0
         self.context = rclpy.Context()
         rclpy.init(context=self.context)  # ROS_DOMAIN_ID from the environment
+        self._spinning: list[tuple[Any, Any, threading.Thread]] = []  # (node, executor, thread)
         try:
-            # Service clients answer on a reentrant group: a service callback that waits for
-            # a lifecycle transition (the front door's set_parameters) never blocks its reply.
-            self.clients = ReentrantCallbackGroup()
             self.node = rclpy.create_node(
                 "motivml_binder",
                 namespace=ns,
                 context=self.context,
                 start_parameter_services=False,
             )
-            # Threads: the front door's services, the watch timer, client replies, and one spare.
-            self.executor = MultiThreadedExecutor(num_threads=4, context=self.context)
-            self.executor.add_node(self.node)
+            self.spin(self.node)
         except BaseException:
             self.context.try_shutdown()
             raise
-        self._thread = threading.Thread(target=self._spin, daemon=True, name="motivml-ros2")
-        self._thread.start()
 
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except BaseException:  # the context shut down under it: the graph is closing
-            pass
+    def spin(self, node: Any) -> None:
+        """Spin `node` on an executor and a daemon thread of its own until `forget` or `close`."""
+        from rclpy.executors import SingleThreadedExecutor
+
+        executor = SingleThreadedExecutor(context=self.context)
+        executor.add_node(node)
+
+        def spin() -> None:
+            try:
+                executor.spin()
+            except BaseException:  # the context shut down under it: the graph is closing
+                pass
+
+        thread = threading.Thread(target=spin, daemon=True, name=f"motivml-ros2-{node.get_name()}")
+        thread.start()
+        self._spinning.append((node, executor, thread))
+
+    def forget(self, node: Any) -> None:
+        """Stop spinning `node` and destroy it."""
+        for entry in list(self._spinning):
+            if entry[0] is node:
+                self._spinning.remove(entry)
+                _, executor, thread = entry
+                executor.shutdown(timeout_sec=2.0)
+                thread.join(timeout=2.0)
+        node.destroy_node()
 
     def call(self, client: Any, request: Any, timeout: float) -> Any:
         """A service call from any thread but the executor's; None when no answer came in time."""
+        return self.answer(client, self.send(client, request), timeout)
+
+    def send(self, client: Any, request: Any) -> tuple[Any, threading.Event]:
+        """Send a request; `answer` waits for it."""
         done = threading.Event()
         future = client.call_async(request)
         future.add_done_callback(lambda _: done.set())
+        return future, done
+
+    def answer(self, client: Any, sent: tuple[Any, threading.Event], timeout: float) -> Any:
+        future, done = sent
         if not done.wait(timeout):
             client.remove_pending_request(future)
             return None
         return future.result()
 
     def close(self) -> None:
-        self.executor.shutdown(timeout_sec=2.0)
-        self.node.destroy_node()
+        for node, _, _ in list(self._spinning):
+            self.forget(node)
         self.context.try_shutdown()
-        self._thread.join(timeout=2.0)
 
 
 # Where each transition ends when it succeeds (lifecycle_msgs' primary state ids and labels).
@@ -174,6 +203,7 @@ class LifecycleNodes:
         self.owners: dict[str, LifecycleFeature] = {}  # node -> the instance that activated it
         self._timer: Any = None
         self._clients: dict[str, tuple[Any, Any]] = {}  # node -> (change_state, get_state)
+        self._cleanups: dict[str, tuple[threading.Event, float]] = {}  # node -> its clean-up's answer
         self._lock = threading.Lock()
 
     def problems(self) -> list[Diagnostic]:
@@ -197,9 +227,7 @@ class LifecycleNodes:
         with self._lock:
             if self.graph is None:
                 self.graph = open_graph(self.namespace)
-                self._timer = self.graph.node.create_timer(
-                    WATCH_PERIOD, self._watch, callback_group=self.graph.clients
-                )
+                self._timer = self.graph.node.create_timer(WATCH_PERIOD, self._watch)
             return self.graph
 
     def clients(self, node: str) -> tuple[Any, Any]:
@@ -212,10 +240,43 @@ class LifecycleNodes:
             made = self._clients.get(node)
             if made is None:
                 made = self._clients[node] = (
-                    graph.node.create_client(ChangeState, f"{node}/change_state", callback_group=graph.clients),
-                    graph.node.create_client(GetState, f"{node}/get_state", callback_group=graph.clients),
+                    graph.node.create_client(ChangeState, f"{node}/change_state"),
+                    graph.node.create_client(GetState, f"{node}/get_state"),
                 )
             return made
+
+    def clean_up(self, instance: LifecycleFeature) -> None:
+        """Send `instance`'s node back to unconfigured without waiting for its answer: the
+        feature has already left, nothing waits on it. The next use of the node waits for it
+        (`settle`), and a failure goes into the run's log."""
+        from lifecycle_msgs.msg import Transition
+        from lifecycle_msgs.srv import ChangeState
+
+        change, _ = self.clients(instance.node)
+        future = change.call_async(ChangeState.Request(transition=Transition(id=Transition.TRANSITION_CLEANUP)))
+        done = threading.Event()
+
+        def answered(_: Any) -> None:
+            answer = future.result() if not future.cancelled() else None
+            if answer is not None and answer.success:
+                instance.state_id, instance.state = GOALS[Transition.TRANSITION_CLEANUP]
+            else:
+                instance.context.log(f"node {instance.node} did not clean up (it stays inactive)")
+            done.set()
+
+        future.add_done_callback(answered)
+        with self._lock:
+            self._cleanups[instance.node] = (done, instance.timeout)
+
+    def settle(self, node: str | None = None) -> None:
+        """Wait for the clean-up of `node` (None: of every node) sent by `clean_up`."""
+        with self._lock:
+            pending = [(n, c) for n, c in self._cleanups.items() if node is None or n == node]
+        for name, (done, timeout) in pending:
+            done.wait(timeout)
+            with self._lock:
+                if self._cleanups.get(name, (None,))[0] is done:
+                    del self._cleanups[name]
 
     def create(self, plugin: Plugin, context: PluginContext, fresh: bool = False) -> LifecycleFeature:
         return LifecycleFeature(self, plugin, context, fresh)
@@ -224,6 +285,7 @@ class LifecycleNodes:
         instance.stop()
 
     def close(self) -> None:
+        self.settle()  # every node that left is unconfigured before the run ends
         with self._lock:
             graph, self.graph = self.graph, None
         if graph is not None:
@@ -270,6 +332,7 @@ class LifecycleFeature:
         self._probe: tuple[Any, float] | None = None
         self._seen = False  # listed on the graph since it was activated
         self._released = False
+        self._configuring: tuple[Any, threading.Event] | None = None  # start's configure, in flight
 
     # ------------------------------------------------------------ transitions
     def _get_state(self) -> int:
@@ -300,8 +363,9 @@ class LifecycleFeature:
         self.state_id, self.state = GOALS[transition]
 
     def start(self) -> None:
-        """Prepare, off the loop: the node is there, and configured (inactive or active)."""
-        from lifecycle_msgs.msg import State, Transition
+        """Prepare, off the loop: the node is there, and asked to configure."""
+        from lifecycle_msgs.msg import Transition
+        from lifecycle_msgs.srv import ChangeState
 
         if not self._change.wait_for_service(timeout_sec=self.timeout) or not self._get.wait_for_service(
             timeout_sec=self.timeout
@@ -309,19 +373,41 @@ class LifecycleFeature:
             raise RuntimeError(
                 f"node {self.node} is not on the ROS graph: no {self.node}/change_state within {self.timeout:g} s"
             )
+        self.nodes.settle(self.node)  # a clean-up of this node still under way
         if self.restart:  # active: its instance deactivates it at the switch, this one reconfigures it
             self._get_state()
             return
-        try:  # nodes wait unconfigured: configure at once, and ask the state only if that fails
-            self._transition(Transition.TRANSITION_CONFIGURE, "configure")
+        # Nodes wait unconfigured: configure at once, and ask the state only if that fails. The
+        # answer is waited for at the switch, so that it comes while the nodes that leave are
+        # being deactivated (one round trip less on a swap's way).
+        request = ChangeState.Request(transition=Transition(id=Transition.TRANSITION_CONFIGURE))
+        self._configuring = self.graph.send(self._change, request)
+
+    def _configured(self) -> None:
+        """Wait for the configure that `start` sent; RuntimeError if the node is not configured."""
+        from lifecycle_msgs.msg import State, Transition
+
+        if self._configuring is None:
+            return
+        sent, self._configuring = self._configuring, None
+        answer = self.graph.answer(self._change, sent, self.timeout)
+        if answer is None:
+            raise RuntimeError(f"node {self.node} did not configure within {self.timeout:g} s")
+        if answer.success:
+            self.state_id, self.state = GOALS[Transition.TRANSITION_CONFIGURE]
+            return
+        try:
+            self._get_state()
         except RuntimeError:
-            if self.state_id not in (State.PRIMARY_STATE_INACTIVE, State.PRIMARY_STATE_ACTIVE):
-                raise
+            raise RuntimeError(f"node {self.node} failed to configure: its state is unknown") from None
+        if self.state_id not in (State.PRIMARY_STATE_INACTIVE, State.PRIMARY_STATE_ACTIVE):
+            raise RuntimeError(f"node {self.node} failed to configure: it is {self.state}")
 
     def activate(self) -> None:
         """At the commit: inactive -> active (a reload cleans up and configures first)."""
         from lifecycle_msgs.msg import State, Transition
 
+        self._configured()
         if self.restart:
             state = self._get_state()  # the instance it replaces has just deactivated it
             if state == State.PRIMARY_STATE_INACTIVE:
@@ -343,6 +429,7 @@ class LifecycleFeature:
         from lifecycle_msgs.msg import State, Transition
 
         self.watched = False
+        self._settle_configure()
         if self.lost is None and self.state_id == State.PRIMARY_STATE_ACTIVE:
             self._transition(Transition.TRANSITION_DEACTIVATE, "deactivate")
 
@@ -354,6 +441,7 @@ class LifecycleFeature:
             return
         self._released = True
         self.watched = False
+        self._settle_configure()
         owner = self.nodes.owners.get(self.node)
         try:
             if owner is not None and owner is not self:
@@ -364,9 +452,16 @@ class LifecycleFeature:
             if self.state_id == State.PRIMARY_STATE_ACTIVE:
                 self._transition(Transition.TRANSITION_DEACTIVATE, "deactivate")
             if self.state_id == State.PRIMARY_STATE_INACTIVE:
-                self._transition(Transition.TRANSITION_CLEANUP, "clean up")
+                self.nodes.clean_up(self)
         finally:
             self._probe = None
+
+    def _settle_configure(self) -> None:
+        """A configure still under way has ended (the state is then known, or left unknown)."""
+        try:
+            self._configured()
+        except RuntimeError:
+            pass
 
     # --------------------------------------------------------------- the loop
     def step(self, time: float) -> None:

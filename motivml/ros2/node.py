@@ -126,7 +126,7 @@ class FrontDoor:
             self._guard = self.node.create_guard_condition(self._catch_up)
             self._timer = self.node.create_timer(DIAGNOSTICS_PERIOD, self._publish_diagnostics)
             self.binder.watchers.append(self._heard)
-            self.graph.executor.add_node(self.node)
+            self.graph.spin(self.node)
             self._publish_active("start")
         except BaseException:
             release_graph(self.graph)
@@ -314,12 +314,11 @@ class FrontDoor:
         self._closed = True
         if self._heard in self.binder.watchers:
             self.binder.watchers.remove(self._heard)
-        self.graph.executor.remove_node(self.node)
-        self.node.destroy_node()
+        self.graph.forget(self.node)
         release_graph(self.graph)
 
 
 def start(robot: Robot, ns: str) -> FrontDoor:
-    """The robot's `motivml` node, running on its namespace's executor thread."""
+    """The robot's `motivml` node, spinning on a thread of its own."""
     return FrontDoor(robot, ns)
 
