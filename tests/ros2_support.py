@@ -5,20 +5,22 @@ they are skipped, saying so; `make test` runs them again in `.venv-ros` with
 MOTIVML_REQUIRE_ROS2=1, where a missing rclpy fails them instead of skipping them.
 
 Traffic stays on this machine: discovery is limited to localhost, and each test takes a
-ROS_DOMAIN_ID of its own (`domain()`), so that two tests, or a test and a developer's own
-ROS graph, never see each other's nodes.
+ROS_DOMAIN_ID of its own (`domain()`, locked against every other test process), so that two
+tests, or two test runs at once, never see each other's nodes.
 """
 
 from __future__ import annotations
 
+import fcntl
 import importlib.util
-import itertools
 import os
 import subprocess
 import sys
+import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import IO
 
 import pytest
 
@@ -36,19 +38,30 @@ ROS2 = [
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # never beyond this machine
 os.environ.pop("ROS_STATIC_PEERS", None)
 
-# Domain ids 0..101 are safe on Linux; start from the process id so that two test runs at
-# once (a developer's and CI's) are unlikely to share one, and never reuse one in a run.
-_domains = itertools.count()
-_FIRST = 1 + os.getpid() % 50
+# Domain ids 1..101 are safe on Linux. A domain is taken with an exclusive lock on a file of
+# its own, held until this process ends, so that two test runs at once (a developer's and
+# CI's, or two of pytest's) never share one; none is reused within a run.
+_held: list[IO[str]] = []
+_START = os.getpid() % 101
 
 
 def domain() -> int:
-    """A ROS_DOMAIN_ID not used before in this test run."""
-    value = _FIRST + next(_domains)
-    if value > 101:
-        raise RuntimeError("more ROS 2 tests than domain ids in one run")
-    os.environ["ROS_DOMAIN_ID"] = str(value)
-    return value
+    """A ROS_DOMAIN_ID no other process of ours holds, and not used before in this run."""
+    taken = {int(h.name.rsplit("-", 1)[1].split(".")[0]) for h in _held}
+    for step in range(101):
+        value = 1 + (_START + step) % 101
+        if value in taken:
+            continue
+        handle = open(Path(tempfile.gettempdir()) / f"motivml-ros-domain-{value}.lock", "w")  # noqa: SIM115
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            handle.close()
+            continue
+        _held.append(handle)
+        os.environ["ROS_DOMAIN_ID"] = str(value)
+        return value
+    raise RuntimeError("no free ROS domain id left for this test run")
 
 
 def environment(domain_id: int) -> dict[str, str]:

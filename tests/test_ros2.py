@@ -437,3 +437,30 @@ def test_run_ros2_from_the_command_line(tmp_path: Path) -> None:
     assert run.returncode == 0, output
     assert "ROS 2: node /cli/motivml (features.<id>.active parameters)" in output
     assert "set +thermal -camera" in output and "Traceback" not in output
+
+
+def test_the_node_answers_on_whatever_goes_wrong_inside(
+    ward: Callable[..., Running], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A failure inside the node answers the call that met it, and the node spins on."""
+    robot = ward()
+    binder = robot.session.robot.binder
+
+    def broken(*args: Any, **kwargs: Any) -> Any:
+        raise RuntimeError("the binder broke")
+
+    monkeypatch.setattr(binder, "request", broken)
+    [result] = robot.client.set(camera=False, thermal=True)
+    assert not result.successful
+    assert result.reason.startswith("motivml could not handle the call: RuntimeError: the binder broke")
+    raised = threading.Event()
+
+    def diagnostics() -> None:  # a timer callback that raises ends rclpy's spin, unless caught
+        raised.set()
+        raise ValueError("a broken report")
+
+    robot.door._timer.callback = diagnostics
+    assert raised.wait(10)
+    monkeypatch.undo()
+    [again] = robot.client.set(camera=False, thermal=True)
+    assert again.successful, again.reason

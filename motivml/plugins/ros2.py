@@ -40,7 +40,7 @@ import time
 from typing import Any
 
 from ..documents.robot_folder import Plugin
-from ..errors import Diagnostic, EnvironmentProblem, Location, error
+from ..errors import Diagnostic, EnvironmentProblem, Location, describe_exception, error
 from .api import PluginContext
 
 DEFAULT_TIMEOUT = 5.0  # s: waiting for a node's services, and for each transition
@@ -120,10 +120,18 @@ class Graph:
         executor.add_node(node)
 
         def spin() -> None:
-            try:
-                executor.spin()
-            except BaseException:  # the context shut down under it: the graph is closing
-                pass
+            # A callback that raises ends rclpy's spin: log it and spin on, so that one bad
+            # message never silences the node. The context shutting down ends it for good.
+            while self.context.ok():
+                try:
+                    executor.spin()
+                    return
+                except Exception as exc:
+                    if not self.context.ok():
+                        return
+                    node.get_logger().error(f"a callback raised {describe_exception(exc)}; spinning on")
+                except BaseException:  # (rclpy's shutdown exceptions, a KeyboardInterrupt)
+                    return
 
         thread = threading.Thread(target=spin, daemon=True, name=f"motivml-ros2-{node.get_name()}")
         thread.start()

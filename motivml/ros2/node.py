@@ -33,6 +33,7 @@ import json
 import queue
 from typing import Any
 
+from ..errors import describe_exception
 from ..plugins.ros2 import Graph, import_rclpy, open_graph, release_graph
 from ..runtime.binder import Outcome
 from ..runtime.launch import Robot
@@ -144,7 +145,19 @@ class FrontDoor:
         )
 
     def set_call(self, messages: list[Any]) -> Any | None:
-        """One set_parameters(_atomically) call: its result, or None when it names no feature."""
+        """One set_parameters(_atomically) call: its result, or None when it names no feature.
+
+        Whatever goes wrong inside answers the call (successful: false), never the executor."""
+        from rcl_interfaces.msg import SetParametersResult
+
+        try:
+            return self._set_call(messages)
+        except Exception as exc:
+            reason = f"motivml could not handle the call: {describe_exception(exc)}"
+            self.log.error(reason)
+            return SetParametersResult(successful=False, reason=reason)
+
+    def _set_call(self, messages: list[Any]) -> Any | None:
         from rcl_interfaces.msg import ParameterType, SetParametersResult
 
         names = [m.name for m in messages]
