@@ -32,7 +32,7 @@ from collections.abc import Callable
 from typing import Any
 
 NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-NAMESPACE = re.compile(r"^(/[A-Za-z_][A-Za-z0-9_]*)*/?$")
+NAMESPACE = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*)?$")  # without its slashes
 VALUES = {"true": True, "false": False}
 
 
@@ -62,8 +62,10 @@ def parse(argv: list[str]) -> tuple[str, dict[str, bool], float, bool]:
     parser.add_argument("--parameters", action="store_true", help="print the features.<id>.active parameters")
     parser.add_argument("assignments", nargs="*", metavar="FEATURE=true|false")
     args = parser.parse_args(argv)  # exits 2 with argparse's message on its own mistakes
-    if not NAMESPACE.match(args.namespace):
-        raise Usage(f"{args.namespace!r} is not a ROS namespace (like /uv)")
+    if not NAMESPACE.match(args.namespace.strip("/")):
+        raise Usage(
+            f"{args.namespace!r} is not a ROS namespace: names of letters, digits and _ joined by / (like /uv)"
+        )
     if args.timeout <= 0:
         raise Usage("--timeout is a number of seconds above 0")
     if args.parameters and args.assignments:
