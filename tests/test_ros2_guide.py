@@ -17,6 +17,7 @@ import sys
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 from ros2_support import ROOT, ROS2, domain, environment, processes, python_process
 
@@ -119,7 +120,7 @@ def wait_for_nodes(domain_id: int, names: tuple[str, ...]) -> None:
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     try:
-        clients = [node.create_client(GetState, f"/uv/{name}/get_state") for name in names]
+        clients: list[Any] = [node.create_client(GetState, f"/uv/{name}/get_state") for name in names]
         deadline = time.monotonic() + DEADLINE
         while not all(c.service_is_ready() for c in clients):
             assert time.monotonic() < deadline, "the UV nodes did not come up"

@@ -123,7 +123,7 @@ class Client:
         """One call of a service of the motivml node: wait for the service at most `timeout`
         seconds, and for its answer at most `answer` seconds (default: `timeout`)."""
         name = f"{self.robot}/{service}"
-        client = self.node.create_client(kind, name)
+        client: Any = self.node.create_client(kind, name)
         if not self.wait(client.service_is_ready, timeout):
             raise NotThere(name, timeout)
         future = client.call_async(request)
