@@ -101,7 +101,7 @@ class Client:
         )
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self.changing = False  # a change was sent: Ctrl-C cannot take it back
+        self.sent = False  # a request is on its way: Ctrl-C cannot take it back
 
     def close(self) -> None:
         self.executor.shutdown()
@@ -127,6 +127,7 @@ class Client:
         if not self.wait(client.service_is_ready, timeout):
             raise NotThere(name, timeout)
         future = client.call_async(request)
+        self.sent = True
         if not self.wait(future.done, answer or timeout):
             raise NotThere(name, answer or timeout)
         return future.result()
@@ -145,7 +146,6 @@ class Client:
                 for feature, value in wanted.items()
             ]
         )
-        self.changing = True
         # The robot answers once the change is committed or refused; lifecycle nodes that
         # configure and activate on the way take their time, so allow more than discovery.
         return self.call(
@@ -214,7 +214,11 @@ def main(argv: list[str]) -> int:
         )
         return 3
     except KeyboardInterrupt:
-        maybe = ": the change may still be committed (check with no FEATURE=VALUE)" if client.changing else ""
+        maybe = (
+            ": the change may still be committed (check with no FEATURE=VALUE)"
+            if wanted and client.sent
+            else ""
+        )
         print(f"interrupted{maybe}", file=sys.stderr)
         return 130
     finally:
