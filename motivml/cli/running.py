@@ -130,12 +130,17 @@ def run_command(
     With --ros2 the run is also a ROS 2 node (guidelines/running-with-ros2.md): its features
     are parameters that any ROS 2 client may set, every change checked against the model.
     """
-    from ..plugins.ros2 import namespace
+    from ..plugins.ros2 import import_rclpy, namespace
 
     try:
         ros_namespace = namespace(ros_namespace)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--ros-namespace") from None
+    if ros2:
+        try:
+            import_rclpy()  # before anything starts: say at once that ROS 2 is missing
+        except MotivmlError as exc:
+            fail(exc)
     plan: list[tuple[float, Request]] = []
     for at, text in scheduled:
         action, *features = text.split() or [""]

@@ -55,6 +55,12 @@ class PluginContext:
         self._log(message)
 
 
+class FeatureUnavailable(Exception):  # noqa: N818 (what it says, not how it failed)
+    """Raised by a plugin kind's own code (never a plugin's) when what implements a feature
+    cannot be had or moved: a ROS 2 node that is not there, or refuses a transition. Its
+    message is shown as it is, without the Python type a plugin's exception is shown with."""
+
+
 class FeaturePlugin:
     """Base class of Python feature plugins: every method is optional."""
 

@@ -41,7 +41,7 @@ from typing import Any
 
 from ..documents.robot_folder import Plugin
 from ..errors import Diagnostic, EnvironmentProblem, Location, describe_exception, error
-from .api import PluginContext
+from .api import FeatureUnavailable, PluginContext
 
 DEFAULT_TIMEOUT = 5.0  # s: waiting for a node's services, and for each transition
 WATCH_PERIOD = 0.2  # s between two questions to a watched node
@@ -253,6 +253,17 @@ class LifecycleNodes:
                 )
             return made
 
+    def renew(self, node: str) -> None:
+        """Forget the node's clients after it failed to answer: if it comes back (a new
+        process of the same name), fresh clients find it, where old ones may wait for the
+        dead one's answers."""
+        with self._lock:
+            made = self._clients.pop(node, None)
+        graph = self.graph
+        if made is not None and graph is not None:
+            for client in made:
+                graph.node.destroy_client(client)
+
     def clean_up(self, instance: LifecycleFeature) -> None:
         """Send `instance`'s node back to unconfigured without waiting for its answer: the
         feature has already left, nothing waits on it. The next use of the node waits for it
@@ -348,7 +359,8 @@ class LifecycleFeature:
 
         answer = self.graph.call(self._get, GetState.Request(), self.timeout)
         if answer is None:
-            raise RuntimeError(f"node {self.node} did not answer get_state within {self.timeout:g} s")
+            self.nodes.renew(self.node)
+            raise FeatureUnavailable(f"node {self.node} did not answer get_state within {self.timeout:g} s")
         self.state_id, self.state = answer.current_state.id, answer.current_state.label
         return int(self.state_id)
 
@@ -360,14 +372,15 @@ class LifecycleFeature:
         request = ChangeState.Request(transition=Transition(id=transition))
         answer = self.graph.call(self._change, request, self.timeout)
         if answer is None:
-            raise RuntimeError(f"node {self.node} did not {verb} within {self.timeout:g} s")
+            self.nodes.renew(self.node)
+            raise FeatureUnavailable(f"node {self.node} did not {verb} within {self.timeout:g} s")
         if not answer.success:
             try:
                 self._get_state()
                 state = f"it is {self.state}"
-            except RuntimeError:
+            except FeatureUnavailable:
                 state = "its state is unknown"
-            raise RuntimeError(f"node {self.node} failed to {verb}: {state}")
+            raise FeatureUnavailable(f"node {self.node} failed to {verb}: {state}")
         self.state_id, self.state = GOALS[transition]
 
     def start(self) -> None:
@@ -378,7 +391,7 @@ class LifecycleFeature:
         if not self._change.wait_for_service(timeout_sec=self.timeout) or not self._get.wait_for_service(
             timeout_sec=self.timeout
         ):
-            raise RuntimeError(
+            raise FeatureUnavailable(
                 f"node {self.node} is not on the ROS graph: no {self.node}/change_state within {self.timeout:g} s"
             )
         self.nodes.settle(self.node)  # a clean-up of this node still under way
@@ -400,16 +413,17 @@ class LifecycleFeature:
         sent, self._configuring = self._configuring, None
         answer = self.graph.answer(self._change, sent, self.timeout)
         if answer is None:
-            raise RuntimeError(f"node {self.node} did not configure within {self.timeout:g} s")
+            self.nodes.renew(self.node)
+            raise FeatureUnavailable(f"node {self.node} did not configure within {self.timeout:g} s")
         if answer.success:
             self.state_id, self.state = GOALS[Transition.TRANSITION_CONFIGURE]
             return
         try:
             self._get_state()
-        except RuntimeError:
-            raise RuntimeError(f"node {self.node} failed to configure: its state is unknown") from None
+        except FeatureUnavailable:
+            raise FeatureUnavailable(f"node {self.node} failed to configure: its state is unknown") from None
         if self.state_id not in (State.PRIMARY_STATE_INACTIVE, State.PRIMARY_STATE_ACTIVE):
-            raise RuntimeError(f"node {self.node} failed to configure: it is {self.state}")
+            raise FeatureUnavailable(f"node {self.node} failed to configure: it is {self.state}")
 
     def activate(self) -> None:
         """At the commit: inactive -> active (a reload cleans up and configures first)."""
@@ -468,13 +482,13 @@ class LifecycleFeature:
         """A configure still under way has ended (the state is then known, or left unknown)."""
         try:
             self._configured()
-        except RuntimeError:
+        except FeatureUnavailable:
             pass
 
     # --------------------------------------------------------------- the loop
     def step(self, time: float) -> None:
         if self.lost is not None:
-            raise RuntimeError(self.lost)
+            raise FeatureUnavailable(self.lost)
 
     def status(self) -> str:
         return f"{self.node}: {'lost' if self.lost else self.state}"
@@ -489,6 +503,7 @@ class LifecycleFeature:
             self._seen = True
         elif self._seen:  # (discovery may list a node a little after its services)
             self.lost = f"node {self.node} left the ROS graph"
+            self.nodes.renew(self.node)
             return
         now = time.monotonic()
         if self._probe is None:
@@ -505,3 +520,4 @@ class LifecycleFeature:
             self._get.remove_pending_request(future)
             self._probe = None
             self.lost = f"node {self.node} stopped answering (no state within {WATCH_DEADLINE:g} s): it died or hung"
+            self.nodes.renew(self.node)

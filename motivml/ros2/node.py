@@ -18,8 +18,8 @@
   subscriber gets the current set) at start and after every commit, whoever asked for it
   (`ctl`, a fault's unload, this node);
 * every accepted and refused change in the node's log (rosout);
-* the loop's health on `/diagnostics` once a second: rate, missed deadlines, faults, and one
-  status per selected feature.
+* the loop's health on `/diagnostics` once a second: rate, missed deadlines (WARN when more
+  than 1% of the last second's were missed), faults, and one status per selected feature.
 
 Everything that changes the node's parameters runs in one mutually exclusive callback group
 (the parameter services and the binder's news), so the parameters always follow the active
@@ -40,6 +40,7 @@ from ..runtime.launch import Robot
 from ..runtime.requests import Request
 
 DIAGNOSTICS_PERIOD = 1.0  # s
+MISSED_WARNING = 0.01  # the loop's status is WARN when more than this share of its deadlines were missed
 PREFIX = "features."
 SUFFIX = ".active"
 
@@ -65,7 +66,8 @@ class FrontDoor:
         self.runtime = robot.runtime
         self.timeout = timeout
         model = robot.variant.model
-        self.selected = [d for d in robot.variant.decisions if d.selected]
+        # every selected feature but the root (always there, nothing to switch)
+        self.selected = [d for d in robot.variant.decisions if d.selected and d.feature.parent is not None]
         self.features = {parameter_name(d.feature.id): d.feature.id for d in self.selected}
         self.compiled_in = {d.feature.id for d in self.selected if d.binding.static and d.binding.early}
         self.order = model.index
@@ -168,7 +170,6 @@ class FrontDoor:
             self.log.warning(f"refused {', '.join(names)}: {reason}")
             return SetParametersResult(successful=False, reason=reason)
 
-        loads, unloads = [], []
         others = [n for n in names if n not in self.features]
         if others:
             unknown = [n for n in others if n.startswith(PREFIX)]
@@ -180,23 +181,25 @@ class FrontDoor:
             return refuse(f"a call that changes features.* changes nothing else ({', '.join(others)})")
         active = self.binder.active
         for message in messages:
-            feature = self.features[message.name]
             if message.value.type != ParameterType.PARAMETER_BOOL:
                 return refuse(f"{message.name} takes true or false")
-            wanted = bool(message.value.bool_value)
-            if feature in self.compiled_in and not wanted:
+        wanted = {self.features[m.name]: bool(m.value.bool_value) for m in messages}
+        loads = [f for f, on in wanted.items() if on and f not in active]
+        unloads = [f for f, on in wanted.items() if not on and f in active]
+        request = Request.set(loads, unloads)
+        for feature in unloads:
+            if feature in self.compiled_in:  # read-only: refused here, in the words the binder would use
                 binding = next(d.binding for d in self.selected if d.feature.id == feature)
-                return refuse(
+                reason = (
                     f"{feature} is bound {binding.words}: a Static feature never unloads; it is compiled in "
-                    f"(section 4; {message.name} is read-only)"
+                    f"(section 4; {parameter_name(feature)} is read-only)"
                 )
-            if wanted and feature not in active:
-                loads.append(feature)
-            elif not wanted and feature in active:
-                unloads.append(feature)
+                self.runtime.note(f"refused {request}: {reason}")
+                self.log.warning(f"refused {request}: {reason}")
+                return SetParametersResult(successful=False, reason=reason)
         if not loads and not unloads:
             return SetParametersResult(successful=True)  # every value as it is: nothing to change
-        outcome = self.binder.request(Request.set(loads, unloads), timeout=self.timeout)
+        outcome = self.binder.request(request, timeout=self.timeout)
         if not outcome.accepted:
             return SetParametersResult(successful=False, reason=outcome.reason)
         self._catch_up()
@@ -272,8 +275,10 @@ class FrontDoor:
         level, message = DiagnosticStatus.OK, "running"
         if runtime.failure is not None:
             level, message = DiagnosticStatus.ERROR, f"stopped by the fault of {runtime.failure.feature}"
-        elif missed_now:
+        elif missed_now > MISSED_WARNING * runtime.rate * DIAGNOSTICS_PERIOD:
             level, message = DiagnosticStatus.WARN, f"{missed_now} deadlines missed in the last second"
+        elif missed_now:
+            message = f"running ({missed_now} deadlines missed in the last second)"
         loop = DiagnosticStatus(
             level=level,
             name=f"motivml: {robot} loop",

@@ -37,7 +37,7 @@ from ..binding.resolve import Variant
 from ..documents.robot_folder import Plugin
 from ..errors import Diagnostic, Location, MotivmlError, Severity, describe_exception, error
 from ..language.model import Configuration, FeatureModel
-from ..plugins.api import PluginContext
+from ..plugins.api import FeatureUnavailable, PluginContext
 from ..plugins.python import PluginError, plugin_error
 from ..plugins.registry import loaders
 from .loop import AppliedReconfiguration, Commit, Fault, Running, Runtime
@@ -94,7 +94,11 @@ class Binder:
         )
         self.strict = strict
         self.reconfigurer = Reconfigurer(variant, config)
-        self.loaders = loaders(robot, plugins, ros_namespace)
+        # Only the variant's plugins are loaded: a robot folder may declare plugins (of kinds
+        # this Python cannot load, say) for features other variants select.
+        selected = {d.feature.id for d in variant.decisions if d.selected}
+        self.plugins = {f: p for f, p in plugins.items() if f in selected}
+        self.loaders = loaders(robot, self.plugins, ros_namespace)
         self.static = {d.feature.id: d.binding.static for d in variant.decisions}
         self._lock = threading.Lock()
         self.between_ticks = False  # simulated clock: changes are made on the control thread
@@ -109,6 +113,7 @@ class Binder:
         # Told of every outcome, accepted or refused, on the requesting thread with the binder
         # held: a front door (the ROS 2 node) queues it and returns at once.
         self.watchers: list[Callable[[Outcome], None]] = []
+        self._trying = threading.local()  # .now: this thread is trying a fault's unloads
         runtime.on_fault = self._on_fault
 
     # ---------------------------------------------------------------- plugins
@@ -157,6 +162,8 @@ class Binder:
                 self.runtime.note(
                     f"stop() of plugin {feature} raised {describe_exception(problem, plugin.folder)}"
                 )
+            if isinstance(exc, FeatureUnavailable):  # the kind's own words (a node not there, say)
+                raise plugin_error(plugin, _entry_key(plugin), f"cannot start {feature}: {exc}") from None
             raise plugin_error(
                 plugin,
                 "class",
@@ -331,15 +338,13 @@ class Binder:
             try:
                 getattr(running.instance, move)()
             except BaseException as exc:  # a node's failure, or plugin code
-                problem = describe_exception(exc, self.plugins[running.feature].folder)
-                undone = self._unswitch(moved_out, moved_in)
                 plugin = self.plugins[running.feature]
+                problem = str(exc) if isinstance(exc, FeatureUnavailable) else describe_exception(exc, plugin.folder)
+                undone = self._unswitch(moved_out, moved_in)
                 verb = "stop" if move == "deactivate" else "start"
                 back = f"; moved back: {', '.join(undone)}" if undone else ""
                 raise plugin_error(
-                    plugin,
-                    "node" if plugin.kind == "ros2_lifecycle" else "class",
-                    f"cannot {verb} {running.feature}: {problem}{back}",
+                    plugin, _entry_key(plugin), f"cannot {verb} {running.feature}: {problem}{back}"
                 ) from None
             moved.append(running)
 
@@ -366,7 +371,10 @@ class Binder:
         return [unimplemented_feature(self.variant.model, f, verb, severity) for f in features]
 
     def _refused(self, outcome: Outcome) -> Outcome:
-        """Every refusal goes into the run's log as it happens, with its reason."""
+        """Every refusal goes into the run's log as it happens, with its reason (but a fault's
+        tries at unloading, ancestor by ancestor: what they came to is noted instead)."""
+        if getattr(self._trying, "now", False):
+            return outcome
         self.runtime.note(f"refused {outcome.request}: {outcome.reason}")
         return self._tell(outcome)
 
@@ -456,8 +464,12 @@ class Binder:
         while node is not None:
             feature = model.features[node].id
             if feature in self.active and not self.static[feature]:
-                request = Request("unload", (feature,))
-                outcome = self.request_between_ticks(request) if self.between_ticks else self.request(request)
+                request = Request("unload", (feature,), cause=f"after the fault of {fault.feature}")
+                self._trying.now = True  # a refused try is not news: only the outcome below is
+                try:
+                    outcome = self.request_between_ticks(request) if self.between_ticks else self.request(request)
+                finally:
+                    self._trying.now = False
                 if outcome.accepted:
                     self.runtime.note(f"unloaded {feature} after the fault of {fault.feature}")
                     return
@@ -497,6 +509,11 @@ class Binder:
         self.reconfigurer.close()
         for loader in self.loaders.values():
             loader.close()
+
+
+def _entry_key(plugin: Plugin) -> str:
+    """Where a manifest names what failed: its class, or (a ROS 2 node) the node."""
+    return "class" if "class" in plugin.entry else "node" if "node" in plugin.entry else ""
 
 
 def unimplemented_feature(model: FeatureModel, feature: str, verb: str, severity: Severity) -> Diagnostic:

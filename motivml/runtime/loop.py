@@ -34,6 +34,7 @@ import numpy as np
 
 from ..architecture.builder import Assembly
 from ..errors import describe_exception
+from ..plugins.api import FeatureUnavailable
 
 
 @dataclass
@@ -325,9 +326,8 @@ class Runtime:
 
     def _fault(self, running: Running, exc: BaseException) -> None:
         running.faulted = True
-        fault = Fault(
-            self.ticks, self.time, running.feature, describe_exception(exc, running.folder), running.static
-        )
+        said = str(exc) if isinstance(exc, FeatureUnavailable) else describe_exception(exc, running.folder)
+        fault = Fault(self.ticks, self.time, running.feature, said, running.static)
         self.faults.append(fault)
         self.note(f"{running.feature} raised in step: {fault.error}")
         if running.static:

@@ -129,7 +129,7 @@ class Reconfigurer:
             raise self._refuse(
                 both[0], f"{both[0]} cannot be loaded and unloaded in one request", "reconfigure.usage"
             )
-        request = Request(request.action, features, unloading)
+        request = Request(request.action, features, unloading, request.cause)
         before = frozenset(active)
         if request.action == "reload":
             for feature in request.features:

@@ -13,6 +13,7 @@ class Request:
     action: str  # load | unload | reload | swap | set
     features: tuple[str, ...]  # swap: (the one to unload, the one to load); set: the ones to load
     unloading: tuple[str, ...] = ()  # set: the ones to unload
+    cause: str = ""  # why the run asked it itself (a fault), shown after the request
 
     @staticmethod
     def set(loads: Iterable[str], unloads: Iterable[str]) -> Request:
@@ -22,5 +23,7 @@ class Request:
 
     def __str__(self) -> str:
         if self.action == "set":
-            return " ".join(["set", *(f"+{f}" for f in self.features), *(f"-{f}" for f in self.unloading)])
-        return f"{self.action} {' '.join(self.features)}"
+            text = " ".join(["set", *(f"+{f}" for f in self.features), *(f"-{f}" for f in self.unloading)])
+        else:
+            text = f"{self.action} {' '.join(self.features)}"
+        return f"{text} ({self.cause})" if self.cause else text
