@@ -88,3 +88,15 @@ def test_without_rclpy_run_ros2_says_how_to_install_it(tmp_path: Path) -> None:
     )
     assert result.exit_code == 3, result.output
     assert "ROS 2 is not available in this Python" in result.output and "make ros2" in result.output
+
+
+def test_a_variant_without_ros_features_runs_without_rclpy(tmp_path: Path) -> None:
+    """Only the plugins of the variant's selected features are loaded: a lifecycle node's
+    manifest in the robot folder asks nothing of a variant that does not select its feature."""
+    robot = _robot(tmp_path)
+    (robot / "variants" / "v.json").write_text(json.dumps({"properties": [{"id": "lamp", "selected": False}]}))
+    (robot / "architecture.json").write_text(json.dumps({"spaces": [], "modules": [], "components": []}))
+    result = CliRunner().invoke(
+        main, ["run", str(robot), "--variant", "v", "--duration", "0.01", "--clock", "simulated", "--no-control"]
+    )
+    assert result.exit_code == 0, result.output
