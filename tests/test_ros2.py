@@ -356,10 +356,12 @@ def test_a_late_subscriber_gets_the_current_active_set(ward: Callable[..., Runni
 
     robot = ward()
     client = robot.client
+    early = client.subscribe(String, "/motivml/active_features", latched=True)
     [result] = client.set(camera=False, thermal=True)
     assert result.successful
+    until(lambda: any("set +thermal" in m.data for m in early), what="the change published")
     late = client.subscribe(String, "/motivml/active_features", latched=True)
-    message = json.loads(until(lambda: late and late[-1], what="the active set").data)
+    message = json.loads(until(lambda: late and late[0], what="the active set").data)  # its first
     assert message["active"] == ["bot", "detection", "thermal", "lamp", "dose"]
     assert message["request"] == "set +thermal -camera"
 

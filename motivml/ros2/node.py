@@ -202,7 +202,7 @@ class FrontDoor:
         outcome = self.binder.request(request, timeout=self.timeout)
         if not outcome.accepted:
             return SetParametersResult(successful=False, reason=outcome.reason)
-        self._catch_up()
+        self._align_parameters()  # before the answer; the log and the topic follow it (_catch_up)
         return SetParametersResult(successful=True)
 
     # ---------------------------------------------------------- the binder's news
@@ -231,6 +231,12 @@ class FrontDoor:
                 self.log.info(f"accepted {outcome.request}: {moved}")
             else:
                 self.log.warning(f"refused {outcome.request}: {outcome.reason}")
+        self._align_parameters()
+        if self.binder.active != self._published:
+            self._publish_active("change")
+
+    def _align_parameters(self) -> None:
+        """Every features.<id>.active equal to the active set, in one parameter event."""
         from rclpy.parameter import Parameter
 
         active = self.binder.active
@@ -245,8 +251,6 @@ class FrontDoor:
                 self.node.set_parameters_atomically(stale)
             finally:
                 self._internal = False
-        if active != self._published:
-            self._publish_active("change")
 
     def _publish_active(self, why: str) -> None:
         active = self.binder.active
