@@ -66,7 +66,7 @@ STATIC_LAMP = {
 PLUGINS = {"camera": "person_detection", "thermal": "thermal_detection", "lamp": "lamp", "dose": "dosimeter"}
 
 
-def write_robot(folder: Path) -> Path:
+def write_robot(folder: Path, timeout: float = 5) -> Path:
     (folder / "variants").mkdir(parents=True)
     (folder / "model.json").write_text(json.dumps(MODEL, indent=1))
     (folder / "variants" / "ward.json").write_text(json.dumps(VARIANT, indent=1))
@@ -74,7 +74,7 @@ def write_robot(folder: Path) -> Path:
     (folder / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
     for feature_id, node in PLUGINS.items():
         (folder / "plugins" / feature_id).mkdir(parents=True)
-        manifest = {"feature": feature_id, "kind": "ros2_lifecycle", "entry": {"node": node, "timeout": 5}}
+        manifest = {"feature": feature_id, "kind": "ros2_lifecycle", "entry": {"node": node, "timeout": timeout}}
         (folder / "plugins" / feature_id / "plugin.json").write_text(json.dumps(manifest))
     return folder
 
@@ -184,9 +184,13 @@ class Running:
         return frozenset(self.session.robot.binder.active)
 
 
-def start_nodes(started: list[Any], domain_id: int, ns: str, fail: dict[str, str] | None = None) -> dict[str, Any]:
+def start_nodes(
+    started: list[Any], domain_id: int, ns: str, fail: dict[str, str] | None = None, skip: tuple[str, ...] = ()
+) -> dict[str, Any]:
     nodes = {}
     for node in PLUGINS.values():
+        if node in skip:
+            continue
         args = [str(NODES), node, "--ros-args", "-r", f"__ns:={ns}"]
         if fail and node in fail:
             args += ["-p", f"fail_on:={fail[node]}"]
@@ -466,3 +470,50 @@ def test_the_node_answers_on_whatever_goes_wrong_inside(
     monkeypatch.undo()
     [again] = robot.client.set(camera=False, thermal=True)
     assert again.successful, again.reason
+
+
+def test_a_node_that_fails_to_configure_refuses_the_request(ward: Callable[..., Running]) -> None:
+    robot = ward(fail={"thermal_detection": "configure"})
+    [result] = robot.client.set(camera=False, thermal=True)
+    assert not result.successful
+    assert "node /thermal_detection failed to configure: it is unconfigured" in result.reason, result.reason
+    assert "moved back: camera activated" in result.reason
+    assert robot.client.state("person_detection") == "active"
+    assert robot.client.parameters("camera", "thermal") == {"camera": True, "thermal": False}
+
+
+def test_a_node_moved_by_someone_else_is_a_fault_of_its_feature(ward: Callable[..., Running]) -> None:
+    """A lifecycle manager (or `ros2 lifecycle set`) deactivating a node behind the robot's
+    back leaves the feature without its implementation: handled as a fault."""
+    from lifecycle_msgs.msg import Transition
+    from lifecycle_msgs.srv import ChangeState
+
+    robot = ward()
+    request = ChangeState.Request(transition=Transition(id=Transition.TRANSITION_DEACTIVATE))
+    assert robot.client.call(ChangeState, "/lamp/change_state", request).success
+    until(lambda: "lamp" not in robot.active, timeout=10, what="the lamp's unload")
+    [fault] = robot.session.runtime.faults
+    assert fault.feature == "lamp" and fault.error == "node /lamp left the active state: it is inactive"
+
+
+def test_a_start_state_node_that_is_not_there_stops_the_launch(tmp_path: Path) -> None:
+    from motivml.plugins.python import PluginError
+    from motivml.runtime.launch import launch
+
+    domain_id = domain()
+    robot = write_robot(tmp_path / "ward", timeout=1)
+    with processes(domain_id) as started:
+        nodes = start_nodes(started, domain_id, "/", skip=("lamp",))
+        client = Client(domain_id)
+        try:
+            for node in nodes:
+                until(lambda node=node: client.state(node), what=f"node {node}")
+            with pytest.raises(PluginError) as refused:
+                launch(robot, "ward", rate=500.0)
+            # the nodes it had configured are unconfigured again: nothing is left half started
+            assert {node: client.state(node) for node in nodes} == dict.fromkeys(nodes, "unconfigured")
+        finally:
+            client.close()
+    [d] = refused.value.diagnostics
+    assert d.message == "cannot start lamp: node /lamp is not on the ROS graph: no /lamp/change_state within 1 s"
+    assert d.location.path == "$.entry.node"
