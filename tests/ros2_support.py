@@ -17,10 +17,12 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 import pytest
 
@@ -102,3 +104,86 @@ def python_process(args: list[str], domain_id: int, **options: object) -> subpro
         cwd=ROOT,
         **options,  # type: ignore[call-overload]
     )
+
+
+class Client:
+    """An rclpy client of the robot's graph, with its own context and executor thread."""
+
+    def __init__(self, domain_id: int, ns: str = "/") -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+
+        self.ns = ns.rstrip("/")
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context, domain_id=domain_id)
+        self.node = rclpy.create_node("test_client", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+        self.clients: dict[str, Any] = {}
+
+    def _spin(self) -> None:
+        try:
+            self.executor.spin()
+        except BaseException:
+            pass
+
+    def call(self, kind: Any, service: str, request: Any, timeout: float = 20.0) -> Any:
+        """One call. A new client's first request may be lost while the server has not yet
+        matched the client (DDS discovery): that one is sent again each second until answered."""
+        client = self.clients.get(service)
+        fresh = client is None
+        if client is None:
+            client = self.clients[service] = self.node.create_client(kind, service)
+            assert client.wait_for_service(timeout_sec=timeout), f"no service {service}"
+        deadline = time.monotonic() + timeout
+        while True:
+            done = threading.Event()
+            future = client.call_async(request)
+            future.add_done_callback(lambda _, done=done: done.set())
+            if done.wait(min(1.0, timeout) if fresh else timeout):
+                return future.result()
+            client.remove_pending_request(future)
+            assert fresh and time.monotonic() < deadline, f"{service} did not answer"
+
+    def set(self, atomically: bool = True, **values: Any) -> list[Any]:
+        """Set features.<id>.active; the results (one for atomically)."""
+        from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+        from rclpy.parameter import Parameter
+
+        messages = [Parameter(f"features.{k}.active", value=v).to_parameter_msg() for k, v in values.items()]
+        kind = SetParametersAtomically if atomically else SetParameters
+        name = "set_parameters_atomically" if atomically else "set_parameters"
+        answer = self.call(kind, f"{self.ns}/motivml/{name}", kind.Request(parameters=messages))
+        return [answer.result] if atomically else list(answer.results)
+
+    def parameters(self, *features: str) -> dict[str, bool]:
+        from rcl_interfaces.srv import GetParameters
+
+        names = [f"features.{f}.active" for f in features]
+        answer = self.call(GetParameters, f"{self.ns}/motivml/get_parameters", GetParameters.Request(names=names))
+        return {f: v.bool_value for f, v in zip(features, answer.values, strict=True)}
+
+    def state(self, node: str) -> str:
+        from lifecycle_msgs.srv import GetState
+
+        answer = self.call(GetState, f"{self.ns}/{node}/get_state", GetState.Request())
+        return str(answer.current_state.label)
+
+    def subscribe(self, kind: Any, topic: str, latched: bool = False) -> list[Any]:
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+        got: list[Any] = []
+        qos: Any = 10
+        if latched:
+            qos = QoSProfile(
+                depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+            )
+        self.node.create_subscription(kind, topic, got.append, qos)
+        return got
+
+    def close(self) -> None:
+        self.executor.shutdown(timeout_sec=2)
+        self.node.destroy_node()
+        self.context.try_shutdown()

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from ros2_support import ROOT, ROS2, domain, processes, python_process
+from ros2_support import ROOT, ROS2, Client, domain, processes, python_process
 
 pytestmark = ROS2
 
@@ -77,83 +77,6 @@ def write_robot(folder: Path, timeout: float = 5) -> Path:
         manifest = {"feature": feature_id, "kind": "ros2_lifecycle", "entry": {"node": node, "timeout": timeout}}
         (folder / "plugins" / feature_id / "plugin.json").write_text(json.dumps(manifest))
     return folder
-
-
-# ---------------------------------------------------------------------- a client
-class Client:
-    """An rclpy client of the robot's graph, with its own context and executor thread."""
-
-    def __init__(self, domain_id: int, ns: str = "/") -> None:
-        import rclpy
-        from rclpy.executors import SingleThreadedExecutor
-
-        self.ns = ns.rstrip("/")
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context, domain_id=domain_id)
-        self.node = rclpy.create_node("test_client", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
-        self.clients: dict[str, Any] = {}
-
-    def _spin(self) -> None:
-        try:
-            self.executor.spin()
-        except BaseException:
-            pass
-
-    def call(self, kind: Any, service: str, request: Any, timeout: float = 20.0) -> Any:
-        client = self.clients.get(service)
-        if client is None:
-            client = self.clients[service] = self.node.create_client(kind, service)
-            assert client.wait_for_service(timeout_sec=timeout), f"no service {service}"
-        done = threading.Event()
-        future = client.call_async(request)
-        future.add_done_callback(lambda _: done.set())
-        assert done.wait(timeout), f"{service} did not answer"
-        return future.result()
-
-    def set(self, atomically: bool = True, **values: Any) -> list[Any]:
-        """Set features.<id>.active; the results (one for atomically)."""
-        from rcl_interfaces.srv import SetParameters, SetParametersAtomically
-        from rclpy.parameter import Parameter
-
-        messages = [Parameter(f"features.{k}.active", value=v).to_parameter_msg() for k, v in values.items()]
-        kind = SetParametersAtomically if atomically else SetParameters
-        name = "set_parameters_atomically" if atomically else "set_parameters"
-        answer = self.call(kind, f"{self.ns}/motivml/{name}", kind.Request(parameters=messages))
-        return [answer.result] if atomically else list(answer.results)
-
-    def parameters(self, *features: str) -> dict[str, bool]:
-        from rcl_interfaces.srv import GetParameters
-
-        names = [f"features.{f}.active" for f in features]
-        answer = self.call(GetParameters, f"{self.ns}/motivml/get_parameters", GetParameters.Request(names=names))
-        return {f: v.bool_value for f, v in zip(features, answer.values, strict=True)}
-
-    def state(self, node: str) -> str:
-        from lifecycle_msgs.srv import GetState
-
-        answer = self.call(GetState, f"{self.ns}/{node}/get_state", GetState.Request())
-        return str(answer.current_state.label)
-
-    def subscribe(self, kind: Any, topic: str, latched: bool = False) -> list[Any]:
-        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-
-        got: list[Any] = []
-        qos: Any = 10
-        if latched:
-            qos = QoSProfile(
-                depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
-            )
-        self.node.create_subscription(kind, topic, got.append, qos)
-        return got
-
-    def close(self) -> None:
-        self.executor.shutdown(timeout_sec=2)
-        self.node.destroy_node()
-        self.context.try_shutdown()
 
 
 def until(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -> Any:
@@ -331,7 +254,7 @@ def test_a_killed_node_is_a_fault_of_its_feature(ward: Callable[..., Running]) -
 def test_a_killed_node_of_a_static_feature_stops_the_run(ward: Callable[..., Running]) -> None:
     robot = ward(variant="static_lamp")
     assert robot.client.parameters("lamp") == {"lamp": True}
-    robot.nodes["dosimeter"].kill()
+    robot.nodes["dosimeter"].terminate()  # it leaves the graph (a kill, below, just goes silent)
     assert robot.session.wait(10), "the run did not stop"
     failure = robot.session.runtime.failure
     assert failure is not None and failure.feature == "dose" and "node /dosimeter" in failure.error

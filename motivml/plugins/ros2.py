@@ -46,6 +46,7 @@ from .api import FeatureUnavailable, PluginContext
 DEFAULT_TIMEOUT = 5.0  # s: waiting for a node's services, and for each transition
 WATCH_PERIOD = 0.2  # s between two questions to a watched node
 WATCH_DEADLINE = 0.8  # s: a node that has not answered by then is lost
+HANDSHAKE = 0.5  # s: a first question to a node on new clients, asked again until its timeout
 NAMESPACE = re.compile(r"^/([A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*)?$")
 
 INSTALL_HINT = (
@@ -212,6 +213,7 @@ class LifecycleNodes:
         self._timer: Any = None
         self._clients: dict[str, tuple[Any, Any]] = {}  # node -> (change_state, get_state)
         self._cleanups: dict[str, tuple[threading.Event, float]] = {}  # node -> its clean-up's answer
+        self._proven: set[str] = set()  # nodes that answered on their present clients
         self._lock = threading.Lock()
 
     def problems(self) -> list[Diagnostic]:
@@ -253,12 +255,20 @@ class LifecycleNodes:
                 )
             return made
 
+    def proven(self, node: str) -> bool:
+        """The node has answered on the clients it has now."""
+        return node in self._proven
+
+    def prove(self, node: str) -> None:
+        self._proven.add(node)
+
     def renew(self, node: str) -> None:
         """Forget the node's clients after it failed to answer: if it comes back (a new
         process of the same name), fresh clients find it, where old ones may wait for the
         dead one's answers."""
         with self._lock:
             made = self._clients.pop(node, None)
+            self._proven.discard(node)
         graph = self.graph
         if made is not None and graph is not None:
             for client in made:
@@ -394,6 +404,8 @@ class LifecycleFeature:
             raise FeatureUnavailable(
                 f"node {self.node} is not on the ROS graph: no {self.node}/change_state within {self.timeout:g} s"
             )
+        if not self.nodes.proven(self.node):
+            self._handshake()
         self.nodes.settle(self.node)  # a clean-up of this node still under way
         if self.restart:  # active: its instance deactivates it at the switch, this one reconfigures it
             self._get_state()
@@ -403,6 +415,24 @@ class LifecycleFeature:
         # being deactivated (one round trip less on a swap's way).
         request = ChangeState.Request(transition=Transition(id=Transition.TRANSITION_CONFIGURE))
         self._configuring = self.graph.send(self._change, request)
+
+    def _handshake(self) -> None:
+        """New clients: ask the state until a node answers. `wait_for_service` also counts a
+        node that died a moment ago and is still listed (until its DDS lease ends), and a live
+        node may not have matched a brand-new client yet: a first request could be lost."""
+        from lifecycle_msgs.srv import GetState
+
+        deadline = time.monotonic() + self.timeout
+        while True:
+            left = deadline - time.monotonic()
+            answer = self.graph.call(self._get, GetState.Request(), min(HANDSHAKE, max(left, 0.0)))
+            if answer is not None:
+                self.state_id, self.state = answer.current_state.id, answer.current_state.label
+                self.nodes.prove(self.node)
+                return
+            if time.monotonic() >= deadline:
+                self.nodes.renew(self.node)
+                raise FeatureUnavailable(f"node {self.node} did not answer get_state within {self.timeout:g} s")
 
     def _configured(self) -> None:
         """Wait for the configure that `start` sent; RuntimeError if the node is not configured."""
