@@ -57,3 +57,4 @@ bench: setup ros2
 	$(BIN)/python bench/run_bench.py
 	$(BIN)/python bench/swap_bench.py
 	$(ROS_BIN)/python bench/ros2_bench.py
+	$(ROS_BIN)/python bench/ros2_bench.py --pinned

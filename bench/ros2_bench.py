@@ -23,7 +23,10 @@ missed deadlines of the ROS robot over the same time again after the swaps, noth
 It also prints where the time goes on motivml's side (the plugin and binder methods timed
 by wrappers around them, a few microseconds each).
 
-    .venv-ros/bin/python bench/ros2_bench.py [--swaps 200] [--rate 1000] [--domain 93]
+    .venv-ros/bin/python bench/ros2_bench.py [--swaps 200] [--rate 1000] [--domain 93] [--pinned]
+
+With --pinned the robot's process is kept to CPU 0 (what `run --cpus 0` does) and the nodes
+and the client to the other CPUs, as a robot computer that gives its control loop a core.
 
 Target (issue 13): p50 and p99 within 1.5 x the floor + 2 ms, and no more missed deadlines
 than without ROS.
@@ -271,6 +274,14 @@ class Timings:
             self.undo.pop()()
 
 
+OTHERS: set[int] | None = None  # with --pinned: the CPUs the nodes and the client are kept to
+
+
+def _others() -> None:
+    if OTHERS is not None:
+        os.sched_setaffinity(0, OTHERS)
+
+
 def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any) -> dict[str, Any]:
     """Floor and swaps by the client; the loop's missed deadlines over the swaps."""
     import rclpy
@@ -308,6 +319,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
                         env=env,
                         stdout=subprocess.DEVNULL,
                         stderr=subprocess.DEVNULL,
+                        preexec_fn=_others,
                     )
                 )
             client = subprocess.Popen(  # noqa: S603
@@ -317,6 +329,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
                 stdout=subprocess.PIPE,
                 stderr=errors,
                 text=True,
+                preexec_fn=_others,
             )
             started.append(client)
             floor, _ = read_message(client, "floor")
@@ -394,6 +407,11 @@ def main() -> None:
     parser.add_argument("--swaps", type=int, default=200)
     parser.add_argument("--rate", type=float, default=1000.0)
     parser.add_argument("--domain", type=int, default=93, help="ROS_DOMAIN_ID of the bench's own graph")
+    parser.add_argument(
+        "--pinned",
+        action="store_true",
+        help="keep the robot to CPU 0 (as run --cpus 0 does) and the nodes and the client to the others",
+    )
     parser.add_argument("--client", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # never beyond this machine
@@ -404,6 +422,14 @@ def main() -> None:
         return
     if not NODES.is_file():
         raise SystemExit(f"{NODES} is missing: it comes with the ros2-example branch")
+    if args.pinned:
+        from motivml.runtime.session import keep_to_cpus
+
+        global OTHERS
+        OTHERS = set(os.sched_getaffinity(0)) - {0}
+        if not OTHERS:
+            raise SystemExit("--pinned needs two CPUs or more")
+        keep_to_cpus("0")
     with tempfile.TemporaryDirectory() as tmp:
         with open(Path(tmp) / "client.err", "w+") as errors:  # shown if the client fails
             try:
@@ -426,6 +452,7 @@ def report(args: argparse.Namespace, ros: dict[str, Any], missed_alone: int) -> 
     print(
         f"{args.swaps} swaps of camera/thermal (ros2_lifecycle: person_detection, thermal_detection) "
         f"through set_parameters_atomically, loop at {args.rate:g} Hz (real clock), {os.cpu_count()} CPUs"
+        + (", the robot on CPU 0 (run --cpus 0), the nodes and the client on the others" if args.pinned else "")
     )
     if ros["refused"]:
         print(f"  stopped: a swap was refused: {ros['refused'][0]}")

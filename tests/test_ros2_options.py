@@ -40,7 +40,12 @@ def test_relative_node_names_resolve_in_the_namespace() -> None:
 
 
 def _robot(folder: Path) -> Path:
-    any_ = {"featuresIncluded": [], "featuresExcluded": [], "bindingTimeAllowed": "Any", "bindingModeAllowed": "Any"}
+    any_ = {
+        "featuresIncluded": [],
+        "featuresExcluded": [],
+        "bindingTimeAllowed": "Any",
+        "bindingModeAllowed": "Any",
+    }
     model = {
         "id": "bot",
         "name": "Bot",
@@ -51,7 +56,9 @@ def _robot(folder: Path) -> Path:
     (folder / "variants").mkdir(parents=True)
     (folder / "model.json").write_text(json.dumps(model))
     (folder / "variants" / "v.json").write_text(
-        json.dumps({"properties": [{"id": "lamp", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}}]})
+        json.dumps(
+            {"properties": [{"id": "lamp", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}}]}
+        )
     )
     (folder / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
     (folder / "plugins" / "lamp").mkdir(parents=True)
@@ -62,7 +69,9 @@ def _robot(folder: Path) -> Path:
 
 
 def test_a_bad_namespace_is_a_usage_error(tmp_path: Path) -> None:
-    result = CliRunner().invoke(main, ["run", str(_robot(tmp_path)), "--variant", "v", "--ros-namespace", "/2uv"])
+    result = CliRunner().invoke(
+        main, ["run", str(_robot(tmp_path)), "--variant", "v", "--ros-namespace", "/2uv"]
+    )
     assert result.exit_code == 2
     assert "'/2uv' is not a ROS namespace" in result.output
 
@@ -70,7 +79,9 @@ def test_a_bad_namespace_is_a_usage_error(tmp_path: Path) -> None:
 @pytest.mark.skipif(ROS, reason="this Python has rclpy")
 def test_without_rclpy_a_lifecycle_plugin_says_how_to_install_it(tmp_path: Path) -> None:
     robot = _robot(tmp_path)
-    result = CliRunner().invoke(main, ["run", str(robot), "--variant", "v", "--duration", "1", "--no-control"])
+    result = CliRunner().invoke(
+        main, ["run", str(robot), "--variant", "v", "--duration", "1", "--no-control"]
+    )
     assert result.exit_code == 3, result.output
     manifest = robot / "plugins" / "lamp" / "plugin.json"
     assert f"{manifest}: $: error: lamp: plugins of kind ros2_lifecycle need ROS 2" in result.output
@@ -94,9 +105,57 @@ def test_a_variant_without_ros_features_runs_without_rclpy(tmp_path: Path) -> No
     """Only the plugins of the variant's selected features are loaded: a lifecycle node's
     manifest in the robot folder asks nothing of a variant that does not select its feature."""
     robot = _robot(tmp_path)
-    (robot / "variants" / "v.json").write_text(json.dumps({"properties": [{"id": "lamp", "selected": False}]}))
+    (robot / "variants" / "v.json").write_text(
+        json.dumps({"properties": [{"id": "lamp", "selected": False}]})
+    )
     (robot / "architecture.json").write_text(json.dumps({"spaces": [], "modules": [], "components": []}))
     result = CliRunner().invoke(
-        main, ["run", str(robot), "--variant", "v", "--duration", "0.01", "--clock", "simulated", "--no-control"]
+        main,
+        ["run", str(robot), "--variant", "v", "--duration", "0.01", "--clock", "simulated", "--no-control"],
     )
     assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize(
+    ("given", "message"),
+    [
+        ("x", "'x' is not a list of CPUs such as 0, 2-3 or 0,2"),
+        ("1-", "'1-' is not a list of CPUs"),
+        ("4096", "CPUs [4096] are not among"),
+    ],
+)
+def test_cpus_that_cannot_be_had_are_a_usage_error(tmp_path: Path, given: str, message: str) -> None:
+    result = CliRunner().invoke(main, ["run", str(_robot(tmp_path)), "--variant", "v", "--cpus", given])
+    assert result.exit_code == 2 and message in result.output, result.output
+
+
+def test_cpus_keep_the_run_to_them(tmp_path: Path) -> None:
+    import os
+
+    robot = _robot(tmp_path)
+    (robot / "variants" / "v.json").write_text(
+        json.dumps({"properties": [{"id": "lamp", "selected": False}]})
+    )
+    (robot / "architecture.json").write_text(json.dumps({"spaces": [], "modules": [], "components": []}))
+    before = os.sched_getaffinity(0)
+    first = min(before)
+    try:
+        result = CliRunner().invoke(
+            main,
+            [
+                "run",
+                str(robot),
+                "--variant",
+                "v",
+                "--duration",
+                "0.01",
+                "--clock",
+                "simulated",
+                "--no-control",
+            ]
+            + ["--cpus", str(first)],
+        )
+        assert result.exit_code == 0, result.output
+        assert os.sched_getaffinity(0) == {first}  # (CliRunner runs it in this process)
+    finally:
+        os.sched_setaffinity(0, before)

@@ -87,6 +87,11 @@ class Number(click.FloatRange):
     help="Refuse a Dynamic feature that nothing implements (no plugin, no architecture element, not abstract).",
 )
 @click.option(
+    "--cpus",
+    metavar="LIST",
+    help="Run on these CPUs only, e.g. 0 or 2-3 (Linux): the loop and its threads keep a core of their own.",
+)
+@click.option(
     "--ros2",
     is_flag=True,
     help="Start the ROS 2 node NS/motivml: features.<id>.active parameters, ~/active_features, /diagnostics (needs make ros2).",
@@ -116,6 +121,7 @@ def run_command(
     run_dir: str | None,
     control: bool,
     strict: bool,
+    cpus: str | None,
     ros2: bool,
     ros_namespace: str,
     scheduled: tuple[tuple[float, str], ...],
@@ -141,6 +147,13 @@ def run_command(
             import_rclpy()  # before anything starts: say at once that ROS 2 is missing
         except MotivmlError as exc:
             fail(exc)
+    if cpus is not None:
+        from ..runtime.session import keep_to_cpus
+
+        try:
+            keep_to_cpus(cpus)  # before any thread starts: every thread of the run inherits it
+        except ValueError as exc:
+            raise click.BadParameter(str(exc), param_hint="--cpus") from None
     plan: list[tuple[float, Request]] = []
     for at, text in scheduled:
         action, *features = text.split() or [""]

@@ -42,6 +42,26 @@ EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by SIGINT
 SIGNALS = (signal.SIGINT, signal.SIGTERM)  # each ends the run cleanly
 
 
+def keep_to_cpus(text: str) -> frozenset[int]:
+    """Keep this thread, and every thread it starts from now on, to the CPUs `text` names
+    ("0", "2-3", "0,2"): a robot's loop shares Python's lock with its own threads (a ROS 2
+    executor, the binder), and one of them preempted by another process while it holds the
+    lock stalls the loop; on CPUs of its own it is not. ValueError if the list is not usable."""
+    cpus: set[int] = set()
+    for part in text.split(","):
+        first, dash, last = part.strip().partition("-")
+        if not first.isdigit() or (dash and not last.isdigit()):
+            raise ValueError(f"{text!r} is not a list of CPUs such as 0, 2-3 or 0,2")
+        cpus.update(range(int(first), int(last or first) + 1))
+    if not hasattr(os, "sched_setaffinity"):
+        raise ValueError("this system cannot keep a process to some CPUs (Linux can)")
+    allowed = os.sched_getaffinity(0)
+    if not cpus or not cpus <= allowed:
+        raise ValueError(f"CPUs {sorted(cpus - allowed) or text} are not among this process's CPUs {sorted(allowed)}")
+    os.sched_setaffinity(0, cpus)
+    return frozenset(cpus)
+
+
 def _exit_now() -> None:
     os._exit(EXIT_INTERRUPTED)
 
