@@ -56,6 +56,15 @@ class Output:
         for line in stream:  # type: ignore[attr-defined]
             self.lines.put(line.rstrip("\n"))
 
+    def expect_all(self, *patterns: str, timeout: float = DEADLINE) -> None:
+        """Lines from now on that match every pattern, in any order (the run's own log and
+        rosout are written by different threads)."""
+        left = list(patterns)
+        deadline = time.monotonic() + timeout
+        while left:
+            line = self.expect("|".join(f"(?:{p})" for p in left), max(deadline - time.monotonic(), 0.0)).string
+            left = [p for p in left if not re.search(p, line)]
+
     def expect(self, pattern: str, timeout: float = DEADLINE) -> re.Match[str]:
         """The first line from now on that matches `pattern` (a regular expression)."""
         deadline = time.monotonic() + timeout
@@ -151,10 +160,10 @@ def test_the_guides_session(tmp_path: Path) -> None:
             0,
             "accepted\n",
         )
-        out.expect(r"\[uv\.motivml\]: accepted set \+thermal_presence_detection -camera_person_detection: "
-                   r"loaded thermal_presence_detection; unloaded camera_person_detection$")  # fmt: skip
-        out.expect(
-            r"^\d\d:\d\d:\d\d\.\d{3} tick \d+: set \+thermal_presence_detection -camera_person_detection$"
+        out.expect_all(
+            r"\[uv\.motivml\]: accepted set \+thermal_presence_detection -camera_person_detection: "
+            r"loaded thermal_presence_detection; unloaded camera_person_detection$",
+            r"^\d\d:\d\d:\d\d\.\d{3} tick \d+: set \+thermal_presence_detection -camera_person_detection$",
         )
 
         # Two refusals, with their reasons; nothing changes.
@@ -164,8 +173,10 @@ def test_the_guides_session(tmp_path: Path) -> None:
             r"^at [\d.]+ s \(tick \d+\): refused set \+camera_person_detection: camera_person_detection and"
         )
         assert client(domain_id, "platform_control=false") == (1, STATIC_REFUSAL + "\n")
-        out.expect(r"\[uv\.motivml\]: refused set -platform_control: platform_control is bound")
-        out.expect(r"^at [\d.]+ s \(tick \d+\): refused set -platform_control: platform_control is bound")
+        out.expect_all(
+            r"\[uv\.motivml\]: refused set -platform_control: platform_control is bound",
+            r"^at [\d.]+ s \(tick \d+\): refused set -platform_control: platform_control is bound",
+        )
 
         # The lamp's node dies: a fault of uv_lamp_control, which cannot leave alone (it is
         # irradiation's mandatory sub-feature), so irradiation is unloaded with its subtree.
