@@ -45,8 +45,7 @@ import tempfile
 import threading
 import time
 from collections import defaultdict
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +53,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
 NODES = ROOT / "plugins" / "ros2" / "uv_nodes.py"
+sys.path.insert(0, str(ROOT / "tests"))
+from ros2_support import processes  # noqa: E402 (the tests' helper: every process started ends)
+
 NS = "/bench"
 ANY = {"bindingTimeAllowed": "Any", "bindingModeAllowed": "Any"}
 MODEL = {
@@ -216,24 +218,6 @@ def client_main(swaps: int, domain_id: int) -> None:
 
 
 # ---------------------------------------------------------------------- the bench process
-@contextmanager
-def processes() -> Iterator[list[subprocess.Popen[str]]]:
-    """Processes started in the block are ended when it ends, whatever happens."""
-    started: list[subprocess.Popen[str]] = []
-    try:
-        yield started
-    finally:
-        for process in started:
-            if process.poll() is None:
-                process.terminate()
-        for process in started:
-            try:
-                process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
-
-
 def read_message(process: subprocess.Popen[str], key: str) -> Any:
     """The next JSON line of the client that has `key` (other lines are ROS's log: skipped)."""
     assert process.stdout is not None

@@ -76,7 +76,7 @@ def environment(domain_id: int) -> dict[str, str]:
 
 
 @contextmanager
-def processes(domain_id: int) -> Iterator[list[subprocess.Popen[str]]]:
+def processes() -> Iterator[list[subprocess.Popen[str]]]:
     """Processes started in the block (append them) are ended when it ends, whatever happens."""
     started: list[subprocess.Popen[str]] = []
     try:

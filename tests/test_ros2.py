@@ -132,7 +132,7 @@ def ward(tmp_path: Path) -> Iterator[Callable[..., Running]]:
     domain_id = domain()
     made: list[Running] = []
     robot_folder = write_robot(tmp_path / "ward")
-    with processes(domain_id) as started:
+    with processes() as started:
 
         def make(ns: str = "/", fail: dict[str, str] | None = None, variant: str = "ward") -> Running:
             nodes = start_nodes(started, domain_id, ns, fail)
@@ -342,7 +342,7 @@ def test_run_ros2_from_the_command_line(tmp_path: Path) -> None:
 
     domain_id = domain()
     robot = write_robot(tmp_path / "ward")
-    with processes(domain_id) as started:
+    with processes() as started:
         nodes = start_nodes(started, domain_id, "/cli")
         client = Client(domain_id, "/cli")
         try:
@@ -425,7 +425,7 @@ def test_a_start_state_node_that_is_not_there_stops_the_launch(tmp_path: Path) -
 
     domain_id = domain()
     robot = write_robot(tmp_path / "ward", timeout=1)
-    with processes(domain_id) as started:
+    with processes() as started:
         nodes = start_nodes(started, domain_id, "/", skip=("lamp",))
         client = Client(domain_id)
         try:
@@ -440,3 +440,21 @@ def test_a_start_state_node_that_is_not_there_stops_the_launch(tmp_path: Path) -
     [d] = refused.value.diagnostics
     assert d.message == "cannot start lamp: node /lamp is not on the ROS graph: no /lamp/change_state within 1 s"
     assert d.location.path == "$.entry.node"
+
+
+def test_ros2_that_cannot_start_is_an_environment_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", "abc")
+    result = CliRunner().invoke(
+        main,
+        ["run", str(ROOT / "feature_models" / "simplebot"), "--variant", "field", "--ros2"]
+        + ["--duration", "1", "--clock", "simulated", "--no-control", "--no-live"],
+    )
+    assert result.exit_code == 3, result.output
+    assert "ros2: ROS 2 could not start: failed to initialize rcl: ROS_DOMAIN_ID is not an integral number" in (
+        result.output
+    )
+    assert "Traceback" not in result.output

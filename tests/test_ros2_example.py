@@ -177,7 +177,7 @@ def test_configures_parameters_file_loads_into_every_node_of_the_variant(
     params, bindings = configured(variant, tmp_path)
     manifests = {node: m for node, m in manifest_parameters().items() if m[0] in bindings}
     domain_id = domain()
-    with processes(domain_id) as started, graph(domain_id) as ros:
+    with processes() as started, graph(domain_id) as ros:
         nodes = {
             name: start(started, domain_id, name, "--params-file", str(params)) for name in sorted(manifests)
         }
@@ -214,7 +214,7 @@ def test_configures_parameters_file_loads_into_every_node_of_the_variant(
 @pytest.mark.parametrize("name", sorted(TOPICS))
 def test_a_node_goes_through_its_lifecycle_and_publishes_only_while_active(name: str) -> None:
     domain_id = domain()
-    with processes(domain_id) as started, graph(domain_id) as ros:
+    with processes() as started, graph(domain_id) as ros:
         node = start(started, domain_id, name)
         heard = ros.heard(name)
         assert ros.state(node) == UNCONFIGURED
@@ -236,7 +236,7 @@ def test_a_node_goes_through_its_lifecycle_and_publishes_only_while_active(name:
 
 def test_fail_on_activate_makes_the_activation_fail_and_the_node_stays_inactive() -> None:
     domain_id = domain()
-    with processes(domain_id) as started, graph(domain_id) as ros:
+    with processes() as started, graph(domain_id) as ros:
         node = start(started, domain_id, "lamp", "-p", "fail_on:=activate")
         heard = ros.heard("lamp")
         assert ros.change(node, CONFIGURE) and ros.state(node) == INACTIVE
@@ -255,7 +255,7 @@ def test_a_node_ends_quietly_on_sigint_and_sigterm() -> None:
     import signal
 
     domain_id = domain()
-    with processes(domain_id) as started, graph(domain_id) as ros:
+    with processes() as started, graph(domain_id) as ros:
         first = start(started, domain_id, "dosimeter")
         start(started, domain_id, "person_detection")
         assert ros.change(first, CONFIGURE) and ros.change(first, ACTIVATE)
@@ -269,7 +269,7 @@ def test_a_node_ends_quietly_on_sigint_and_sigterm() -> None:
 
 def test_an_unknown_node_or_transition_is_a_usage_error() -> None:
     domain_id = domain()
-    with processes(domain_id) as started:
+    with processes() as started:
         started.append(python_process([SCRIPT, "wiper"], domain_id))
         started.append(python_process([SCRIPT, "lamp", "--ros-args", "-p", "fail_on:=activation"], domain_id))
         outputs = [p.communicate(timeout=DEADLINE)[0] for p in started]

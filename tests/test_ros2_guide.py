@@ -31,8 +31,8 @@ XOR_REFUSAL = (
     "XOR group, but camera_person_detection would be active and thermal_presence_detection would be active"
 )
 STATIC_REFUSAL = (
-    "refused: platform_control is bound Static Early: a Static feature never unloads; it is compiled in "
-    "(section 4; features.platform_control.active is read-only)"
+    "refused: platform_control is bound Static Early: a Static feature never unloads or reloads; it is compiled "
+    "in (section 4)"
 )
 # A node killed a moment ago may still be on the graph (DDS forgets it when its lease ends):
 # then it is there but does not answer (and nothing has moved: it is asked before anything).
@@ -138,7 +138,7 @@ def test_the_guides_session(tmp_path: Path) -> None:
     params = tmp_path / "ward" / "ros2_params.yaml"
 
     domain_id = domain()
-    with processes(domain_id) as started:
+    with processes() as started:
         nodes = {name: start_node(domain_id, name, params) for name in NODES}
         started.extend(nodes.values())
         wait_for_nodes(domain_id, NODES)

@@ -57,8 +57,7 @@ INSTALL_HINT = (
 
 def namespace(text: str | None) -> str:
     """A ROS namespace, absolute: '' and None are '/', 'uv' is '/uv'; ValueError if not a name."""
-    value = "/" + (text or "").strip("/") if not (text or "").startswith("/") else (text or "/")
-    value = value.rstrip("/") or "/"
+    value = "/" + (text or "").strip("/")
     if not NAMESPACE.match(value):
         raise ValueError(
             f"{text!r} is not a ROS namespace: names of letters, digits and '_' (not first), joined by '/'"
@@ -99,9 +98,9 @@ class Graph:
         self.namespace = ns
         self.users = 0
         self.context = rclpy.Context()
-        rclpy.init(context=self.context)  # ROS_DOMAIN_ID from the environment
         self._spinning: list[tuple[Any, Any, threading.Thread]] = []  # (node, executor, thread)
         try:
+            rclpy.init(context=self.context)  # ROS_DOMAIN_ID and the rest from the environment
             self.node = rclpy.create_node(
                 "motivml_binder",
                 namespace=ns,
@@ -109,9 +108,12 @@ class Graph:
                 start_parameter_services=False,
             )
             self.spin(self.node)
-        except BaseException:
+        except Exception as exc:  # rclpy's RCLError: a bad ROS_DOMAIN_ID, say
             self.context.try_shutdown()
-            raise
+            first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            raise EnvironmentProblem(
+                error(Location("ros2"), f"ROS 2 could not start: {first}", "ros2.start")
+            ) from None
 
     def spin(self, node: Any) -> None:
         """Spin `node` on an executor and a daemon thread of its own until `forget` or `close`."""
@@ -213,7 +215,7 @@ class LifecycleNodes:
         self._timer: Any = None
         self._clients: dict[str, tuple[Any, Any]] = {}  # node -> (change_state, get_state)
         self._cleanups: dict[str, tuple[threading.Event, float]] = {}  # node -> its clean-up's answer
-        self._proven: set[str] = set()  # nodes that answered on their present clients
+        self.proven: set[str] = set()  # nodes that answered on their present clients
         self._lock = threading.Lock()
 
     def problems(self) -> list[Diagnostic]:
@@ -255,20 +257,13 @@ class LifecycleNodes:
                 )
             return made
 
-    def proven(self, node: str) -> bool:
-        """The node has answered on the clients it has now."""
-        return node in self._proven
-
-    def prove(self, node: str) -> None:
-        self._proven.add(node)
-
     def renew(self, node: str) -> None:
         """Forget the node's clients after it failed to answer: if it comes back (a new
         process of the same name), fresh clients find it, where old ones may wait for the
         dead one's answers."""
         with self._lock:
             made = self._clients.pop(node, None)
-            self._proven.discard(node)
+            self.proven.discard(node)
         graph = self.graph
         if made is not None and graph is not None:
             for client in made:
@@ -282,20 +277,19 @@ class LifecycleNodes:
         from lifecycle_msgs.srv import ChangeState
 
         change, _ = self.clients(instance.node)
-        future = change.call_async(ChangeState.Request(transition=Transition(id=Transition.TRANSITION_CLEANUP)))
-        done = threading.Event()
+        request = ChangeState.Request(transition=Transition(id=Transition.TRANSITION_CLEANUP))
+        future, answered = self._graph().send(change, request)
 
-        def answered(_: Any) -> None:
+        def heard(_: Any) -> None:
             answer = future.result() if not future.cancelled() else None
             if answer is not None and answer.success:
                 instance.state_id, instance.state = GOALS[Transition.TRANSITION_CLEANUP]
             else:
                 instance.context.log(f"node {instance.node} did not clean up (it stays inactive)")
-            done.set()
 
-        future.add_done_callback(answered)
+        future.add_done_callback(heard)  # the node has answered once `answered` is set
         with self._lock:
-            self._cleanups[instance.node] = (done, instance.timeout)
+            self._cleanups[instance.node] = (answered, instance.timeout)
 
     def settle(self, node: str | None = None) -> None:
         """Wait for the clean-up of `node` (None: of every node) sent by `clean_up`."""
@@ -404,7 +398,7 @@ class LifecycleFeature:
             raise FeatureUnavailable(
                 f"node {self.node} is not on the ROS graph: no {self.node}/change_state within {self.timeout:g} s"
             )
-        if not self.nodes.proven(self.node):
+        if self.node not in self.nodes.proven:
             self._handshake()
         self.nodes.settle(self.node)  # a clean-up of this node still under way
         if self.restart:  # active: its instance deactivates it at the switch, this one reconfigures it
@@ -428,7 +422,7 @@ class LifecycleFeature:
             answer = self.graph.call(self._get, GetState.Request(), min(HANDSHAKE, max(left, 0.0)))
             if answer is not None:
                 self.state_id, self.state = answer.current_state.id, answer.current_state.label
-                self.nodes.prove(self.node)
+                self.nodes.proven.add(self.node)
                 return
             if time.monotonic() >= deadline:
                 self.nodes.renew(self.node)

@@ -187,16 +187,6 @@ class FrontDoor:
         loads = [f for f, on in wanted.items() if on and f not in active]
         unloads = [f for f, on in wanted.items() if not on and f in active]
         request = Request.set(loads, unloads)
-        for feature in unloads:
-            if feature in self.compiled_in:  # read-only: refused here, in the words the binder would use
-                binding = next(d.binding for d in self.selected if d.feature.id == feature)
-                reason = (
-                    f"{feature} is bound {binding.words}: a Static feature never unloads; it is compiled in "
-                    f"(section 4; {parameter_name(feature)} is read-only)"
-                )
-                self.runtime.note(f"refused {request}: {reason}")
-                self.log.warning(f"refused {request}: {reason}")
-                return SetParametersResult(successful=False, reason=reason)
         if not loads and not unloads:
             return SetParametersResult(successful=True)  # every value as it is: nothing to change
         outcome = self.binder.request(request, timeout=self.timeout)
