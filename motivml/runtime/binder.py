@@ -86,7 +86,6 @@ class Binder:
         self.runtime = runtime
         self.variant = variant
         self.architecture = architecture
-        self.plugins = plugins
         self.active = frozenset(active)
         runtime.active = self.active  # what status() reads, with the plugins, at each commit
         self.unimplemented = (
