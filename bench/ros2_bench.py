@@ -3,14 +3,15 @@
 The robot of tests/test_ros2.py cut to its swap: `camera` XOR `thermal` (Dynamic Early and
 Dynamic Late), implemented by the lifecycle nodes person_detection and thermal_detection of
 plugins/ros2/uv_nodes.py, each in a process of its own. The robot runs in this process at
---rate Hz on the real clock with the `motivml` node of `run --ros2`; a client in another
+--rate Hz on the real clock with the `motivml` node of `run --ros2` (which, with the
+lifecycle clients, lives in the run's ROS 2 bridge process: this process holds no rclpy); a client in another
 process (this script with --client, so that its Python shares no GIL with the loop)
 alternates {camera: false, thermal: true} and {camera: true, thermal: false} --swaps times
 through /NS/motivml/set_parameters_atomically, timing each call from send to answer.
 
 The floor, timed in the same run by the same client against the same two nodes before the
 robot starts (so motivml does not drive them): per swap, the ChangeState round trips a
-swap makes in motivml/plugins/ros2.py, one after the other: configure the arriving node,
+swap makes in motivml/ros2/lifecycle.py, one after the other: configure the arriving node,
 deactivate the leaving one, activate the arriving one, clean up the leaving one. A
 successful swap asks no GetState. (motivml overlaps the configure with the deactivation
 and does not wait for the clean-up's answer: what it saves that way is part of the figure.)
@@ -25,8 +26,8 @@ by wrappers around them, a few microseconds each).
 
     .venv-ros/bin/python bench/ros2_bench.py [--swaps 200] [--rate 1000] [--domain 93] [--pinned]
 
-With --pinned the robot's process is kept to CPU 0 (what `run --cpus 0` does) and the nodes
-and the client to the other CPUs, as a robot computer that gives its control loop a core.
+With --pinned the robot's process is kept to CPU 0 (what `run --cpus 0` does) and the nodes,
+the client and the bridge to the other CPUs, as a robot computer that gives its control loop a core.
 
 Target (issue 13): p50 and p99 within 1.5 x the floor + 2 ms, and no more missed deadlines
 than without ROS.
@@ -35,6 +36,7 @@ than without ROS.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import json
 import math
@@ -45,7 +47,7 @@ import tempfile
 import threading
 import time
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -266,25 +268,30 @@ def _others() -> None:
         os.sched_setaffinity(0, OTHERS)
 
 
+@contextlib.contextmanager
+def stderr_to(file: Any) -> Iterator[None]:
+    """This process's stderr (fd 2, which child processes inherit) into `file` for a while."""
+    terminal = os.dup(2)
+    os.dup2(file.fileno(), 2)
+    try:
+        yield
+    finally:
+        os.dup2(terminal, 2)
+        os.close(terminal)
+
+
 def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any) -> dict[str, Any]:
     """Floor and swaps by the client; the loop's missed deadlines over the swaps."""
-    import rclpy
-
     from motivml.plugins.ros2 import LifecycleFeature
-    from motivml.ros2.node import FrontDoor, start
+    from motivml.ros2.door import Door, start
     from motivml.runtime.binder import Binder
     from motivml.runtime.launch import launch
     from motivml.runtime.session import Session
 
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), PYTHONUNBUFFERED="1")
-    # The first rclpy context of a process sets up its logging: keep the motivml node's
-    # log on rosout (part of a swap's cost) but out of this terminal.
-    quiet = rclpy.Context()
-    rclpy.init(args=["--ros-args", "--disable-stdout-logs"], context=quiet)
     timings = Timings()
     for owner, name, label in (
-        (FrontDoor, "set_call", "front door set_call"),
-        (FrontDoor, "_catch_up", "parameters brought in line (_catch_up)"),
+        (Door, "_answer_set", "the run's side of a set call (Door)"),
         (Binder, "request", "binder.request"),
         (Binder, "_check_and_prepare", "check and prepare and switch"),
         (LifecycleFeature, "start", "prepare: configure (start)"),
@@ -317,11 +324,16 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
             )
             started.append(client)
             floor, _ = read_message(client, "floor")
-            robot = launch(folder, "swap", rate=rate, ros_namespace=NS)
-            session = Session(robot, math.inf, "real", run_dir=None)
+            # The ROS 2 bridge (started with the robot) logs the motivml node's rosout lines
+            # to the stderr it inherits: into the client's file, out of this terminal.
+            with stderr_to(errors):
+                robot = launch(folder, "swap", rate=rate, ros_namespace=NS)
+                session = Session(robot, math.inf, "real", run_dir=None)
             try:
-                session.open()
-                door = start(robot, NS)
+                with stderr_to(errors):
+                    session.open()
+                    door = start(robot, NS)
+                in_process = "rclpy" in sys.modules
                 session.doors.append(door.close)
                 robot.binder.watchers.append(lambda o: commits.append(o.latency) if o.accepted else None)
                 session.start()
@@ -344,9 +356,9 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
                 session.close()
     finally:
         timings.restore()
-        quiet.try_shutdown()
     return {
         "floor": floor,
+        "in_process": in_process,
         "swaps": latencies,
         "refused": message["refused"],
         "missed": missed,
@@ -463,6 +475,7 @@ def report(args: argparse.Namespace, ros: dict[str, Any], missed_alone: int) -> 
         f"  missed deadlines with ROS but no swap, the same time after the swaps: {ros['idle']} "
         f"(what the graph costs the loop when nothing moves)"
     )
+    print(f"  rclpy in the robot's process: {'yes' if ros['in_process'] else 'no'} (it lives in the ROS 2 bridge process)")
     print(f"  target (issue 13): {'met' if all(verdicts) and met else 'MISSED'}")
     print("where a swap's time goes on motivml's side (p50 / p99 ms per call, wrapped methods):")
     commits = np.array(ros["commits"])

@@ -125,7 +125,7 @@ def start_nodes(
 @pytest.fixture
 def ward(tmp_path: Path) -> Iterator[Callable[..., Running]]:
     """Start the nodes and the robot (in namespace `ns`); everything ends with the test."""
-    from motivml.ros2.node import start
+    from motivml.ros2.door import start
     from motivml.runtime.launch import launch
     from motivml.runtime.session import Session
 
@@ -369,9 +369,9 @@ def test_run_ros2_from_the_command_line(tmp_path: Path) -> None:
 
 
 def test_the_node_answers_on_whatever_goes_wrong_inside(
-    ward: Callable[..., Running], monkeypatch: pytest.MonkeyPatch
+    ward: Callable[..., Running], monkeypatch: pytest.MonkeyPatch, capfd: pytest.CaptureFixture[str]
 ) -> None:
-    """A failure inside the node answers the call that met it, and the node spins on."""
+    """A failure on either side of the bridge answers the call that met it, and both go on."""
     robot = ward()
     binder = robot.session.robot.binder
 
@@ -382,17 +382,37 @@ def test_the_node_answers_on_whatever_goes_wrong_inside(
     [result] = robot.client.set(camera=False, thermal=True)
     assert not result.successful
     assert result.reason.startswith("motivml could not handle the call: RuntimeError: the binder broke")
-    raised = threading.Event()
-
-    def diagnostics() -> None:  # a timer callback that raises ends rclpy's spin, unless caught
-        raised.set()
-        raise ValueError("a broken report")
-
-    robot.door._timer.callback = diagnostics
-    assert raised.wait(10)
     monkeypatch.undo()
+    # news the node cannot read (a bug of ours, say): reported by the bridge, which reads on
+    robot.door.bridge.link.send({"event": "health", "statuses": [{"level": "BAD"}]})
     [again] = robot.client.set(camera=False, thermal=True)
     assert again.successful, again.reason
+    until(lambda: "a 'health' message failed: KeyError" in capfd.readouterr().err, what="the report")
+
+
+def test_a_callback_that_raises_does_not_stop_its_node_spinning() -> None:
+    """rclpy ends an executor's spin when a callback raises: the bridge's nodes spin on."""
+    import rclpy
+
+    from motivml.ros2.graph import Graph
+
+    graph = Graph("/spin_test_" + str(domain()))
+    try:
+        node = rclpy.create_node("raising", context=graph.context)
+        raised, after = threading.Event(), threading.Event()
+
+        def broken() -> None:
+            if raised.is_set():
+                after.set()
+                return
+            raised.set()
+            raise ValueError("a broken callback")
+
+        node.create_timer(0.01, broken)
+        graph.spin(node)
+        assert raised.wait(10) and after.wait(10)
+    finally:
+        graph.close()
 
 
 def test_a_node_that_fails_to_configure_refuses_the_request(ward: Callable[..., Running]) -> None:

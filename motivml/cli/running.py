@@ -136,17 +136,16 @@ def run_command(
     With --ros2 the run is also a ROS 2 node (guidelines/running-with-ros2.md): its features
     are parameters that any ROS 2 client may set, every change checked against the model.
     """
-    from ..plugins.ros2 import import_rclpy, namespace
+    from ..plugins.ros2 import namespace, ros2_missing
 
     try:
         ros_namespace = namespace(ros_namespace)
     except ValueError as exc:
         raise click.BadParameter(str(exc), param_hint="--ros-namespace") from None
     if ros2:
-        try:
-            import_rclpy()  # before anything starts: say at once that ROS 2 is missing
-        except MotivmlError as exc:
-            fail(exc)
+        missing = ros2_missing()  # before anything starts: say at once that ROS 2 is missing
+        if missing is not None:
+            fail(missing)
     if cpus is not None:
         from ..runtime.session import keep_to_cpus
 
@@ -234,14 +233,14 @@ def run_command(
         out.print(f"control: {escape(str(session.server.path))} (motivml ctl)")
     if ros2:
         try:
-            from ..ros2.node import start
+            from ..ros2.door import start
 
             door = start(robot, ros_namespace)
         except MotivmlError as exc:
             session.close()
             fail(exc)
         session.doors.append(door.close)
-        out.print(f"ROS 2: node {escape(door.node.get_fully_qualified_name())} (features.<id>.active parameters)")
+        out.print(f"ROS 2: node {escape(door.name)} (features.<id>.active parameters)")
     coordinator = session.coordinator
     if coordinator is None and any(request.action == "event" for _, request in plan):
         session.close()

@@ -1,4 +1,6 @@
-"""ROS 2 as a front door of a running robot (`motivml run --ros2`): see node.py.
+"""ROS 2 for a running robot: the bridge process that holds rclpy, and its `motivml` node.
 
-Imported only when asked for; rclpy is the optional extra `motivml[ros2]`.
+`bridge.py` is the process (`python -m motivml.ros2`), `graph.py` its rclpy, `lifecycle.py`
+the nodes of ros2_lifecycle plugins, `node.py` the `motivml` node; `door.py` is the run's
+side of that node and imports no rclpy. rclpy is the optional extra `motivml[ros2]`.
 """

@@ -44,9 +44,10 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)  # each ends the run cleanly
 
 def keep_to_cpus(text: str) -> frozenset[int]:
     """Keep this thread, and every thread it starts from now on, to the CPUs `text` names
-    ("0", "2-3", "0,2"): a robot's loop shares Python's lock with its own threads (a ROS 2
-    executor, the binder), and one of them preempted by another process while it holds the
-    lock stalls the loop; on CPUs of its own it is not. ValueError if the list is not usable."""
+    ("0", "2-3", "0,2"): a robot's loop shares Python's lock with its own threads (the
+    binder, the control socket), and one of them preempted by another process while it
+    holds the lock stalls the loop; on CPUs of its own it is not. The run's ROS 2 bridge is
+    kept to the other CPUs. ValueError if the list is not usable."""
     cpus: set[int] = set()
     for part in text.split(","):
         first, dash, last = part.strip().partition("-")
@@ -59,6 +60,12 @@ def keep_to_cpus(text: str) -> frozenset[int]:
     if not cpus or not cpus <= allowed:
         raise ValueError(f"CPUs {sorted(cpus - allowed) or text} are not among this process's CPUs {sorted(allowed)}")
     os.sched_setaffinity(0, cpus)
+    from ..plugins import bridge
+
+    # The ROS 2 bridge (rclpy's busy threads, in a process of their own) stays off the
+    # run's CPUs when others are left: the loop never waits for it.
+    others = frozenset(allowed - cpus)
+    bridge.BRIDGE_CPUS = others or None
     return frozenset(cpus)
 
 
