@@ -45,8 +45,10 @@ test: setup cpp-plugins ros2
 	$(BIN)/ruff check motivml tests bench plugins guidelines/examples tools
 	$(BIN)/mypy
 	$(BIN)/lint-imports
+	rm -f build/.coverage*
 	COVERAGE_FILE=build/.coverage $(BIN)/pytest -q --cov=motivml --cov-report=
-	COVERAGE_FILE=build/.coverage MOTIVML_REQUIRE_ROS2=1 $(ROS_BIN)/pytest -q -m ros2 \
+	COVERAGE_FILE=$(CURDIR)/build/.coverage COVERAGE_PROCESS_START=$(CURDIR)/pyproject.toml \
+	  MOTIVML_REQUIRE_ROS2=1 $(ROS_BIN)/pytest -q -m ros2 \
 	  --cov=motivml --cov-append --cov-report=json:build/coverage.json
 	$(BIN)/python tools/coverage_floor.py build/coverage.json 90
 
@@ -57,4 +59,5 @@ bench: setup ros2
 	$(BIN)/python bench/run_bench.py
 	$(BIN)/python bench/swap_bench.py
 	$(ROS_BIN)/python bench/ros2_bench.py
+	$(ROS_BIN)/python bench/ros2_bench.py --priority 80
 	$(ROS_BIN)/python bench/ros2_bench.py --pinned

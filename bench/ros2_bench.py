@@ -260,6 +260,7 @@ class Timings:
             self.undo.pop()()
 
 
+PRIORITY: int | None = None  # with --priority: the loops' real-time priority (run --priority)
 OTHERS: set[int] | None = None  # with --pinned: the CPUs the nodes and the client are kept to
 
 
@@ -291,7 +292,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), PYTHONUNBUFFERED="1")
     timings = Timings()
     for owner, name, label in (
-        (Door, "_answer_set", "the run's side of a set call (Door)"),
+        (Door, "_set", "the run's side of a set call (Door)"),
         (Binder, "request", "binder.request"),
         (Binder, "_check_and_prepare", "check and prepare and switch"),
         (LifecycleFeature, "start", "prepare: configure (start)"),
@@ -328,7 +329,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
             # to the stderr it inherits: into the client's file, out of this terminal.
             with stderr_to(errors):
                 robot = launch(folder, "swap", rate=rate, ros_namespace=NS)
-                session = Session(robot, math.inf, "real", run_dir=None)
+                session = Session(robot, math.inf, "real", run_dir=None, priority=PRIORITY)
             try:
                 with stderr_to(errors):
                     session.open()
@@ -376,7 +377,7 @@ def without_ros(folder: Path, swaps: int, rate: float, window: float) -> int:
     from motivml.runtime.session import Session
 
     robot = launch(folder, "swap", rate=rate)
-    session = Session(robot, math.inf, "real", run_dir=None)
+    session = Session(robot, math.inf, "real", run_dir=None, priority=PRIORITY)
     try:
         session.open()
         session.start()
@@ -408,6 +409,12 @@ def main() -> None:
         action="store_true",
         help="keep the robot to CPU 0 (as run --cpus 0 does) and the nodes and the client to the others",
     )
+    parser.add_argument(
+        "--priority",
+        type=int,
+        metavar="N",
+        help="run both robots' loops at real-time priority N (as run --priority N does)",
+    )
     parser.add_argument("--client", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"  # never beyond this machine
@@ -418,6 +425,15 @@ def main() -> None:
         return
     if not NODES.is_file():
         raise SystemExit(f"{NODES} is missing: it comes with the ros2-example branch")
+    if args.priority is not None:
+        from motivml.runtime.loop import realtime_problem
+
+        problem = realtime_problem(args.priority)
+        if problem is not None:  # (a figure that cannot be measured here is said so, not failed)
+            print(f"ros2_bench --priority {args.priority}: not measured: {problem}")
+            return
+        global PRIORITY
+        PRIORITY = args.priority
     if args.pinned:
         from motivml.runtime.session import keep_to_cpus
 
@@ -448,7 +464,8 @@ def report(args: argparse.Namespace, ros: dict[str, Any], missed_alone: int) -> 
     print(
         f"{args.swaps} swaps of camera/thermal (ros2_lifecycle: person_detection, thermal_detection) "
         f"through set_parameters_atomically, loop at {args.rate:g} Hz (real clock), {os.cpu_count()} CPUs"
-        + (", the robot on CPU 0 (run --cpus 0), the nodes and the client on the others" if args.pinned else "")
+        + (", the robot on CPU 0 (run --cpus 0), the nodes, the client and the bridge on the others" if args.pinned else "")
+        + (f", both loops at real-time priority {args.priority} (run --priority)" if args.priority else "")
     )
     if ros["refused"]:
         print(f"  stopped: a swap was refused: {ros['refused'][0]}")

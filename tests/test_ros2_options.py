@@ -132,6 +132,8 @@ def test_cpus_that_cannot_be_had_are_a_usage_error(tmp_path: Path, given: str, m
 def test_cpus_keep_the_run_to_them(tmp_path: Path) -> None:
     import os
 
+    from motivml.plugins import bridge
+
     robot = _robot(tmp_path)
     (robot / "variants" / "v.json").write_text(
         json.dumps({"properties": [{"id": "lamp", "selected": False}]})
@@ -157,5 +159,8 @@ def test_cpus_keep_the_run_to_them(tmp_path: Path) -> None:
         )
         assert result.exit_code == 0, result.output
         assert os.sched_getaffinity(0) == {first}  # (CliRunner runs it in this process)
+        # a ROS 2 bridge started from now on keeps to the other CPUs (none left: the run's)
+        assert bridge.BRIDGE_CPUS == (frozenset(before - {first}) or None)
     finally:
         os.sched_setaffinity(0, before)
+        bridge.BRIDGE_CPUS = None

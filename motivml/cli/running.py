@@ -19,7 +19,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..binding import PREFERENCES
-from ..errors import MotivmlError
+from ..errors import EnvironmentProblem, Location, MotivmlError, error
 from ..runtime.requests import ACTIONS, Request
 from .common import err, fail, out, plural, print_diagnostic, printable, shown
 
@@ -92,6 +92,13 @@ class Number(click.FloatRange):
     help="Run on these CPUs only, e.g. 0 or 2-3 (Linux): the loop and its threads keep a core of their own.",
 )
 @click.option(
+    "--priority",
+    type=click.IntRange(1, 99),
+    metavar="N",
+    help="Run the loop's thread under SCHED_FIFO at real-time priority N (1-99; Linux, needs root, "
+    "CAP_SYS_NICE or an rtprio limit): it then wakes on time however busy the machine is.",
+)
+@click.option(
     "--ros2",
     is_flag=True,
     help="Start the ROS 2 node NS/motivml: features.<id>.active parameters, ~/active_features, /diagnostics (needs make ros2).",
@@ -122,6 +129,7 @@ def run_command(
     control: bool,
     strict: bool,
     cpus: str | None,
+    priority: int | None,
     ros2: bool,
     ros_namespace: str,
     scheduled: tuple[tuple[float, str], ...],
@@ -146,6 +154,14 @@ def run_command(
         missing = ros2_missing()  # before anything starts: say at once that ROS 2 is missing
         if missing is not None:
             fail(missing)
+    if priority is not None:
+        if clock != "real":
+            raise click.BadParameter("a priority is for the real clock", param_hint="--priority")
+        from ..runtime.loop import realtime_problem
+
+        problem = realtime_problem(priority)
+        if problem is not None:
+            fail(EnvironmentProblem(error(Location("run --priority"), problem, "run.priority")))
     if cpus is not None:
         from ..runtime.session import keep_to_cpus
 
@@ -210,6 +226,7 @@ def run_command(
         f"running {escape(robot.folder.name)} variant {escape(variant)}: "
         f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
         f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, "
+        + (f"real-time priority {priority}, " if priority is not None else "")
         + (f"{duration:g} s" if math.isfinite(duration) else "until stopped")
     )
 
@@ -224,7 +241,7 @@ def run_command(
         if control
         else None
     )
-    session = Session(robot, duration, clock, plan, folder, on_stuck=stuck, variant=variant)
+    session = Session(robot, duration, clock, plan, folder, on_stuck=stuck, variant=variant, priority=priority)
     try:
         session.open()
     except MotivmlError as exc:

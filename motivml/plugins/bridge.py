@@ -8,9 +8,9 @@ process they held the interpreter's lock whenever a swap's messages came and wen
 thread preempted by another process while holding it stalls the 1 kHz loop. In a process of
 their own they cost the loop nothing but a core's share.
 
-The two processes speak JSON lines over a socket pair (`Link`): calls that wait for their
-answer (`{"op": ..., "id": n}` answered by `{"re": n, ...}`), and one-way messages
-(`{"event": ...}`). When either process ends, the other reads the end of the stream: the run
+The two processes speak JSON lines over two socket pairs (`Link`), one for the calls each
+makes: calls that wait for their answer (`{"op": ..., "id": n}` answered by `{"re": n,
+...}`, read by the thread that called), and one-way messages (`{"event": ...}`). When either process ends, the other reads the end of the stream: the run
 treats its nodes as lost (a fault of their features), and the bridge moves the nodes it
 had activated back to unconfigured before it exits, so that a robot killed with `kill -9`
 does not leave its lamp on.
@@ -21,12 +21,14 @@ from __future__ import annotations
 import itertools
 import json
 import os
+import select
 import signal
 import socket
 import struct
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -42,89 +44,106 @@ class LinkBroken(Exception):
 
 
 class Link:
-    """JSON lines over a stream socket, both ways: calls with their answers, and one-way messages.
+    """JSON lines between two processes, over two socket pairs.
 
-    Messages that are not answers go to `handle`, on the link's reader thread: a handler that
-    waits for anything hands its work to a thread of its own. `on_close(reason)` is called
-    once, on the reader thread, when the stream ends or breaks; every call still waiting then
-    raises LinkBroken.
+    On `asking`, this process sends its calls (`{"op": ..., "id": n}`) and one-way messages
+    (`{"event": ...}` or an `op` without an id), and the thread that called reads the answer
+    itself (`{"re": n}`): no thread hands it on. On `hearing`, a thread of the link reads
+    the other's calls and messages and gives each to `handle`, which answers a call with
+    `answer`. A handler runs on that thread, one message after the other: what it waits for
+    must not come on `hearing`. `on_close(reason)` is called once, on the reading thread,
+    when the other's side ends or breaks; a call under way then raises LinkBroken.
     """
 
     def __init__(
         self,
-        sock: socket.socket,
+        asking: socket.socket,
+        hearing: socket.socket,
         handle: Callable[[dict[str, Any]], None],
         on_close: Callable[[str], None],
         name: str,
     ) -> None:
-        self._sock = sock
-        # Sends block (they are small and rare), but never for ever: a peer that takes
-        # nothing for SEND_TIMEOUT is treated as gone.
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, struct.pack("ll", SEND_TIMEOUT, 0))
         self.name = name
+        self._asking = asking
+        self._hearing = hearing
+        for sock in (asking, hearing):
+            # Sends block (they are small), but never for ever: a peer that takes nothing
+            # for SEND_TIMEOUT is treated as gone.
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDTIMEO, struct.pack("ll", SEND_TIMEOUT, 0))
         self._handle = handle
         self._on_close = on_close
         self._ids = itertools.count(1)
-        self._waiting: dict[int, list[Any]] = {}  # id -> [event, answer]
-        self._send_lock = threading.Lock()
+        self._write_locks = {id(asking): threading.Lock(), id(hearing): threading.Lock()}
+        self._call_lock = threading.Lock()  # one call at a time reads the answers
+        self._answers = b""  # what has been read of the answers, up to a line's end
         self._lock = threading.Lock()
         self.broken: str | None = None
         self._reader = threading.Thread(target=self._read, daemon=True, name=f"motivml-link-{name}")
         self._reader.start()
 
-    def send(self, message: dict[str, Any]) -> None:
-        """Send one message; LinkBroken if the other process has gone."""
+    def _write(self, sock: socket.socket, message: dict[str, Any]) -> None:
         data = json.dumps(message, separators=(",", ":")).encode() + b"\n"
         if self.broken is not None:
             raise LinkBroken(self.broken)
         try:
-            with self._send_lock:
-                self._sock.sendall(data)
+            with self._write_locks[id(sock)]:
+                sock.sendall(data)
         except OSError as exc:
             self._break(f"it took no message for {SEND_TIMEOUT} s" if isinstance(exc, BlockingIOError) else str(exc))
             raise LinkBroken(self.broken or str(exc)) from None
 
+    def send(self, message: dict[str, Any]) -> None:
+        """Send one message nobody answers; LinkBroken if the other process has gone."""
+        self._write(self._asking, message)
+
     def call(self, op: str, wait: float, **fields: Any) -> dict[str, Any]:
-        """Send `op` and wait for its answer: TimeoutError after `wait` s, LinkBroken if the other ends."""
-        ident = next(self._ids)
-        waiter: list[Any] = [threading.Event(), None]
-        with self._lock:
-            if self.broken is not None:
-                raise LinkBroken(self.broken)
-            self._waiting[ident] = waiter
-        try:
-            self.send({"op": op, "id": ident, **fields})
-            if not waiter[0].wait(wait):
+        """Send `op` and read its answer: TimeoutError after `wait` s, LinkBroken if the other ends."""
+        deadline = time.monotonic() + wait
+        with self._call_lock:
+            ident = next(self._ids)
+            self._write(self._asking, {"op": op, "id": ident, **fields})
+            while True:
+                answer = self._next_answer(op, wait, deadline)
+                if answer.get("re") == ident:
+                    return answer
+                # (the late answer of a call that gave up waiting: nobody wants it now)
+
+    def _next_answer(self, op: str, wait: float, deadline: float) -> dict[str, Any]:
+        poller = select.poll()
+        poller.register(self._asking, select.POLLIN)
+        while b"\n" not in self._answers:
+            left = deadline - time.monotonic()
+            if left <= 0:
                 raise TimeoutError(f"no answer to {op} within {wait:g} s")
-        finally:
-            with self._lock:
-                self._waiting.pop(ident, None)
-        if waiter[1] is None:
-            raise LinkBroken(self.broken or "the link ended")
-        answer: dict[str, Any] = waiter[1]
+            if not poller.poll(left * 1000):
+                continue
+            try:
+                chunk = self._asking.recv(65536)
+            except OSError as exc:
+                chunk, reason = b"", str(exc)
+            else:
+                reason = "the other process closed the link"
+            if not chunk:
+                self._break(reason)
+                raise LinkBroken(self.broken or reason)
+            self._answers += chunk
+        line, _, self._answers = self._answers.partition(b"\n")
+        answer: dict[str, Any] = json.loads(line)
         return answer
 
     def answer(self, message: dict[str, Any], **fields: Any) -> None:
         """Answer a call received by `handle` (the other may have gone: then nobody waits)."""
         try:
-            self.send({"re": message["id"], **fields})
+            self._write(self._hearing, {"re": message["id"], **fields})
         except LinkBroken:
             pass
 
     def _read(self) -> None:
         reason = "the other process closed the link"
         try:
-            with self._sock.makefile("rb") as stream:
+            with self._hearing.makefile("rb") as stream:
                 for line in stream:
-                    message = json.loads(line)
-                    if "re" in message:
-                        with self._lock:
-                            waiter = self._waiting.get(message["re"])
-                        if waiter is not None:
-                            waiter[1] = message
-                            waiter[0].set()
-                    else:
-                        self._dispatch(message)
+                    self._dispatch(json.loads(line))
         except (OSError, ValueError) as exc:
             reason = f"the link broke: {exc}"
         self._break(reason)
@@ -145,20 +164,26 @@ class Link:
             if self.broken is not None:
                 return
             self.broken = reason
-            waiting = list(self._waiting.values())
-        for waiter in waiting:
-            waiter[0].set()  # (no answer: LinkBroken)
-        try:
-            self._sock.shutdown(socket.SHUT_RDWR)  # the reader, if not this thread, ends too
-        except OSError:
-            pass
+        for sock in (self._asking, self._hearing):
+            try:
+                sock.shutdown(socket.SHUT_RDWR)  # a call and the reader, if not this thread, end too
+            except OSError:
+                pass
         self._on_close(reason)
 
     def close(self) -> None:
         self._break("closed")
         if threading.current_thread() is not self._reader:
             self._reader.join(timeout=2.0)
-        self._sock.close()
+        self._asking.close()
+        self._hearing.close()
+
+
+def socket_pairs() -> tuple[tuple[socket.socket, socket.socket], tuple[socket.socket, socket.socket]]:
+    """Two socket pairs for a link: (this process's asking, hearing), (the other's asking, hearing)."""
+    run_asks, bridge_hears = socket.socketpair()
+    bridge_asks, run_hears = socket.socketpair()
+    return (run_asks, run_hears), (bridge_asks, bridge_hears)
 
 
 class Bridge:
@@ -176,8 +201,9 @@ class Bridge:
         self._ready = threading.Event()
         self._failure: dict[str, Any] | None = None
         self.gone: str | None = None
-        ours, theirs = socket.socketpair()
-        command = [sys.executable, "-m", "motivml.ros2", "--fd", str(theirs.fileno()), "--namespace", ns]
+        ours, theirs = socket_pairs()
+        fds = tuple(sock.fileno() for sock in theirs)
+        command = [sys.executable, "-m", "motivml.ros2", "--fds", f"{fds[0]},{fds[1]}", "--namespace", ns]
 
         def setup() -> None:  # in the child, before it runs Python
             if cpus:
@@ -186,7 +212,7 @@ class Bridge:
         try:
             self.process = subprocess.Popen(  # noqa: S603 (our own interpreter and module)
                 command,
-                pass_fds=(theirs.fileno(),),
+                pass_fds=fds,
                 stdin=subprocess.DEVNULL,
                 # Its own session: a Ctrl-C at the terminal reaches the run, which ends its
                 # features (through the bridge) and then the bridge.
@@ -194,11 +220,12 @@ class Bridge:
                 preexec_fn=setup if cpus else None,  # noqa: PLW1509 (affinity only)
             )
         except OSError as exc:
-            ours.close()
-            theirs.close()
+            for sock in ours + theirs:
+                sock.close()
             raise _failed(f"the ROS 2 bridge could not start: {exc}") from None
-        theirs.close()
-        self.link = Link(ours, self._handle, self._closed, "ros2-bridge")
+        for sock in theirs:
+            sock.close()
+        self.link = Link(*ours, self._handle, self._closed, "ros2-bridge")
         if not self._ready.wait(START_TIMEOUT):
             self.kill()
             raise _failed(f"the ROS 2 bridge did not start within {START_TIMEOUT:g} s")

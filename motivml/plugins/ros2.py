@@ -121,6 +121,10 @@ class LifecycleNodes:
                 self.bridge.on("lost", self._lost)
                 self.bridge.on("log", self._log)
                 self.bridge.ended.append(self._bridge_ended)
+                # The bridge makes its clients of every node now: discovering a node takes
+                # a moment, better spent while the run starts than in its first request.
+                nodes = sorted({resolve_node(str(p.entry["node"]), self.namespace) for p in self.plugins.values()})
+                self.bridge.link.send({"op": "lifecycle", "do": "know", "nodes": nodes})
             return self.bridge
 
     def call(self, instance: LifecycleFeature, do: str, wait: float, **fields: Any) -> dict[str, Any]:

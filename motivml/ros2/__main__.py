@@ -1,4 +1,4 @@
-"""`python -m motivml.ros2 --fd N --namespace NS`: the run's ROS 2 bridge process (see bridge.py)."""
+"""`python -m motivml.ros2 --fds ASKING,HEARING --namespace NS`: the run's ROS 2 bridge process (see bridge.py)."""
 
 import os
 import sys

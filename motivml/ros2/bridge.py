@@ -35,7 +35,7 @@ SWITCH_INTERVAL = 0.0001  # s (the loop's own, see runtime/loop.py)
 
 
 class Server:
-    def __init__(self, sock: socket.socket, ns: str) -> None:
+    def __init__(self, asking: socket.socket, hearing: socket.socket, ns: str) -> None:
         self.namespace = ns
         self.ended = threading.Event()
         self.asked_to_exit = False
@@ -43,7 +43,7 @@ class Server:
         self.nodes: LifecycleNodes | None = None
         self.door: FrontDoor | None = None
         self.worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="motivml-bridge")
-        self.link = Link(sock, self.handle, self.closed, "run")
+        self.link = Link(asking, hearing, self.handle, self.closed, "run")
 
     def tell(self, message: dict[str, Any]) -> None:
         try:
@@ -120,7 +120,7 @@ class Server:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m motivml.ros2", description=__doc__.splitlines()[0])
-    parser.add_argument("--fd", type=int, required=True, help="this process's end of the run's socket pair")
+    parser.add_argument("--fds", required=True, help="this process's ends of the run's socket pairs: ASKING,HEARING")
     parser.add_argument("--namespace", default="/")
     args = parser.parse_args(argv)
     # The run has the terminal's Ctrl-C (the bridge has a session of its own, but a shell
@@ -130,8 +130,8 @@ def main(argv: list[str] | None = None) -> int:
     # that waits for it: with Python's default 5 ms switch interval, a thread running on
     # (an executor building its next wait set) keeps the waiting one waiting that long.
     sys.setswitchinterval(SWITCH_INTERVAL)
-    sock = socket.socket(fileno=args.fd)
-    return Server(sock, args.namespace).run()
+    asking, hearing = (socket.socket(fileno=int(fd)) for fd in args.fds.split(","))
+    return Server(asking, hearing, args.namespace).run()
 
 
 if __name__ == "__main__":  # pragma: no cover (run as python -m motivml.ros2)

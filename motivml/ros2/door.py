@@ -6,7 +6,7 @@ holds rclpy: see `motivml.plugins.bridge`). This side, in the run's process, hol
 * it tells the bridge what the node shows (the selected features, their bindings, the
   active set), and starts the node;
 * it answers the node's `set` calls (one `set_parameters(_atomically)` call: the features
-  wanted on and off) with one `Request.set` to the binder, on a thread of its own;
+  wanted on and off) with one `Request.set` to the binder, on the link's reading thread;
 * it tells the node every outcome of the binder (`Binder.watchers`: ctl's changes and a
   fault's unloads too), and, once a second, the loop's health for `/diagnostics`.
 """
@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from ..errors import EnvironmentProblem, Location, describe_exception, error
@@ -46,7 +45,6 @@ class Door:
         # every selected feature but the root (always there, nothing to switch)
         self.selected = [d for d in robot.variant.decisions if d.selected and d.feature.parent is not None]
         self._closed = threading.Event()
-        self._worker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="motivml-ros2-door")
         self.bridge: Bridge = bridges.open_bridge(ns, bridges.BRIDGE_CPUS)
         try:
             self.bridge.on("set", self._set)
@@ -87,12 +85,13 @@ class Door:
 
     # ------------------------------------------------------------- the node's calls
     def _set(self, message: dict[str, Any]) -> None:
-        """On the link's thread: one call of the node, answered from the door's own thread."""
-        self._worker.submit(self._answer_set, message)
-
-    def _answer_set(self, message: dict[str, Any]) -> None:
+        """On the link's thread: one call of the node (the binder's calls to the bridge go the
+        other way, on the link's other socket pair, so this thread may wait for them)."""
         try:
-            answer = self._change(dict(message["wanted"]))
+            if self._closed.is_set():
+                answer: dict[str, Any] = {"accepted": False, "reason": "the run is ending: nothing changed"}
+            else:
+                answer = self._change(dict(message["wanted"]))
         except Exception as exc:
             answer = {"error": f"motivml could not handle the call: {describe_exception(exc)}"}
         self.bridge.link.answer(message, **answer)
@@ -196,7 +195,6 @@ class Door:
         self._closed.set()
         if self._heard in self.binder.watchers:
             self.binder.watchers.remove(self._heard)
-        self._worker.shutdown(wait=True)
         if self.bridge.gone is None:
             try:
                 self.bridge.call("door_close", bridges.END_TIMEOUT)

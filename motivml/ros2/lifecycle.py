@@ -29,7 +29,8 @@ from .graph import Graph
 
 WATCH_PERIOD = 0.2  # s between two questions to a watched node
 WATCH_DEADLINE = 0.8  # s: a node that has not answered by then is lost
-HANDSHAKE = 0.5  # s: a first question to a node on new clients, asked again until its timeout
+HANDSHAKE = 0.2  # s: a first question to a node on new clients, asked again until its timeout (an answer
+# to a new client is lost until the node has discovered it: a few tenths of a second)
 
 # Where each transition ends when it succeeds (lifecycle_msgs' primary state ids and labels).
 GOALS = {
@@ -60,6 +61,10 @@ class LifecycleNodes:
         do = message["do"]
         if do == "settle":
             self.settle(message.get("node"))
+            return {}
+        if do == "know":  # the run's nodes, to be discovered while it starts
+            for node in message["nodes"]:
+                self.clients(str(node))
             return {}
         ident = int(message["instance"])
         instance = self.instances.get(ident)

@@ -27,14 +27,13 @@ over the bridge's link to the binder; the binder's news (every outcome, from any
 door) and the loop's health come back the same way. Everything that changes the node's
 parameters runs in one mutually exclusive callback group (the parameter services and the
 binder's news), so the parameters always follow the active set, one change after the
-other. `ros2 param set`, rqt's parameter editor and any rclpy client speak these same
+other; the log and the topic are written as the news arrives. `ros2 param set`, rqt's parameter editor and any rclpy client speak these same
 standard services.
 """
 
 from __future__ import annotations
 
 import json
-import queue
 from typing import Any
 
 from ..errors import describe_exception
@@ -74,7 +73,6 @@ class FrontDoor:
         self.features = {parameter_name(f["id"]): str(f["id"]) for f in robot["features"]}
         self.compiled_in = {str(f["id"]) for f in robot["features"] if f["read_only"]}
         self.active = frozenset(robot["active"])
-        self._news: queue.SimpleQueue[dict[str, Any]] = queue.SimpleQueue()
         self._internal = False  # parameters being brought in line with the active set
         self._closed = False
         door = self
@@ -191,34 +189,32 @@ class FrontDoor:
 
     # ---------------------------------------------------------- the binder's news
     def heard(self, outcome: dict[str, Any]) -> None:
-        """On the link's thread: an outcome of the binder (any front door's): queue it, wake the node."""
-        if outcome["accepted"]:
-            self.active = frozenset(outcome["active"])
-        if not self._closed:
-            self._news.put(outcome)
-            self._guard.trigger()
+        """On the link's thread: an outcome of the binder (any front door's). It goes into the
+        log and onto the topic from here (rclpy's loggers and publishers may be used from any
+        thread), so that the node's own thread is free for the next call at once; the
+        parameters are brought in line on the node's thread (`_catch_up`)."""
+        if self._closed:
+            return
+        if not outcome["accepted"]:
+            self.log.warning(f"refused {outcome['request']}: {outcome['reason']}")
+            return
+        self.active = frozenset(outcome["active"])
+        moved = "; ".join(
+            part
+            for part in (
+                f"loaded {', '.join(outcome['loads'])}" if outcome["loads"] else "",
+                f"unloaded {', '.join(outcome['unloads'])}" if outcome["unloads"] else "",
+            )
+            if part
+        )
+        self.log.info(f"accepted {outcome['request']}: {moved}")
+        self._publish_active(outcome["active"], outcome["tick"], outcome["change"])
+        self._guard.trigger()
 
     def _catch_up(self) -> None:
-        """In the node's group: log what happened, bring the parameters and the topic in line."""
-        latest = None
-        while not self._news.empty():
-            outcome = self._news.get()
-            if outcome["accepted"]:
-                moved = "; ".join(
-                    part
-                    for part in (
-                        f"loaded {', '.join(outcome['loads'])}" if outcome["loads"] else "",
-                        f"unloaded {', '.join(outcome['unloads'])}" if outcome["unloads"] else "",
-                    )
-                    if part
-                )
-                self.log.info(f"accepted {outcome['request']}: {moved}")
-                latest = outcome
-            else:
-                self.log.warning(f"refused {outcome['request']}: {outcome['reason']}")
+        """In the node's group: the parameters in line with the active set (a change that came
+        through this node's services is in line already: nothing to do then)."""
         self._align_parameters()
-        if latest is not None:
-            self._publish_active(latest["active"], latest["tick"], latest["change"])
 
     def _align_parameters(self) -> None:
         """Every features.<id>.active equal to the active set, in one parameter event."""

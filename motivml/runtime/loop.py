@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import gc
 import math
+import os
 import queue
 import sys
 import threading
@@ -196,9 +197,63 @@ class _SlackCollector:
         self.collections += 1
 
 
+SPIN_REALTIME = 0.00005  # s: a real-time thread's sleep ends within a few microseconds
+
+
+def realtime_problem(priority: int) -> str | None:
+    """Why this process may not run a thread under SCHED_FIFO at `priority`, or None (asked
+    of a short-lived thread, so that no thread of the caller changes)."""
+    if not hasattr(os, "sched_setscheduler"):
+        return "this system has no real-time scheduling (Linux has)"
+    low, high = os.sched_get_priority_min(os.SCHED_FIFO), os.sched_get_priority_max(os.SCHED_FIFO)
+    if not low <= priority <= high:
+        return f"{priority} is not a real-time priority: {low} to {high}"
+    problem: list[str] = []
+
+    def probe() -> None:
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        except OSError as exc:
+            problem.append(exc.strerror or str(exc))
+
+    thread = threading.Thread(target=probe, name="motivml-realtime-probe")
+    thread.start()
+    thread.join()
+    if problem:
+        return (
+            f"this process may not use real-time scheduling ({problem[0]}): run it as root, give it "
+            f"CAP_SYS_NICE, or raise its real-time priority limit (ulimit -r {priority}; LimitRTPRIO={priority} "
+            f"in a systemd unit)"
+        )
+    return None
+
+
 class RealClock:
+    """Ticks on the wall clock. With a `priority`, the loop's thread runs under SCHED_FIFO at
+    that priority (1-99) while it ticks: it then takes a CPU from any ordinary thread of any
+    process the moment its sleep ends, and, with no timer slack for real-time threads,
+    sleeps to within SPIN_REALTIME of each deadline, leaving the CPU to others meanwhile."""
+
     name = "real"
     spin = 0.0004  # s before a deadline: sleep until then, spin the rest
+    priority: int | None = None
+
+    def __init__(self, priority: int | None = None) -> None:
+        self.priority = priority
+        if priority is not None:
+            self.spin = SPIN_REALTIME
+
+    def enter(self) -> None:
+        """On the loop's thread, before the first tick: its scheduling (OSError if refused)."""
+        if self.priority is not None:
+            os.sched_setscheduler(0, os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, os.sched_param(self.priority))
+
+    def leave(self) -> None:
+        if self.priority is not None:
+            try:
+                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+            except OSError:
+                pass
 
     def now(self) -> float:
         return time.perf_counter()
@@ -462,6 +517,7 @@ class Runtime:
         start = clock.now() + period
         slot = 0
         try:
+            clock.enter()
             while slot < total:
                 if self.stop_requested.is_set() or (until is not None and until(self)):
                     break
@@ -484,6 +540,7 @@ class Runtime:
             stats.elapsed = max(clock.now() - start, min(slot, total) * period, 0.0)
             stats.cpu = time.process_time() - cpu0
             stats.jitter, stats.work = jitter[: min(stats.ticks, kept)], work[: min(stats.ticks, kept)]
+            clock.leave()
             sys.setswitchinterval(switch)
             gc.unfreeze()
             stats.collections = slack.collections

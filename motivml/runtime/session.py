@@ -105,8 +105,10 @@ class Session:
         run_dir: Path | None = None,
         on_stuck: Callable[[], None] = _exit_now,
         variant: str | None = None,
+        priority: int | None = None,
     ) -> None:
         self.robot = robot
+        self.priority = priority  # the loop thread's real-time priority (real clock), if any
         self.runtime: Runtime = robot.runtime
         self.duration = duration
         self.simulated = clock == "simulated"
@@ -156,7 +158,7 @@ class Session:
 
     def start(self) -> None:
         """Start the loop on its own thread (at once over if a signal came since `open`)."""
-        clock = SimulatedClock() if self.simulated else RealClock()
+        clock = SimulatedClock() if self.simulated else RealClock(self.priority)
 
         def work() -> None:
             try:
