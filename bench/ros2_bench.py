@@ -1,20 +1,23 @@
 """Benchmark: swapping two ros2_lifecycle features through set_parameters_atomically at 1 kHz.
 
-The robot of tests/test_ros2.py cut to its swap: `camera` XOR `thermal` (Dynamic Early and
-Dynamic Late), implemented by the lifecycle nodes person_detection and thermal_detection of
-plugins/ros2/uv_nodes.py, each in a process of its own. The robot runs in this process at
---rate Hz on the real clock with the `motivml` node of `run --ros2` (which, with the
-lifecycle clients, lives in the run's ROS 2 bridge process: this process holds no rclpy); a client in another
-process (this script with --client, so that its Python shares no GIL with the loop)
-alternates {camera: false, thermal: true} and {camera: true, thermal: false} --swaps times
-through /NS/motivml/set_parameters_atomically, timing each call from send to answer.
+The robot of tests/test_ros2.py cut to its swap: an optional `detection` with `camera` XOR
+`thermal` (all Dynamic Late), implemented by the lifecycle nodes person_detection and
+thermal_detection of plugins/ros2/uv_nodes.py, each in a process of its own. The robot runs
+in this process at --rate Hz on the real clock with the `motivml` node of `run --ros2`
+(which, with the lifecycle clients, lives in the run's ROS 2 bridge process: this process
+holds no rclpy); a client in another process (this script with --client) loads the
+detection with its camera (untimed), then alternates {camera: false, thermal: true} and
+{camera: true, thermal: false} --swaps times through /NS/motivml/set_parameters_atomically,
+timing each call from send to answer.
 
-The floor, timed in the same run by the same client against the same two nodes before the
-robot starts (so motivml does not drive them): per swap, the ChangeState round trips a
+The floor, timed in the same run by the same client against the same two nodes while the
+robot runs with its detection not loaded (so motivml does not drive them, but its loop and
+its bridge share the machine as during the swaps): per swap, the ChangeState round trips a
 swap makes in motivml/ros2/lifecycle.py, one after the other: configure the arriving node,
 deactivate the leaving one, activate the arriving one, clean up the leaving one. A
 successful swap asks no GetState. (motivml overlaps the configure with the deactivation
 and does not wait for the clean-up's answer: what it saves that way is part of the figure.)
+The same floor measured before the robot starts is printed beside it.
 
 Missed deadlines over the swaps are compared with the same robot without ROS (the same
 features implemented by Python plugins that do nothing, no front door, no nodes), run for
@@ -24,10 +27,12 @@ missed deadlines of the ROS robot over the same time again after the swaps, noth
 It also prints where the time goes on motivml's side (the plugin and binder methods timed
 by wrappers around them, a few microseconds each).
 
-    .venv-ros/bin/python bench/ros2_bench.py [--swaps 200] [--rate 1000] [--domain 93] [--pinned]
+    .venv-ros/bin/python bench/ros2_bench.py [--swaps 200] [--rate 1000] [--domain 93] [--priority N] [--pinned]
 
-With --pinned the robot's process is kept to CPU 0 (what `run --cpus 0` does) and the nodes,
-the client and the bridge to the other CPUs, as a robot computer that gives its control loop a core.
+With --priority N both robots' loops run at real-time priority N (what `run --priority N`
+does). With --pinned the robot's process is kept to CPU 0 (what `run --cpus 0` does) and the
+nodes, the client and the bridge to the other CPUs, as a robot computer that gives its
+control loop a core.
 
 Target (issue 13): p50 and p99 within 1.5 x the floor + 2 ms, and no more missed deadlines
 than without ROS.
@@ -69,8 +74,8 @@ MODEL = {
         {
             "id": "detection",
             "name": "detection",
-            "isMandatory": True,
-            "constraints": {**ANY, "bindingTimeAllowed": "Early", "bindingModeAllowed": "Static"},
+            "isMandatory": False,
+            "constraints": ANY,
             "sub": [
                 {"id": "camera", "name": "camera", "group": "XOR", "constraints": ANY},
                 {"id": "thermal", "name": "thermal", "group": "XOR", "constraints": ANY},
@@ -80,8 +85,8 @@ MODEL = {
 }
 VARIANT = {
     "properties": [
-        {"id": "detection", "selected": True, "props": {"time": "Early", "mode": "Static"}},
-        {"id": "camera", "selected": True, "props": {"time": "Early", "mode": "Dynamic"}},
+        {"id": "detection", "selected": True, "props": {"time": "Late", "mode": "Dynamic"}},
+        {"id": "camera", "selected": True, "props": {"time": "Late", "mode": "Dynamic"}},
         {"id": "thermal", "selected": True, "props": {"time": "Late", "mode": "Dynamic"}},
     ]
 }
@@ -182,37 +187,47 @@ def client_main(swaps: int, domain_id: int) -> None:
                 raise SystemExit(f"floor: {node} refused transition {transition}")
 
         camera, thermal = NODE_OF["camera"], NODE_OF["thermal"]
-        move(camera, Transition.TRANSITION_CONFIGURE)  # the start state, as launch makes it
-        move(camera, Transition.TRANSITION_ACTIVATE)
-        floor = []
-        for k in range(swaps):
-            leaving, arriving = (camera, thermal) if k % 2 == 0 else (thermal, camera)
-            began = time.perf_counter()
-            move(arriving, Transition.TRANSITION_CONFIGURE)  # prepare
-            move(leaving, Transition.TRANSITION_DEACTIVATE)  # switch
-            move(arriving, Transition.TRANSITION_ACTIVATE)
-            move(leaving, Transition.TRANSITION_CLEANUP)  # release
-            floor.append(time.perf_counter() - began)
-        active = camera if swaps % 2 == 0 else thermal
-        move(active, Transition.TRANSITION_DEACTIVATE)  # the nodes wait unconfigured again
-        move(active, Transition.TRANSITION_CLEANUP)
-        print(json.dumps({"floor": floor}), flush=True)
 
+        def floor() -> list[float]:
+            """The swaps' round trips, made directly; the nodes end unconfigured, as they began."""
+            move(camera, Transition.TRANSITION_CONFIGURE)  # the camera active, as the warm-up leaves it
+            move(camera, Transition.TRANSITION_ACTIVATE)
+            times = []
+            for k in range(swaps):
+                leaving, arriving = (camera, thermal) if k % 2 == 0 else (thermal, camera)
+                began = time.perf_counter()
+                move(arriving, Transition.TRANSITION_CONFIGURE)  # prepare
+                move(leaving, Transition.TRANSITION_DEACTIVATE)  # switch
+                move(arriving, Transition.TRANSITION_ACTIVATE)
+                move(leaving, Transition.TRANSITION_CLEANUP)  # release
+                times.append(time.perf_counter() - began)
+            active = camera if swaps % 2 == 0 else thermal
+            move(active, Transition.TRANSITION_DEACTIVATE)
+            move(active, Transition.TRANSITION_CLEANUP)
+            return times
+
+        print(json.dumps({"floor_before": floor()}), flush=True)
         if sys.stdin.readline().strip() != "go":
             return
+        # The robot runs now (its loop, its bridge), its detection not loaded: the nodes are free.
+        print(json.dumps({"floor": floor()}), flush=True)
         service = client.client(SetParametersAtomically, f"{NS}/motivml/set_parameters_atomically")
+
+        def call(values: dict[str, bool]) -> Any:
+            parameters = [Parameter(f"features.{f}.active", value=v).to_parameter_msg() for f, v in values.items()]
+            return client.call(service, SetParametersAtomically.Request(parameters=parameters)).result
+
+        warm = call({"detection": True, "camera": True})  # untimed: the detection and its camera come
+        if not warm.successful:
+            raise SystemExit(f"the warm-up was refused: {warm.reason}")
         print(json.dumps({"begin": True}), flush=True)
         latencies, refused = [], []
         for k in range(swaps):
-            parameters = [
-                Parameter(f"features.{f}.active", value=v).to_parameter_msg()
-                for f, v in swap_values(k).items()
-            ]
             began = time.perf_counter()
-            answer = client.call(service, SetParametersAtomically.Request(parameters=parameters))
+            result = call(swap_values(k))
             latencies.append(time.perf_counter() - began)
-            if not answer.result.successful:
-                refused.append(f"swap {k}: {answer.result.reason}")
+            if not result.successful:
+                refused.append(f"swap {k}: {result.reason}")
                 break
         print(json.dumps({"swaps": latencies, "refused": refused}), flush=True)
     finally:
@@ -324,7 +339,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
                 preexec_fn=_others,
             )
             started.append(client)
-            floor, _ = read_message(client, "floor")
+            floor_before, _ = read_message(client, "floor_before")
             # The ROS 2 bridge (started with the robot) logs the motivml node's rosout lines
             # to the stderr it inherits: into the client's file, out of this terminal.
             with stderr_to(errors):
@@ -338,11 +353,13 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
                 session.doors.append(door.close)
                 robot.binder.watchers.append(lambda o: commits.append(o.latency) if o.accepted else None)
                 session.start()
-                timings.clear()
                 assert client.stdin is not None
                 client.stdin.write("go\n")
                 client.stdin.flush()
+                floor, _ = read_message(client, "floor")
                 read_message(client, "begin")
+                timings.clear()
+                commits.clear()
                 missed, began = session.runtime.missed, time.perf_counter()
                 latencies, message = read_message(client, "swaps")
                 window = time.perf_counter() - began
@@ -359,6 +376,7 @@ def with_ros(folder: Path, swaps: int, rate: float, domain_id: int, errors: Any)
         timings.restore()
     return {
         "floor": floor,
+        "floor_before": floor_before,
         "in_process": in_process,
         "swaps": latencies,
         "refused": message["refused"],
@@ -381,6 +399,9 @@ def without_ros(folder: Path, swaps: int, rate: float, window: float) -> int:
     try:
         session.open()
         session.start()
+        warm = robot.binder.request(Request.set(["detection", "camera"], []))  # as the client's warm-up
+        if not warm.accepted:
+            raise SystemExit(f"without ROS: the warm-up was refused: {warm.reason}")
         missed, began = session.runtime.missed, time.perf_counter()
         for k in range(swaps):
             values = swap_values(k)
@@ -480,7 +501,13 @@ def report(args: argparse.Namespace, ros: dict[str, Any], missed_alone: int) -> 
         )
     print(
         f"  max  call to answer {swaps.max() * ms:7.2f} ms   floor {floor.max() * ms:6.2f} ms "
-        f"(floor: the same 4 ChangeState round trips per swap, made directly by the same client)"
+        f"(floor: the same 4 ChangeState round trips per swap, made directly by the same client, "
+        f"while the robot runs with its detection unloaded)"
+    )
+    before = np.array(ros["floor_before"])
+    print(
+        f"  the same floor before the robot started: p50 {np.percentile(before, 50) * ms:.2f} ms, "
+        f"p99 {np.percentile(before, 99) * ms:.2f} ms"
     )
     met = ros["missed"] <= missed_alone
     print(
