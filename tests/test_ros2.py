@@ -225,6 +225,31 @@ def test_a_refused_call_changes_no_node_and_no_parameter(ward: Callable[..., Run
     assert client.state("person_detection") == "active" and client.state("thermal_detection") == "unconfigured"
 
 
+def test_calls_on_other_parameters_are_ros_own_and_mixed_calls_are_refused(ward: Callable[..., Running]) -> None:
+    """A call that names no feature is the standard service's; one that mixes features with
+    other parameters, or gives a feature something other than a boolean, changes nothing."""
+    from rcl_interfaces.srv import SetParameters, SetParametersAtomically
+    from rclpy.parameter import Parameter
+
+    robot = ward()
+    client = robot.client
+    sim_time = Parameter("use_sim_time", value=False).to_parameter_msg()
+    [plain] = client.call(SetParameters, "/motivml/set_parameters", SetParameters.Request(parameters=[sim_time])).results
+    assert plain.successful, plain.reason
+    kind = SetParametersAtomically
+    atomic = client.call(kind, "/motivml/set_parameters_atomically", kind.Request(parameters=[sim_time])).result
+    assert atomic.successful, atomic.reason
+    before = client.parameters("camera", "thermal")
+    camera = Parameter("features.camera.active", value=False).to_parameter_msg()
+    mixed = client.call(kind, "/motivml/set_parameters_atomically", kind.Request(parameters=[camera, sim_time])).result
+    assert not mixed.successful
+    assert mixed.reason == "a call that changes features.* changes nothing else (use_sim_time)"
+    number = Parameter("features.camera.active", value=0).to_parameter_msg()
+    wrong = client.call(kind, "/motivml/set_parameters_atomically", kind.Request(parameters=[number])).result
+    assert not wrong.successful and wrong.reason == "features.camera.active takes true or false"
+    assert client.parameters("camera", "thermal") == before
+
+
 def test_a_node_that_fails_to_activate_rolls_the_request_back(ward: Callable[..., Running]) -> None:
     robot = ward(fail={"thermal_detection": "activate"})
     client = robot.client

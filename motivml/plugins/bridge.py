@@ -37,6 +37,7 @@ from ..errors import EnvironmentProblem, Location, describe_exception, error
 START_TIMEOUT = 60.0  # s for the bridge to import rclpy and join the graph
 SEND_TIMEOUT = 5  # s: a peer that takes nothing for this long is gone
 END_TIMEOUT = 10.0  # s for the bridge to end once asked to (its nodes are cleaned up first)
+PROGRAM = "motivml.ros2"  # the module a bridge process runs (the tests script one of their own)
 
 
 class LinkBroken(Exception):
@@ -201,9 +202,10 @@ class Bridge:
         self._ready = threading.Event()
         self._failure: dict[str, Any] | None = None
         self.gone: str | None = None
+        self._gone_known = threading.Event()  # set once `gone` says how the bridge ended
         ours, theirs = socket_pairs()
         fds = tuple(sock.fileno() for sock in theirs)
-        command = [sys.executable, "-m", "motivml.ros2", "--fds", f"{fds[0]},{fds[1]}", "--namespace", ns]
+        command = [sys.executable, "-m", PROGRAM, "--fds", f"{fds[0]},{fds[1]}", "--namespace", ns]
 
         def setup() -> None:  # in the child, before it runs Python
             if cpus:
@@ -234,6 +236,9 @@ class Bridge:
             raise EnvironmentProblem(
                 error(Location("ros2"), str(self._failure["message"]), str(self._failure.get("code", "ros2.start")))
             )
+        if self.gone is not None:  # it ended without a word
+            self.wait()
+            raise _failed(f"{self.gone} as it started")
 
     def on(self, kind: str, handler: Callable[[dict[str, Any]], None]) -> None:
         self.handlers[kind] = handler
@@ -261,6 +266,7 @@ class Bridge:
                 code = None
         ended = f"exit {code}" if code is not None and code >= 0 else f"killed by signal {-code}" if code else ""
         self.gone = "the ROS 2 bridge process ended" + (f" ({ended})" if ended else "")
+        self._gone_known.set()
         self._ready.set()
         for told in list(self.ended):
             told(self.gone)
@@ -270,6 +276,8 @@ class Bridge:
         try:
             return self.link.call(op, wait, **fields)
         except LinkBroken:
+            # (the link's reader may be the one that saw the end: it says how, within a second)
+            self._gone_known.wait(2.0)
             raise LinkBroken(self.gone or "the ROS 2 bridge process ended") from None
 
     def wait(self) -> None:
