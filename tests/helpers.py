@@ -5,6 +5,9 @@ from __future__ import annotations
 import difflib
 import json
 import os
+import threading
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -81,3 +84,14 @@ def assert_matches_golden(actual: bytes, golden: Path) -> None:
             f"no golden file {golden}: create it with {UPDATE_GOLDEN}=1, then review it", pytrace=False
         )
     raise AssertionError(f"output differs from {golden} (to accept the change: {UPDATE_GOLDEN}=1)\n{diff}")
+
+
+def until(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -> Any:
+    """Poll a condition (cheap, local) until it holds; fail after `timeout`."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = condition()
+        if value:
+            return value
+        threading.Event().wait(0.02)  # a poll interval, not a wait for the outcome
+    pytest.fail(f"timed out waiting for {what or condition}")

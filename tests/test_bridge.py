@@ -14,12 +14,12 @@ import math
 import os
 import queue
 import socket
-import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import until
 
 from motivml.errors import EnvironmentProblem
 from motivml.plugins import bridge as bridges
@@ -32,16 +32,6 @@ from motivml.runtime.session import Session
 ROS = importlib.util.find_spec("rclpy") is not None
 TESTS = Path(__file__).resolve().parent
 SIMPLEBOT = TESTS.parent / "feature_models" / "simplebot"
-
-
-def until(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -> Any:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        time.sleep(0.01)  # polling a condition, not timing anything
-    raise AssertionError(f"timed out waiting for {what or condition}")
 
 
 # ---------------------------------------------------------------------- Link

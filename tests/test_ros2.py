@@ -13,13 +13,14 @@ import json
 import math
 import os
 import threading
-import time
 from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import pytest
+from helpers import until
 from ros2_support import ROOT, ROS2, Client, domain, processes, python_process
 
 pytestmark = ROS2
@@ -78,17 +79,6 @@ def write_robot(folder: Path, timeout: float = 5) -> Path:
         manifest = {"feature": feature_id, "kind": "ros2_lifecycle", "entry": {"node": node, "timeout": timeout}}
         (folder / "plugins" / feature_id / "plugin.json").write_text(json.dumps(manifest))
     return folder
-
-
-def until(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -> Any:
-    """Poll a condition (cheap, local) until it holds; fail after `timeout`."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        value = condition()
-        if value:
-            return value
-        threading.Event().wait(0.02)  # a poll interval, not a wait for the outcome
-    pytest.fail(f"timed out waiting for {what or condition}")
 
 
 def reaches(client: Client, node: str, state: str) -> None:
@@ -359,6 +349,29 @@ def test_two_robots_in_two_namespaces_do_not_see_each_other(ward: Callable[..., 
     assert "camera" in second.active
 
 
+@contextmanager
+def command_line_run(tmp_path: Path, ns: str) -> Iterator[tuple[Client, Any]]:
+    """The robot's nodes up, a client, and `motivml run --ros2` started as a user starts it:
+    the client and the run's process; every process started ends with the block."""
+    domain_id = domain()
+    robot = write_robot(tmp_path / "ward")
+    with processes() as started:
+        nodes = start_nodes(started, domain_id, ns)
+        client = Client(domain_id, ns)
+        try:
+            for node in nodes:
+                until(lambda node=node: client.state(node), what=f"node {node}")
+            run = python_process(
+                ["-m", "motivml.cli", "run", str(robot), "--variant", "ward", "--duration", "inf"]
+                + ["--no-live", "--no-control", "--ros2", "--ros-namespace", ns],
+                domain_id,
+            )
+            started.append(run)
+            yield client, run
+        finally:
+            client.close()
+
+
 def test_run_ros2_from_the_command_line(tmp_path: Path) -> None:
     """`motivml run --ros2` as a user starts it: a change through the node shows in the run's
     output and in rosout, and SIGTERM (a service manager's stop) ends the run cleanly."""
@@ -366,33 +379,18 @@ def test_run_ros2_from_the_command_line(tmp_path: Path) -> None:
 
     from rcl_interfaces.msg import Log
 
-    domain_id = domain()
-    robot = write_robot(tmp_path / "ward")
-    with processes() as started:
-        nodes = start_nodes(started, domain_id, "/cli")
-        client = Client(domain_id, "/cli")
-        try:
-            for node in nodes:
-                until(lambda node=node: client.state(node), what=f"node {node}")
-            logs = client.subscribe(Log, "/rosout")
-            run = python_process(
-                ["-m", "motivml.cli", "run", str(robot), "--variant", "ward", "--duration", "inf"]
-                + ["--no-live", "--no-control", "--ros2", "--ros-namespace", "/cli"],
-                domain_id,
-            )
-            started.append(run)
-            [result] = client.set(camera=False, thermal=True)
-            assert result.successful, result.reason
-            assert client.state("thermal_detection") == "active"
-            until(lambda: any("accepted set +thermal -camera" in m.msg for m in logs), what="rosout")
-            # rclpy lives in the run's bridge process, never in the run's own
-            [bridge] = bridges("/cli")
-            assert "_rclpy_pybind11" in Path(f"/proc/{bridge}/maps").read_text()
-            assert "_rclpy_pybind11" not in Path(f"/proc/{run.pid}/maps").read_text()
-            run.send_signal(signal.SIGTERM)
-            output, _ = run.communicate(timeout=30)
-        finally:
-            client.close()
+    with command_line_run(tmp_path, "/cli") as (client, run):
+        logs = client.subscribe(Log, "/rosout")
+        [result] = client.set(camera=False, thermal=True)
+        assert result.successful, result.reason
+        assert client.state("thermal_detection") == "active"
+        until(lambda: any("accepted set +thermal -camera" in m.msg for m in logs), what="rosout")
+        # rclpy lives in the run's bridge process, never in the run's own
+        [bridge] = bridges("/cli")
+        assert "_rclpy_pybind11" in Path(f"/proc/{bridge}/maps").read_text()
+        assert "_rclpy_pybind11" not in Path(f"/proc/{run.pid}/maps").read_text()
+        run.send_signal(signal.SIGTERM)
+        output, _ = run.communicate(timeout=30)
     assert run.returncode == 0, output
     assert "ROS 2: node /cli/motivml (features.<id>.active parameters)" in output
     assert "set +thermal -camera" in output and "Traceback" not in output
@@ -414,30 +412,15 @@ def bridges(ns: str) -> list[int]:
 def test_a_run_killed_leaves_no_node_active(tmp_path: Path) -> None:
     """`kill -9` of a run (no clean-up of its own): its bridge moves the nodes back to
     unconfigured and ends, so that nothing the robot switched on stays on."""
-    domain_id = domain()
-    robot = write_robot(tmp_path / "ward")
-    with processes() as started:
-        nodes = start_nodes(started, domain_id, "/killed")
-        client = Client(domain_id, "/killed")
-        try:
-            for node in nodes:
-                until(lambda node=node: client.state(node), what=f"node {node}")
-            run = python_process(
-                ["-m", "motivml.cli", "run", str(robot), "--variant", "ward", "--duration", "inf"]
-                + ["--no-live", "--no-control", "--ros2", "--ros-namespace", "/killed"],
-                domain_id,
-            )
-            started.append(run)
-            until(lambda: client.state("lamp") == "active", what="the lamp's activation")
-            [bridge] = bridges("/killed")
-            run.kill()
-            run.wait()
-            for node in ("lamp", "dosimeter", "person_detection"):
-                reaches(client, node, "unconfigured")
-            until(lambda: not bridges("/killed"), what="the bridge's end")
-            assert bridge not in bridges("/killed")
-        finally:
-            client.close()
+    with command_line_run(tmp_path, "/killed") as (client, run):
+        until(lambda: client.state("lamp") == "active", what="the lamp's activation")
+        [bridge] = bridges("/killed")
+        run.kill()
+        run.wait()
+        for node in ("lamp", "dosimeter", "person_detection"):
+            reaches(client, node, "unconfigured")
+        until(lambda: not bridges("/killed"), what="the bridge's end")
+        assert bridge not in bridges("/killed")
 
 
 def test_a_bridge_that_dies_is_a_fault_of_every_node(ward: Callable[..., Running]) -> None:
