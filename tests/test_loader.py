@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
+from typing import Any
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from motivml.documents.loader import MAX_DEPTH, format_path, load_bytes, load_file, parse
+from motivml.documents import loader
+from motivml.documents.loader import MAX_DEPTH, Document, _index, format_path, load_bytes, load_file, parse
 from motivml.errors import DocumentError, EnvironmentProblem, MotivmlError
 
 
@@ -118,7 +121,12 @@ def test_format_path() -> None:
 
 
 json_values = st.recursive(
-    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False, allow_infinity=False) | st.text(),
+    st.none()
+    | st.booleans()
+    | st.integers()
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text()
+    | st.sampled_from(['"[{', "\\", '}]\\"', "ü]"]),  # brackets, quotes and backslashes in strings
     lambda children: st.lists(children) | st.dictionaries(st.text(), children),
     max_leaves=30,
 )
@@ -162,3 +170,55 @@ def test_a_named_pipe_is_not_read(tmp_path) -> None:  # type: ignore[no-untyped-
     with pytest.raises(EnvironmentProblem) as info:
         load_file(fifo)
     assert info.value.diagnostics[0].message == "is not a regular file"
+
+
+# ---------------------------------------------------------------- locating without an index
+def _paths(value: Any, prefix: tuple[Any, ...] = ()) -> Iterator[tuple[Any, ...]]:
+    yield prefix
+    if isinstance(value, dict):
+        for key, item in value.items():
+            yield from _paths(item, (*prefix, key))
+        yield (*prefix, "no such key")
+    elif isinstance(value, list):
+        for position, item in enumerate(value):
+            yield from _paths(item, (*prefix, position))
+        yield (*prefix, len(value))
+
+
+_JSON_VALUES = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers()
+    | st.floats(allow_nan=False, allow_infinity=False)
+    | st.text()
+    | st.sampled_from(['"[{', "\\", '}]\\"', "ü]"]),  # brackets, quotes and backslashes in strings
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=5), inner, max_size=4),
+    max_leaves=30,
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(_JSON_VALUES, st.sampled_from([None, 0, 1, 2]), st.booleans(), st.booleans())
+def test_a_location_found_by_scanning_is_the_located_parsers(
+    value: Any, indent: int | None, ascii: bool, big: bool
+) -> None:
+    """Locations in a document the C decoder read are found by scanning only the containers
+    on their path; each is where the located parser (which reads everything) puts it. (`big`:
+    brackets matched as for a big document, with numpy.)"""
+    with pytest.MonkeyPatch.context() as patch:
+        if big:
+            patch.setattr(loader, "_BIG", 0)
+        _check_scanned_locations(value, json.dumps(value, indent=indent, ensure_ascii=ascii))
+
+
+def _check_scanned_locations(value: Any, text: str) -> None:
+    scanned, indexed = parse(text), Document("<string>", value, text, _index(text))
+    paths = list(_paths(value))
+    for path in paths:
+        for key in (False, True):
+            assert scanned.locate(list(path), key) == indexed.locate(list(path), key), (path, key)
+    backwards = parse(text)  # the last members first: the scan then reads each container once
+    for path in reversed(paths):
+        assert backwards.locate(list(path)) == indexed.locate(list(path)), path
+    if "\\u" not in text:  # (a \\uD800-style escape sends a document to the located parser)
+        assert scanned._index is None and backwards._index is None  # nothing read it all

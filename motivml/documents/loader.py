@@ -30,8 +30,8 @@ import re
 import stat
 import sys
 import threading
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import DocumentError, EnvironmentProblem, Location, error
@@ -85,6 +85,10 @@ class Document:
         self.text = text
         self._index = index
         self._line_starts: list[int] | None = None
+        # id(container) -> what a scan of its text found so far (`_member`): located
+        # messages read only the containers on their paths, not the whole document
+        self._scans: dict[int, _Scan] = {}
+        self._ends: Callable[[int], int] | None = None  # a container's offset -> the offset after it
 
     def _indexed(self) -> _Index:
         if self._index is None:
@@ -99,6 +103,8 @@ class Document:
         return line, offset - self._line_starts[line - 1] + 1
 
     def _offset(self, path: JSONPath, key: bool) -> int:
+        if self._index is None:  # (the C decoder read it: the text is valid JSON)
+            return self._scanned_offset(path, key)
         index = self._indexed()
         node, offset = index.root, index.root_offset
         for i, item in enumerate(path):
@@ -117,6 +123,72 @@ class Document:
                 break
         return int(offset)
 
+    def _scanned_offset(self, path: JSONPath, key: bool) -> int:
+        """`_offset` for a document the C decoder read (valid JSON): the text of each
+        container on the path is scanned up to the member asked for, and no further."""
+        text = self.text
+        node, offset = self.root, _WHITESPACE.match(text).end()  # type: ignore[union-attr]
+        for i, item in enumerate(path):
+            if not isinstance(node, (dict, list)):
+                break
+            found = self._member(node, offset, item)
+            if found is None:
+                break
+            key_offset, offset = found
+            if key and i == len(path) - 1 and isinstance(node, dict):
+                return key_offset
+            node = node[item]  # type: ignore[index]
+        return offset
+
+    def _member(self, node: dict[str, Any] | list[Any], start: int, item: str | int) -> tuple[int, int] | None:
+        """(key offset, value offset) of `node[item]`, whose text begins at `start`; None if
+        absent. (A list's member has no key: both offsets are its value's.)"""
+        is_dict = isinstance(node, dict)
+        if not isinstance(item, str if is_dict else int) or (not is_dict and item < 0):  # type: ignore[operator]
+            return None
+        scan = self._scans.get(id(node))
+        if scan is None:
+            scan = self._scans[id(node)] = _Scan(start + 1)
+        keys, values = scan.keys, scan.values
+        text, space = self.text, _WHITESPACE.match
+        while True:
+            if is_dict:
+                if item in keys:
+                    return keys[item]
+            elif item < len(values):  # type: ignore[operator]
+                offset = values[item]  # type: ignore[index]
+                return offset, offset
+            if scan.done:
+                return None
+            pos = scan.position if scan.pending is None else self._skip(scan.pending)
+            scan.pending = None
+            pos = space(text, pos).end()  # type: ignore[union-attr]
+            if text[pos] == ",":
+                pos = space(text, pos + 1).end()  # type: ignore[union-attr]
+            if text[pos] in "]}":
+                scan.done = True
+                continue
+            if is_dict:
+                name, after = _scanstring(text, pos + 1, True)
+                value = space(text, space(text, after).end() + 1).end()  # type: ignore[union-attr]
+                keys[name] = (pos, value)
+            else:
+                value = pos
+                values.append(value)
+            scan.pending = scan.position = value
+
+    def _skip(self, start: int) -> int:
+        """The offset just after the value that begins at `start`."""
+        text = self.text
+        first = text[start]
+        if first == '"':
+            return int(_scanstring(text, start + 1, True)[1])
+        if first in "[{":
+            if self._ends is None:
+                self._ends = _bracket_ends(text)
+            return self._ends(start)
+        return _SCALAR_END.match(text, start).end()  # type: ignore[union-attr]
+
     def locate(self, path: JSONPath, key: bool = False) -> Location:
         """Location of the value at `path` (or of its key, with `key=True`).
 
@@ -125,6 +197,78 @@ class Document:
         """
         line, column = self.position(self._offset(path, key))
         return Location(self.file, line, column, format_path(path))
+
+
+@dataclass
+class _Scan:
+    """How far the text of one container has been read: its members' offsets so far (an
+    object's keys to (key offset, value offset), an array's value offsets), where the next
+    member's text begins (after the value at `pending`, once that is skipped), and whether
+    the closing bracket was reached."""
+
+    position: int
+    keys: dict[str, tuple[int, int]] = field(default_factory=dict)
+    values: list[int] = field(default_factory=list)
+    pending: int | None = None
+    done: bool = False
+
+
+_WHITESPACE = re.compile(r"[ \t\n\r]*")
+_SKIPPED = re.compile(r'"(?:[^"\\]|\\.)*"|[\[\]{}]')  # strings and brackets (inside a container)
+_SCALAR_END = re.compile(r"[^,\]} \t\n\r]*")
+_scanstring = json.decoder.scanstring  # type: ignore[attr-defined]
+
+
+_BIG = 1 << 20  # characters: above this, brackets are matched with numpy
+
+
+def _bracket_ends(text: str) -> Callable[[int], int]:
+    """For valid JSON: a function from the offset of each '[' or '{' to the offset just after
+    its matching bracket, from one pass over the text (C speed with numpy for big texts)."""
+    if len(text) < _BIG:
+        ends: dict[int, int] = {}
+        opened: list[int] = []
+        for match in _SKIPPED.finditer(text):
+            token = match.group()
+            if token in "[{":
+                opened.append(match.start())
+            elif token in "]}":
+                ends[opened.pop()] = match.end()
+        return ends.__getitem__
+    import numpy as np
+
+    if text.isascii():
+        chars = np.frombuffer(text.encode("ascii"), dtype=np.uint8)
+    else:  # one element per character, so that positions are the text's own
+        chars = np.frombuffer(text.encode("utf-32-le"), dtype=np.uint32)
+    quotes = np.flatnonzero(chars == ord('"'))
+    # A quote is escaped when an odd number of backslashes precedes it (rare: in Python).
+    after_backslash = quotes[chars[np.maximum(quotes - 1, 0)] == ord("\\")]
+    escaped = []
+    for quote in after_backslash.tolist():
+        start = quote - 1
+        while start >= 0 and text[start] == "\\":
+            start -= 1
+        if (quote - 1 - start) % 2:
+            escaped.append(quote)
+    if escaped:
+        quotes = np.setdiff1d(quotes, np.array(escaped, dtype=quotes.dtype), assume_unique=True)
+    brackets = np.flatnonzero(
+        (chars == ord("[")) | (chars == ord("{")) | (chars == ord("]")) | (chars == ord("}"))
+    )
+    brackets = brackets[np.searchsorted(quotes, brackets) % 2 == 0]  # outside strings
+    opening = (chars[brackets] == ord("[")) | (chars[brackets] == ord("{"))
+    depth = np.cumsum(np.where(opening, 1, -1))
+    level = np.where(opening, depth, depth + 1)  # an open and its close share a level
+    order = np.lexsort((brackets, level))  # by level, then position: open, close, open, ...
+    starts, stops = brackets[order[0::2]], brackets[order[1::2]] + 1
+    by_start = np.argsort(starts)
+    starts, stops = starts[by_start], stops[by_start]
+
+    def end(offset: int) -> int:
+        return int(stops[np.searchsorted(starts, offset)])
+
+    return end
 
 
 @dataclass
