@@ -65,6 +65,9 @@ INACTIVE = "inactive"  # run time: ... or not
 # a linear encoding of the same rule; the explain build keeps the pairs, whose facts name two
 # members, for groups up to PAIRWISE_EXPLAINED members, and one XOR_ALTERNATIVES fact above.
 PAIRWISE_UP_TO = 8
+# Encoding.cover: a witness solve is worth another while it settles this many open targets
+# (a solve of a large model costs about as much as a few hundred unit propagations).
+WITNESS_GAIN = 256
 PAIRWISE_EXPLAINED = 64
 # Configuration facts (literals, no selector)
 CONFIG_SELECTED = "config-selected"
@@ -106,9 +109,13 @@ class Encoding:
         self._top = 4 * n
         self._activity: int | None = None  # index of the first ACTIVE fact, once made
         self._clauses: list[list[int]] = []
+        # explain build: each selector's clauses, so that a conflict is shrunk in a solver of
+        # its own facts' clauses only (`_minimise`), not in the whole model's
+        self._guarded: dict[int, list[list[int]]] = {}
         self._encode_model()
         self.model_facts = len(self.facts)
         self._config_fact_range = (len(self.facts), len(self.facts))
+        self.solver_name = solver
         self.solver = Solver(name=solver)  # opened last: nothing above can leak it
         self._flush()
 
@@ -144,8 +151,10 @@ class Encoding:
 
     def _add(self, selector: int, *clauses: list[int]) -> None:
         if selector:
+            guarded = self._guarded.setdefault(selector, [])
             for clause in clauses:
-                self._clauses.append([-selector, *clause])
+                guarded.append([-selector, *clause])
+            self._clauses.extend(guarded[-len(clauses) :])
         else:  # hard build: drop the (absent) selectors, including START's inside clauses
             for clause in clauses:
                 self._clauses.append([lit for lit in clause if lit] if 0 in clause else clause)
@@ -378,25 +387,38 @@ class Encoding:
         found.sort(key=lambda mus: (len(mus), min(self._first_feature(k) for k in mus)))
         return found
 
-    def _core(self, by_literal: dict[int, int], allowed: Iterable[int]) -> list[int]:
+    def _core(self, by_literal: dict[int, int], allowed: Iterable[int], solver: Solver | None = None) -> list[int]:
         allowed_set = set(allowed)
-        core = self.solver.get_core() or []
+        core = (solver or self.solver).get_core() or []
         return [by_literal[lit] for lit in core if by_literal.get(lit) in allowed_set]
 
     def _minimise(self, core: list[int], fixed: Sequence[int] = ()) -> list[int]:
-        """Deletion-based shrinking of an unsatisfiable set of facts to a minimal one."""
+        """Deletion-based shrinking of an unsatisfiable set of facts to a minimal one.
+
+        In a solver of the core's own clauses: every clause of the explain build is under
+        its fact's selector, so facts not assumed are switched off, and a set of facts has
+        a variant in the whole model iff its clauses are satisfiable on their own. (In the
+        whole model, each of these solves assigned every variable of every feature.)
+        """
         by_literal = {self.literals[k]: k for k in core}
+        guarded = self._guarded
+        clauses = [
+            clause
+            for literal in (*fixed, *(self.literals[k] for k in core))
+            for clause in guarded.get(literal, ())  # (facts' selectors; other literals have none)
+        ]
         # Facts tried for deletion first are the least likely to stay: the start-state
         # fact goes first, so a conflict that section 2 or 3 explains is not blamed on it.
         current = sorted(core, key=lambda k: self.facts[k].kind not in (START, START_EARLY))
-        i = 0
-        while i < len(current):
-            trial = current[:i] + current[i + 1 :]
-            if self.solver.solve(assumptions=[*fixed, *(self.literals[k] for k in trial)]):
-                i += 1  # needed
-            else:
-                smaller = set(self._core(by_literal, trial))
-                current = [k for k in trial if k in smaller]
+        with Solver(name=self.solver_name, bootstrap_with=clauses) as solver:
+            i = 0
+            while i < len(current):
+                trial = current[:i] + current[i + 1 :]
+                if solver.solve(assumptions=[*fixed, *(self.literals[k] for k in trial)]):
+                    i += 1  # needed
+                else:
+                    smaller = set(self._core(by_literal, trial, solver))
+                    current = [k for k in trial if k in smaller]
         return current
 
     def _first_feature(self, k: int) -> int:
@@ -413,8 +435,9 @@ class Encoding:
     ) -> list[bool]:
         """Which conjunctions of literals hold in some valid variant.
 
-        1. A few solves under polarity hints (each of `hints`, then towards every target)
-           find witnesses that cover most targets at once.
+        1. Solves under polarity hints (each of `hints`, then towards the targets still
+           open, again while a witness settles at least WITNESS_GAIN of them) find
+           witnesses that cover most targets at once, one solve for thousands.
         2. Unit propagation refutes most impossible targets without a search.
         3. Each target still open is solved for under its literals as assumptions, with the
            hints renewed towards every open target, so its witness settles others too.
@@ -422,14 +445,19 @@ class Encoding:
         possible = [False] * len(targets)
         base = self.assumptions(with_config)
         pending: list[int] = list(range(len(targets)))
-        for hint in [*hints, None]:
-            if hint is None:
-                self._prefer(targets, pending)
-            else:
-                self.solver.set_phases(list(hint))
+        for hint in hints:
+            self.solver.set_phases(list(hint))
             if not self.solver.solve(assumptions=base):
                 return possible
             pending = self._mark(targets, possible, pending)
+        while pending:
+            self._prefer(targets, pending)
+            if not self.solver.solve(assumptions=base):
+                return possible
+            before = len(pending)
+            pending = self._mark(targets, possible, pending)
+            if before - len(pending) < WITNESS_GAIN:
+                break
         pending = [k for k in pending if self.solver.propagate(assumptions=[*base, *targets[k]])[0]]
         while pending:
             k = pending[0]
