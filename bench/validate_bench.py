@@ -8,11 +8,16 @@ cross-tree constraints, mixed bindings) with a valid full configuration it print
 * where the time goes, in-process: loading, schema check and reading of the model and of
   the configuration, encoding, solve;
 * the floor: the same CNF as a DIMACS file, read by pysat and solved under the same
-  assumptions in a fresh process (what any SAT-based checker must pay at least).
+  assumptions in a fresh process (what any SAT-based checker must pay at least), with its
+  peak memory;
+* `motivml validate MODEL` alone (the model analyses: void, dead features, bindings
+  allowed but never possible, the first 20 of each explained), against the same floor.
 
     python bench/validate_bench.py [--sizes 1000 10000 100000]
 
-Targets (issue 2): 10,000 features under 1 s and 100,000 under 10 s, end to end.
+Targets (issue 2): 10,000 features under 1 s and 100,000 under 10 s, end to end. Issue 14:
+validate --config within 3x the floor at 10k and 2.5x at 100k with at most twice its peak
+memory; validate MODEL within 5x at 10k and 10x at 100k (printed met/MISSED per row).
 """
 
 from __future__ import annotations
@@ -112,7 +117,8 @@ def main() -> None:
     motivml = str(Path(sys.executable).with_name("motivml"))
     print(f"solver {SOLVER}; python {sys.version.split()[0]}; {os.cpu_count()} cores")
     print(
-        f"{'features':>9} {'MB':>6} {'validate s':>10} {'peak MiB':>9} {'floor s':>8} {'ratio':>6}  stages (s)"
+        f"{'features':>9} {'MB':>5} {'floor s':>8} {'MiB':>5} | {'--config s':>10} {'ratio':>5} {'MiB':>5}"
+        f" {'target':>6} | {'MODEL s':>8} {'ratio':>6} {'MiB':>5} {'target':>6} |  stages of --config (s)"
     )
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.sizes:
@@ -121,14 +127,37 @@ def main() -> None:
             size = os.path.getsize(model_path) / 1e6
             wall, peak, output = run_measured([motivml, "validate", model_path, "--config", config_path])
             assert output.startswith("valid: "), output
+            alone, alone_peak, output = run_measured([motivml, "validate", model_path])
+            assert "valid: " in output, output
             cnf_path, assumptions_path = os.path.join(folder, "f.cnf"), os.path.join(folder, "a.txt")
             parts = stages(model_path, config_path, cnf_path, assumptions_path)
-            floor_wall, _, _ = run_measured([sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER])
+            floor_wall, floor_peak, _ = run_measured(
+                [sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER]
+            )
             detail = ", ".join(f"{k} {v:.2f}" for k, v in parts)
+            config_target, model_target = TARGETS.get(n, (None, None))
             print(
-                f"{n:>9,} {size:>6.1f} {wall:>10.2f} {peak:>9} {floor_wall:>8.2f} {wall / floor_wall:>6.1f}  {detail}",
+                f"{n:>9,} {size:>5.1f} {floor_wall:>8.2f} {floor_peak:>5} | {wall:>10.2f} {wall / floor_wall:>5.1f}"
+                f" {peak:>5} {verdict(wall / floor_wall, peak / floor_peak, config_target):>6} |"
+                f" {alone:>8.2f} {alone / floor_wall:>6.1f} {alone_peak:>5} {verdict(alone / floor_wall, None, model_target):>6}"
+                f" |  {detail}",
                 flush=True,
             )
+    print(
+        "targets (issue 14): validate --config at most 3x the floor at 10k and 2.5x at 100k, peak memory"
+        " at most 2x the floor's; validate MODEL (the model analyses) at most 5x at 10k and 10x at 100k"
+    )
+
+
+# Issue 14's targets by size: (validate --config ratio, validate MODEL ratio); memory: 2x.
+TARGETS = {10_000: (3.0, 5.0), 100_000: (2.5, 10.0)}
+MEMORY_TARGET = 2.0
+
+
+def verdict(ratio: float, memory: float | None, target: float | None) -> str:
+    if target is None:
+        return "-"
+    return "met" if ratio <= target and (memory is None or memory <= MEMORY_TARGET) else "MISSED"
 
 
 if __name__ == "__main__":
