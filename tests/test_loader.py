@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Iterator
 from typing import Any
 
@@ -114,6 +115,36 @@ def test_too_deep_document_is_refused_cleanly() -> None:
     assert str(info.value) == (
         f"f.json:1:{MAX_DEPTH + 1}: nesting deeper than {MAX_DEPTH:,} levels (the limit for a document)"
     )
+
+
+def _nested(depth: int, kind: str) -> str:
+    """`depth` levels of arrays, of objects with a number at the bottom, or of both."""
+    if kind == "arrays":
+        return "[" * depth + "]" * depth
+    if kind == "objects":
+        return '{"a":' * depth + "1" + "}" * depth
+    opening = ['{"k":' if level % 2 else "[" for level in range(depth)]
+    return "".join(opening) + "1.5" + "".join("}" if level % 2 else "]" for level in reversed(range(depth)))
+
+
+@pytest.mark.parametrize("kind", ["arrays", "objects", "both"])
+@pytest.mark.parametrize("limit", [3, 64, 2000, MAX_DEPTH])
+def test_the_depth_limit_is_kept_by_the_fast_decoder_itself(
+    kind: str, limit: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Up to the limit documents are read, and near it by the C decoder (with the real
+    limits, without a walk of the value); one level deeper they are refused, and the
+    located parser says where. (Limits under the interpreter's recursion limit, and
+    Pythons from 3.12, whose C recursion limit is their own, have the depth measured by a
+    walk; at the limit itself the decoder's calls of our hooks for the innermost values
+    may take it over, and the located parser reads the document.)"""
+    assert parse(_nested(limit, kind), "f.json", limit).root is not None
+    if sys.version_info < (3, 12) and limit > sys.getrecursionlimit():
+        monkeypatch.setattr(loader, "_depth", lambda value: pytest.fail("the depth was walked"))
+        near = parse(_nested(limit - 2, kind), "f.json", limit)
+        assert near._index is None  # read by the C decoder
+    with pytest.raises(DocumentError, match=f"nesting deeper than {limit:,} levels"):
+        parse(_nested(limit + 1, kind), "f.json", limit)
 
 
 def test_format_path() -> None:

@@ -467,23 +467,48 @@ _STACK_BYTES = 512 * 1024 * 1024
 _parse_lock = threading.Lock()
 
 
+_overhead: int | None = None  # recursion levels the decoder's thread uses before the document's first container
+
+
 def _fast(text: str, max_depth: int) -> tuple[bool, Any]:
     """Decode with the C `json` decoder on a thread with a large stack.
 
     Returns (ok, value). Anything unusual (a refusal, a syntax error, nesting beyond the
-    recursion allowance) returns ok=False and the located parser takes over.
+    recursion allowance) returns ok=False and the located parser takes over. The
+    recursion limit is set so that the decoder itself refuses nesting deeper than
+    `max_depth` (each container is one level of its recursion), checked on probes at the
+    limit; where that cannot be (a `max_depth` under the process's recursion limit, or a
+    Python whose C recursion limit is its own), the depth is measured by a walk.
     """
-    result: list[Any] = [False, None]
+    result: list[Any] = [False, None, False]  # ok, value, nesting held by the recursion limit
+
+    def attempt(document: str) -> tuple[bool, Any]:
+        try:
+            return True, json.loads(
+                document, object_pairs_hook=_pairs, parse_constant=_constant, parse_float=_float, parse_int=_int
+            )
+        except (_Rejected, ValueError, RecursionError, MemoryError):
+            return False, None
 
     def run() -> None:
-        try:
-            result[1] = json.loads(
-                text, object_pairs_hook=_pairs, parse_constant=_constant, parse_float=_float, parse_int=_int
-            )
-            result[0] = True
-        except (_Rejected, ValueError, RecursionError, MemoryError):
-            pass
+        # Probes and the document take the same path to the decoder (run -> attempt): the
+        # levels of recursion used before the document's first container are the same.
+        global _overhead
+        if _overhead is None:  # (once: the path does not change)
+            limit = deepest = sys.getrecursionlimit()
+            while deepest > limit - 200 and not attempt("[" * deepest + "]" * deepest)[0]:
+                deepest -= 1
+            _overhead = limit - deepest if deepest > limit - 200 else -1
+        # (Never below the limit the process had: its other threads run under it too.)
+        if _overhead >= 0 and max_depth + _overhead >= previous_limit:
+            sys.setrecursionlimit(max_depth + _overhead)
+            at, beyond = max_depth, max_depth + 1
+            result[2] = attempt("[" * at + "]" * at)[0] and not attempt("[" * beyond + "]" * beyond)[0]
+            if not result[2]:
+                sys.setrecursionlimit(max_depth + 200 + _overhead)
+        result[0], result[1] = attempt(text)
 
+    previous_limit = sys.getrecursionlimit()
     with _parse_lock:  # the recursion limit and thread stack size are process-wide
         old_limit, old_stack = sys.getrecursionlimit(), threading.stack_size()
         try:
@@ -495,7 +520,10 @@ def _fast(text: str, max_depth: int) -> tuple[bool, Any]:
             threading.stack_size(old_stack)
         worker.join()
         sys.setrecursionlimit(old_limit)
-    return result[0], result[1]
+    ok, value, held = result
+    if ok and not held and _depth(value) > max_depth:
+        return False, None
+    return ok, value
 
 
 @contextlib.contextmanager
@@ -531,7 +559,7 @@ def parse(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH) -> Docu
     with no_gc():
         # A \uD800-\uDFFF escape may be a lone surrogate, which the C decoder lets through.
         ok, root = (False, None) if _SURROGATE.search(text) else _fast(text, max_depth)
-        if ok and _depth(root) <= max_depth:
+        if ok:
             return Document(file, root, text)
     index = _index(text, file, max_depth)
     return Document(file, index.root, text, index)
