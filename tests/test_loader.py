@@ -140,6 +140,7 @@ def test_the_depth_limit_is_kept_by_the_fast_decoder_itself(
     may take it over, and the located parser reads the document.)"""
     assert parse(_nested(limit, kind), "f.json", limit).root is not None
     if sys.version_info < (3, 12) and limit > sys.getrecursionlimit():
+        monkeypatch.setattr(loader, "_PROBED", 0)  # as for a big document
         monkeypatch.setattr(loader, "_depth", lambda value: pytest.fail("the depth was walked"))
         near = parse(_nested(limit - 2, kind), "f.json", limit)
         assert near._index is None  # read by the C decoder

@@ -467,6 +467,7 @@ _STACK_BYTES = 512 * 1024 * 1024
 _parse_lock = threading.Lock()
 
 
+_PROBED = 256 * 1024  # characters: from here the depth limit is left to the decoder (probes cost ~3 ms)
 _overhead: int | None = None  # recursion levels the decoder's thread uses before the document's first container
 
 
@@ -494,6 +495,9 @@ def _fast(text: str, max_depth: int) -> tuple[bool, Any]:
         # Probes and the document take the same path to the decoder (run -> attempt): the
         # levels of recursion used before the document's first container are the same.
         global _overhead
+        if len(text) < _PROBED:  # the walk of a small value costs less than the probes
+            result[0], result[1] = attempt(text)
+            return
         if _overhead is None:  # (once: the path does not change)
             limit = deepest = sys.getrecursionlimit()
             while deepest > limit - 200 and not attempt("[" * deepest + "]" * deepest)[0]:
