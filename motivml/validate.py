@@ -11,19 +11,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from .architecture.document import Architecture, read_architecture
-from .architecture.family import architecture_bindings
-from .architecture.stability import stability
 from .binding.check import analyse_model, check_variant
-from .binding.resolve import resolve
-from .coordination.document import VariantBindings, read_coordination
 from .documents.robot_folder import ARCHITECTURE_FILE, RobotFolder
 from .documents.schema import read_checked
 from .errors import Diagnostic, Severity, error
 from .language.model import Configuration, FeatureModel
 from .language.reader import load_configuration, load_model
-from .plugins.manifests import discover
+
+# The architecture, coordination and plugin checks import what they need when a robot has
+# those documents: validating a model or a variant costs only the checking pipeline.
+if TYPE_CHECKING:
+    from .architecture.document import Architecture
 
 
 @dataclass
@@ -82,6 +82,10 @@ def validate_configuration(model: FeatureModel, config_path: str | Path, partial
 def validate_architecture(model: FeatureModel, path: str | Path) -> Report:
     """Check an architecture document against its schema and the model, and every component's
     integration at the default loop rate (what a build at `run`'s default rate would refuse)."""
+    from .architecture.document import read_architecture
+    from .architecture.family import architecture_bindings
+    from .architecture.stability import stability
+
     report = Report(str(path), "architecture", model=model)
     doc, problems = read_checked(path, lambda d: [])
     report.diagnostics += problems
@@ -117,6 +121,8 @@ def validate(
         if architecture_path is not None:
             reports.append(validate_architecture(model, architecture_path))
             if reports[-1].valid:
+                from .architecture.document import read_architecture
+
                 doc, _ = read_checked(architecture_path, lambda d: [])
                 architecture = read_architecture(doc, model)[0] if doc is not None else None
         if coordination_path is not None:
@@ -131,6 +137,8 @@ def validate(
 
 def validate_plugins(robot: RobotFolder, model: FeatureModel) -> Report:
     """robot.json and the manifests of the plugin directories it declares, against the model."""
+    from .plugins.manifests import discover
+
     report = Report(str(robot.settings_path), "plugins", model=model)
     report.diagnostics += discover(robot, model)[1]
     return _sorted(report)
@@ -140,6 +148,9 @@ def validate_coordination(
     model: FeatureModel, path: str | Path, architecture: Architecture | None, configs: Sequence[Configuration]
 ) -> Report:
     """Check coordination.json against the model and architecture, and each valid variant's features."""
+    from .binding.resolve import resolve
+    from .coordination.document import VariantBindings, read_coordination
+
     report = Report(str(path), "coordination", model=model)
     doc, problems = read_checked(path, lambda d: [])
     report.diagnostics += problems
