@@ -119,12 +119,45 @@ def test_dead_features_equal_brute_force(model: dict[str, Any]) -> None:
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.data())
 def test_reported_conflicts_are_conflicts_of_the_documents(data: st.DataObject) -> None:
+    model = data.draw(models())
+    config = data.draw(configurations(model))
+    assert_conflicts_are_conflicts_of_the_documents(model, config)
+
+
+# Found by the property above (rarely: it needs a mandatory child of a Dynamic parent): the
+# mandatory statement alone makes f2 Dynamic like f1 (3.2, one binding unit), a conflict
+# independent of "f2 is a sub-feature of f1" with the configured modes, yet it went
+# unreported, the encoding giving the unit only its time and leaving its mode to SUB_MODE.
+UNIT_MODE_MODEL = {
+    "id": "f0",
+    "name": "F0",
+    "sub": [
+        {
+            "id": "f1",
+            "name": "F1",
+            "isMandatory": False,
+            "constraints": {"bindingModeAllowed": "Dynamic"},
+            "sub": [{"id": "f2", "name": "F2", "constraints": {"bindingModeAllowed": "Static"}}],
+        }
+    ],
+}
+UNIT_MODE_CONFIG = {
+    "properties": [{"id": "f1", "props": {"mode": "Dynamic"}}, {"id": "f2", "props": {"mode": "Static"}}]
+}
+
+
+@pytest.mark.parametrize(("model", "config"), [(UNIT_MODE_MODEL, UNIT_MODE_CONFIG)])
+def test_reported_conflicts_are_conflicts_of_the_documents_found_before(
+    model: dict[str, Any], config: dict[str, Any]
+) -> None:
+    assert_conflicts_are_conflicts_of_the_documents(model, config)
+
+
+def assert_conflicts_are_conflicts_of_the_documents(model: dict[str, Any], config: dict[str, Any]) -> None:
     """Each explanation `validate` gives names facts the documents state, where they state
     them, and by the reference semantics alone these facts have no variant together; with
     every fact the explanations name set aside, what is left of the documents (of the model
     alone, if it is void) has a variant (section 4: every independent conflict is reported)."""
-    model = data.draw(models())
-    config = data.draw(configurations(model))
     errors = variant_errors(model, config)
     assert (errors == []) == ref.is_valid(model, config)
     named: set[tuple[str, ...]] = set()

@@ -54,7 +54,8 @@ MANDATORY_STATIC = "mandatory-static"  # 3.1: a Static parent requires its manda
 MANDATORY_TIME = "mandatory-time"  # 3.1: ... bound no later
 SUB_MODE = "sub-mode"  # 3.2: a Dynamic parent has no Static child
 SUB_TIME = "sub-time"  # 3.2: a child is not bound before its parent
-UNIT_TIME = "unit-time"  # 3.2: a Dynamic parent's mandatory child has its time
+UNIT_TIME = "unit-time"  # 3.2: a Dynamic parent's mandatory child has its time (both ways)
+UNIT_MODE = "unit-mode"  # 3.2: ... and its mode (Dynamic)
 ALLOWED_TIME = "allowed-time"  # 3: bindingTimeAllowed
 ALLOWED_MODE = "allowed-mode"  # 3: bindingModeAllowed
 START = "start"  # 4: the active set is part of the selection and satisfies section 2
@@ -207,8 +208,14 @@ class Encoding:
                 self._add(sel, [-s(p), -s(i), -S(p), S(i)])
                 sel = self._fact(MANDATORY_TIME, i)
                 self._add(sel, [-s(p), -s(i), -S(p), -E(p), E(i)])
+                # 3.2: with a Dynamic parent, one binding unit: same time and mode. SUB_TIME
+                # and SUB_MODE say half of this of every child; the mandatory statement says
+                # all of it by itself, so that a conflict setting the sub-feature facts
+                # aside does not hide another one that the unit alone makes.
                 sel = self._fact(UNIT_TIME, i)
-                self._add(sel, [-s(p), -s(i), S(p), -E(p), E(i)])
+                self._add(sel, [-s(p), -s(i), S(p), -E(p), E(i)], [-s(p), -s(i), S(p), E(p), -E(i)])
+                sel = self._fact(UNIT_MODE, i)
+                self._add(sel, [-s(p), -s(i), S(p), -S(i)])
 
         for g, group in enumerate(self.model.groups):
             p, members = group.parent, group.members

@@ -44,6 +44,10 @@ WHY: dict[str, tuple[str, str]] = {
         "3.2",
         "a mandatory sub-feature of a Dynamic parent is bound with it, at the same time (binding rule 3.2)",
     ),
+    enc.UNIT_MODE: (
+        "3.2",
+        "a mandatory sub-feature of a Dynamic parent is bound with it, in the same mode (binding rule 3.2)",
+    ),
     enc.XOR_PAIR: (
         "3.3",
         "two members of an XOR group can both be selected only as Dynamic alternatives, at most one "
@@ -76,7 +80,9 @@ _INCLUDES = frozenset({enc.INCLUDE, enc.INCLUDE_STATIC, enc.INCLUDE_TIME})
 # Facts about one model relation, said once (by the first of the family in PRIORITY).
 _FAMILY = {
     **dict.fromkeys(_INCLUDES, "include"),
-    **dict.fromkeys((enc.MANDATORY, enc.MANDATORY_STATIC, enc.MANDATORY_TIME, enc.UNIT_TIME), "mandatory"),
+    **dict.fromkeys(
+        (enc.MANDATORY, enc.MANDATORY_STATIC, enc.MANDATORY_TIME, enc.UNIT_TIME, enc.UNIT_MODE), "mandatory"
+    ),
     **dict.fromkeys((enc.PARENT, enc.SUB_MODE, enc.SUB_TIME), "parent"),
 }
 VALUE_KINDS = frozenset(
@@ -166,7 +172,7 @@ class Explainer:
             return LocatedFact(
                 f"{self._id(a)} is a sub-feature of {self._id(parent)}", self.model_location(a, "id"), rule
             )
-        if kind in (enc.MANDATORY, enc.UNIT_TIME):
+        if kind in (enc.MANDATORY, enc.UNIT_TIME, enc.UNIT_MODE):
             parent = model.features[a].parent
             assert parent is not None
             where = "isMandatory" if model.features[a].declared_mandatory is not None else "id"
