@@ -217,20 +217,8 @@ def _paths(value: Any, prefix: tuple[Any, ...] = ()) -> Iterator[tuple[Any, ...]
         yield (*prefix, len(value))
 
 
-_JSON_VALUES = st.recursive(
-    st.none()
-    | st.booleans()
-    | st.integers()
-    | st.floats(allow_nan=False, allow_infinity=False)
-    | st.text()
-    | st.sampled_from(['"[{', "\\", '}]\\"', "ü]"]),  # brackets, quotes and backslashes in strings
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=5), inner, max_size=4),
-    max_leaves=30,
-)
-
-
 @settings(max_examples=300, deadline=None)
-@given(_JSON_VALUES, st.sampled_from([None, 0, 1, 2]), st.booleans(), st.booleans())
+@given(json_values, st.sampled_from([None, 0, 1, 2]), st.booleans(), st.booleans())
 def test_a_location_found_by_scanning_is_the_located_parsers(
     value: Any, indent: int | None, ascii: bool, big: bool
 ) -> None:
