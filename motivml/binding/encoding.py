@@ -25,8 +25,10 @@ This is the only module that imports pysat. Solvers are opened with `with Encodi
 
 from __future__ import annotations
 
+from array import array
 from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
+from itertools import accumulate, chain
 from types import TracebackType
 
 from pysat.card import ITotalizer
@@ -110,9 +112,11 @@ class Encoding:
         self._top = 4 * n
         self._activity: int | None = None  # index of the first ACTIVE fact, once made
         self._clauses: list[list[int]] = []
-        # explain build: each selector's clauses, so that a conflict is shrunk in a solver of
-        # its own facts' clauses only (`_minimise`), not in the whole model's
-        self._guarded: dict[int, list[list[int]]] = {}
+        # explain build: every clause, flat, with its selector, so that a conflict is shrunk
+        # in a solver of its own facts' clauses only (`_minimise`), not in the whole model's
+        self._kept_literals = array("i")  # the clauses one after the other
+        self._kept_starts = array("q", [0])  # where each clause begins (and, last, the end)
+        self._kept_selectors = array("i")  # each clause's selector
         self._encode_model()
         self.model_facts = len(self.facts)
         self._config_fact_range = (len(self.facts), len(self.facts))
@@ -152,10 +156,8 @@ class Encoding:
 
     def _add(self, selector: int, *clauses: list[int]) -> None:
         if selector:
-            guarded = self._guarded.setdefault(selector, [])
             for clause in clauses:
-                guarded.append([-selector, *clause])
-            self._clauses.extend(guarded[-len(clauses) :])
+                self._clauses.append([-selector, *clause])
         else:  # hard build: drop the (absent) selectors, including START's inside clauses
             for clause in clauses:
                 self._clauses.append([lit for lit in clause if lit] if 0 in clause else clause)
@@ -163,6 +165,13 @@ class Encoding:
     def _flush(self) -> None:
         if self.recorded is not None:
             self.recorded.extend(self._clauses)
+        if self.explain:  # each clause of the explain build begins with its selector, negated
+            clauses = self._clauses
+            self._kept_literals.extend(chain.from_iterable(clauses))
+            end = self._kept_starts[-1]
+            self._kept_starts.extend(accumulate(map(len, clauses), initial=end))
+            self._kept_starts.pop(len(self._kept_starts) - len(clauses) - 1)  # (`end` twice)
+            self._kept_selectors.extend(-clause[0] for clause in clauses)
         self.solver.append_formula(self._clauses)
         self._clauses = []
 
@@ -408,11 +417,13 @@ class Encoding:
         whole model, each of these solves assigned every variable of every feature.)
         """
         by_literal = {self.literals[k]: k for k in core}
-        guarded = self._guarded
+        # (the facts' selectors, and any in `fixed`; other literals have no clauses)
+        wanted = {*fixed, *(self.literals[k] for k in core)}
+        literals, starts = self._kept_literals, self._kept_starts
         clauses = [
-            clause
-            for literal in (*fixed, *(self.literals[k] for k in core))
-            for clause in guarded.get(literal, ())  # (facts' selectors; other literals have none)
+            literals[starts[c] : starts[c + 1]].tolist()
+            for c, selector in enumerate(self._kept_selectors)
+            if selector in wanted
         ]
         # Facts tried for deletion first are the least likely to stay: the start-state
         # fact goes first, so a conflict that section 2 or 3 explains is not blamed on it.
