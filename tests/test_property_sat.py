@@ -146,7 +146,41 @@ UNIT_MODE_CONFIG = {
 }
 
 
-@pytest.mark.parametrize(("model", "config"), [(UNIT_MODE_MODEL, UNIT_MODE_CONFIG)])
+# The same with time (shrunk from a case the property found): "f3 is a sub-feature of f2"
+# with the configured times is one conflict, and the unit alone another (f3 Early-only, f2
+# Late-only), which went unreported as the unit only said "an Early parent's child is Early".
+UNIT_TIME_MODEL = {
+    "id": "f0",
+    "name": "F0",
+    "sub": [
+        {
+            "id": "f2",
+            "name": "F2",
+            "isMandatory": False,
+            "constraints": {"bindingTimeAllowed": "Late", "bindingModeAllowed": "Dynamic"},
+            "sub": [
+                {
+                    "id": "f3",
+                    "name": "F3",
+                    "constraints": {"bindingTimeAllowed": "Early", "bindingModeAllowed": "Dynamic"},
+                }
+            ],
+        }
+    ],
+}
+UNIT_TIME_CONFIG = {
+    "properties": [
+        {"id": "f2", "props": {"time": "Late", "mode": "Dynamic"}},
+        {"id": "f3", "props": {"time": "Early", "mode": "Dynamic"}},
+    ]
+}
+
+
+@pytest.mark.parametrize(
+    ("model", "config"),
+    [(UNIT_MODE_MODEL, UNIT_MODE_CONFIG), (UNIT_TIME_MODEL, UNIT_TIME_CONFIG)],
+    ids=["binding unit's mode", "binding unit's time"],
+)
 def test_reported_conflicts_are_conflicts_of_the_documents_found_before(
     model: dict[str, Any], config: dict[str, Any]
 ) -> None:
