@@ -127,14 +127,15 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
     it in. An implementation is the header <motivml_features/ID.hpp> defining
     `std::unique_ptr<motivml::StaticFeature> motivml_features::make_ID()`; a compiled-in
     feature without one (e.g. a ROS node started elsewhere) is listed in
-    `motivml::unimplemented_features` so that a program can report it."""
+    `motivml::unimplemented_features` so that a program can report it. Abstract features
+    (they only group others) expect no implementation: the loader does not mention them."""
     guard = f"{prefix}STATIC_LOADER_HPP"
     lines = _opening(variant, guard) + [
         '#include "features.h"',
         "#include <motivml/static_feature.hpp>",
         "",
     ]
-    features = [d.feature for d in variant.decisions if d.feature.parent is not None]
+    features = [d.feature for d in variant.decisions if d.feature.parent is not None and not d.feature.abstract]
     for f in features:
         macro = f"{prefix}FEATURE_{f.id.upper()}"
         header = f"<motivml_features/{f.id}.hpp>"

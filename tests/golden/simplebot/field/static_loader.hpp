@@ -66,10 +66,6 @@
 #include <motivml_features/navigation.hpp>
 #define MOTIVML_HAS_NAVIGATION 1
 #endif
-#if defined(MOTIVML_FEATURE_GESTURE_RECOGNITION) && __has_include(<motivml_features/gesture_recognition.hpp>)
-#include <motivml_features/gesture_recognition.hpp>
-#define MOTIVML_HAS_GESTURE_RECOGNITION 1
-#endif
 #if defined(MOTIVML_FEATURE_HANDS) && __has_include(<motivml_features/hands.hpp>)
 #include <motivml_features/hands.hpp>
 #define MOTIVML_HAS_HANDS 1
@@ -128,9 +124,6 @@ inline void register_static_features(FeatureRegistry& registry) {
 #ifdef MOTIVML_HAS_NAVIGATION
   registry.add(motivml_features::make_navigation());
 #endif
-#ifdef MOTIVML_HAS_GESTURE_RECOGNITION
-  registry.add(motivml_features::make_gesture_recognition());
-#endif
 #ifdef MOTIVML_HAS_HANDS
   registry.add(motivml_features::make_hands());
 #endif
@@ -185,9 +178,6 @@ inline const char* const unimplemented_features[] = {
 #endif
 #if defined(MOTIVML_FEATURE_NAVIGATION) && !defined(MOTIVML_HAS_NAVIGATION)
     "navigation",
-#endif
-#if defined(MOTIVML_FEATURE_GESTURE_RECOGNITION) && !defined(MOTIVML_HAS_GESTURE_RECOGNITION)
-    "gesture_recognition",
 #endif
 #if defined(MOTIVML_FEATURE_HANDS) && !defined(MOTIVML_HAS_HANDS)
     "hands",
