@@ -47,6 +47,7 @@ unknown keys, ...) raise ValueError.
 from __future__ import annotations
 
 import itertools
+import re
 from collections.abc import Callable, Collection, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -67,7 +68,8 @@ _ACTIVE_VALUES: tuple[bool, ...] = (False, True)
 # Section 1: documents, with the defaults of the table
 # ---------------------------------------------------------------------------------------
 
-_FEATURE_KEYS = {"id", "name", "group", "isMandatory", "isSelected", "constraints", "sub"}
+_FEATURE_KEYS = {"id", "name", "group", "isMandatory", "isSelected", "constraints", "sub", "abstract"}
+_ROOT_KEYS = _FEATURE_KEYS | {"formulas", "$schema"}  # "`formulas`: only on the root"
 _CONSTRAINT_KEYS = {"featuresIncluded", "featuresExcluded", "bindingTimeAllowed", "bindingModeAllowed"}
 _GROUPS = ("", "OR", "XOR")
 _TIMES_ALLOWED = ("Early", "Late", "Any")
@@ -99,11 +101,16 @@ class _Model:
             for other in f.includes + f.excludes:
                 if other not in self.features:
                     raise ValueError(f"feature {f.id!r} refers to unknown feature {other!r}")
+        formulas = raw.get("formulas", [])
+        if not isinstance(formulas, list) or not all(isinstance(t, str) for t in formulas):
+            raise ValueError("'formulas' must be an array of strings")
+        # 2.4: "An unknown id in a formula, or a formula that does not parse, is an error"
+        self.formulas: list[_Formula] = [_parse_formula(t, set(self.features)) for t in formulas]
 
     def _add(self, raw: Any, parent: str | None) -> str:
         if not isinstance(raw, dict):
             raise ValueError("a feature must be a JSON object")
-        _check_keys(raw, _FEATURE_KEYS, "feature")
+        _check_keys(raw, _ROOT_KEYS if parent is None else _FEATURE_KEYS, "feature")
         fid = raw.get("id")
         if not isinstance(fid, str) or not fid.isidentifier() or not fid.isascii():
             raise ValueError(f"bad or missing feature id {fid!r}")
@@ -164,6 +171,94 @@ class _Model:
             for c in self.features[parent].children
             if self.is_ungrouped(c) and self.features[c].is_mandatory
         ]
+
+
+# -- Section 2.4: formulas.  "ids, `!`, `&`, `|`, `=>`, `<=>`, parentheses; precedence from
+# tightest: `!`, `&`, `|`, `=>`, `<=>`; `=>` and `<=>` group to the right."  A recursive
+# descent, one function per precedence level; a formula is kept as a function of the truth
+# of its ids (`truth(id) -> bool`) and the ids it names.
+
+
+@dataclass
+class _Formula:
+    text: str
+    ids: tuple[str, ...]
+    holds: Callable[[Callable[[str], bool]], bool]
+
+
+_FORMULA_TOKEN = r"\s*(<=>|=>|[!&|()]|[A-Za-z_][A-Za-z0-9_]*)"
+
+
+def _parse_formula(text: str, known: set[str]) -> _Formula:
+    tokens: list[str] = []
+    rest = text
+    while rest.strip():
+        m = re.match(_FORMULA_TOKEN, rest)
+        if m is None:
+            raise ValueError(f"formula {text!r}: cannot read {rest!r}")
+        tokens.append(m.group(1))
+        rest = rest[m.end() :]
+    position = 0
+
+    def peek() -> str | None:
+        return tokens[position] if position < len(tokens) else None
+
+    def take() -> str:
+        nonlocal position
+        if position >= len(tokens):
+            raise ValueError(f"formula {text!r} ends too early")
+        position += 1
+        return tokens[position - 1]
+
+    def iff() -> Callable:  # a <=> (b <=> c)
+        left = implies()
+        if peek() == "<=>":
+            take()
+            right = iff()
+            return lambda t: left(t) == right(t)
+        return left
+
+    def implies() -> Callable:  # a => (b => c)
+        left = disjunction()
+        if peek() == "=>":
+            take()
+            right = implies()
+            return lambda t: (not left(t)) or right(t)
+        return left
+
+    def disjunction() -> Callable:
+        parts = [conjunction()]
+        while peek() == "|":
+            take()
+            parts.append(conjunction())
+        return lambda t: any(p(t) for p in parts)
+
+    def conjunction() -> Callable:
+        parts = [unary()]
+        while peek() == "&":
+            take()
+            parts.append(unary())
+        return lambda t: all(p(t) for p in parts)
+
+    def unary() -> Callable:
+        token = take()
+        if token == "!":
+            inner = unary()
+            return lambda t: not inner(t)
+        if token == "(":
+            inner = iff()
+            if take() != ")":
+                raise ValueError(f"formula {text!r}: ')' expected")
+            return inner
+        if token not in known:
+            raise ValueError(f"formula {text!r} names {token!r}, which is not a feature")
+        return lambda t: t(token)
+
+    whole = iff()
+    if position != len(tokens):
+        raise ValueError(f"formula {text!r}: unexpected {tokens[position]!r}")
+    ids = tuple(dict.fromkeys(t for t in tokens if t in known))
+    return _Formula(text, ids, whole)
 
 
 def _check_keys(raw: dict, allowed: set[str], where: str) -> None:
@@ -475,8 +570,21 @@ def _configured(fid: str, entry: _Entry) -> Rule:
     return _rule("1 configuration entry", (fid,), holds)
 
 
+def _formula_holds(formula: _Formula) -> Rule:
+    # 2.4 "Each formula must hold over the selection `s`"
+    return _rule(f"2.4 {formula.text}", formula.ids, lambda v: formula.holds(lambda f: _s(v[f])))
+
+
+def _formula_holds_active(formula: _Formula) -> Rule:
+    # 2.4 "... and (section 4) over the active set at every moment"
+    return _rule(
+        f"2.4 {formula.text} (active)", tuple(map(_a, formula.ids)), lambda v: formula.holds(lambda f: v[_a(f)])
+    )
+
+
 def _variant_rules(model: _Model, config: dict[str, _Entry]) -> list[Rule]:
     rules = [_root_selected_static_early(model.root)]
+    rules += [_formula_holds(formula) for formula in model.formulas]
     for f in model.features.values():
         rules.append(_time_allowed(f))
         rules.append(_mode_allowed(f))
@@ -589,6 +697,7 @@ def _active_set_rules(model: _Model) -> list[Rule]:
     """Section 4: "At every moment A satisfies section 2 in full (exactly one active XOR
     member, no two active excluded features, and so on)", over the variables a(f)."""
     rules = [_root_active(model.root)]
+    rules += [_formula_holds_active(formula) for formula in model.formulas]
     for f in model.features.values():
         if f.parent is not None:
             rules.append(_active_child_needs_active_parent(f.id, f.parent))
@@ -768,6 +877,7 @@ def model_statements(model: dict) -> list[tuple[str, ...]]:
     """Every statement of the model (see above), in definition order."""
     parsed = _Model(model)
     found: list[tuple[str, ...]] = [("root",), ("start",)]
+    found += [("formula", str(k)) for k in range(len(parsed.formulas))]
     for f in parsed.features.values():
         if f.time_allowed != "Any":
             found.append(("time-allowed", f.id))
@@ -824,16 +934,22 @@ def _statement_rules(model: _Model, statement: tuple[str, ...], start: bool) -> 
     """The rules of one statement; with `start`, its rules over the active set too."""
     kind, *args = statement
     known = set(model.features)
-    if not set(args[:1]) <= known or (
+    if kind == "formula":
+        if not args[0].isdigit() or int(args[0]) >= len(model.formulas):
+            raise ValueError(f"statement {statement!r} names no formula of the model")
+    elif not set(args[:1]) <= known or (
         kind in ("includes", "excludes", "alternatives") and args[1] not in known
     ):
         raise ValueError(f"statement {statement!r} names an unknown feature")
-    f = args[0] if args else None
+    f = args[0] if args and kind != "formula" else None
     parent = model.features[f].parent if f is not None else None
     if kind == "root":
         return [_root_selected_static_early(model.root)]
     if kind == "start":
         return [r for x in model.features for r in (_active_only_if_selected(x), _early_starts_active(x))]
+    if kind == "formula":
+        formula = model.formulas[int(args[0])]  # (the statement names it by its position)
+        return [_formula_holds(formula)] + ([_formula_holds_active(formula)] if start else [])
     if kind == "time-allowed":
         return [_time_allowed(model.features[f])]
     if kind == "mode-allowed":

@@ -58,6 +58,7 @@ _SENTENCES: list[tuple[str, str]] = [
     (rf"{_ID} would be selected", "would-be-selected"),
     (rf"{_ID} would be (Early|Late)", "would-be-time"),
     (rf"{_ID} would be (Static|Dynamic)", "would-be-mode"),
+    (r"formula ([1-9][0-9]*), `(.+)`, must hold", "formula"),
 ]
 
 
@@ -136,6 +137,12 @@ def statement_of(
         positions = [_key(path_of(x), f"constraints.{key}[{k}]") for k, v in enumerate(listed) if v == y]
         assert in_model and where in positions, fact
         statement = (kind, x, y)
+    elif kind == "formula":
+        number, text = groups
+        position = int(number) - 1
+        assert model.get("formulas", [])[position] == text, fact
+        assert in_model and where == f"$.formulas[{position}]", fact
+        statement = ("formula", str(position))
     elif kind in ("time-allowed", "mode-allowed"):
         fid, value = groups
         key = "bindingTimeAllowed" if kind == "time-allowed" else "bindingModeAllowed"

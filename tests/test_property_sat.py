@@ -27,6 +27,18 @@ from motivml.documents.loader import parse
 from motivml.language.reader import read_model
 
 
+def formula_texts(ids: list[str]) -> st.SearchStrategy[str]:
+    """Formulas of rule 2.4 over `ids`: parenthesised or not, so precedence is exercised."""
+    atoms = st.sampled_from(ids) | st.sampled_from(ids).map(lambda x: f"!{x}")
+    return st.recursive(
+        atoms,
+        lambda inner: st.tuples(inner, st.sampled_from(["&", "|", "=>", "<=>"]), inner).map(" ".join)
+        | inner.map(lambda x: f"({x})")
+        | inner.map(lambda x: f"!({x})"),
+        max_leaves=4,
+    )
+
+
 @st.composite
 def models(draw: st.DrawFn, max_features: int = 12) -> dict[str, Any]:
     n = draw(st.integers(2, max_features))
@@ -52,6 +64,8 @@ def models(draw: st.DrawFn, max_features: int = 12) -> dict[str, Any]:
             parent = draw(st.integers(0, i - 1))
             nodes[parent].setdefault("sub", []).append(node)
         nodes.append(node)
+    if draw(st.integers(0, 3)) == 0:
+        nodes[0]["formulas"] = draw(st.lists(formula_texts(ids), min_size=1, max_size=2))
     return nodes[0]
 
 

@@ -17,7 +17,7 @@ from motivml.language.model import FeatureModel
 from motivml.language.reader import read_configuration, read_model
 from motivml.runtime.reconfigure import Plan, Reconfigurer, Refused
 from motivml.runtime.requests import Request
-from tests.test_property_sat import configurations, models
+from tests.test_property_sat import configurations, formula_texts, models
 
 ANY = {"time": "Any", "mode": "Any"}
 MODEL = feature(
@@ -224,7 +224,8 @@ class Reference:
 @st.composite
 def run_time_models(draw: st.DrawFn, n_max: int = 9) -> dict[str, Any]:
     """Models with room for the run time: optional features with open bindings, OR/XOR
-    groups, a few mandatory sub-features, excludes; includes rarely (they force Static)."""
+    groups, a few mandatory sub-features, excludes, sometimes a formula; includes rarely (they
+    force Static)."""
     n = draw(st.integers(3, n_max))
     ids = [f"f{i}" for i in range(n)]
     nodes: list[dict[str, Any]] = [{"id": "f0", "name": "F0"}]
@@ -248,6 +249,8 @@ def run_time_models(draw: st.DrawFn, n_max: int = 9) -> dict[str, Any]:
         }
         nodes[draw(st.integers(0, i - 1))].setdefault("sub", []).append(node)
         nodes.append(node)
+    if draw(st.integers(0, 3)) == 0:  # a formula (rule 2.4) holds over the active set too
+        nodes[0]["formulas"] = [draw(formula_texts(ids[1:]))]
     return nodes[0]
 
 

@@ -55,7 +55,7 @@ def test_published_schema_accepts_what_the_shallow_check_accepts() -> None:
         (
             '{"id": "r", "name": "R",\n "isMandtory": true}',
             "m.json:2:2: $.isMandtory: unknown key 'isMandtory' (did you mean 'isMandatory'?); known keys are "
-            "$schema, abstract, constraints, group, id, isMandatory, isSelected, name, sub (keys starting with x- are free "
+            "$schema, abstract, constraints, formulas, group, id, isMandatory, isSelected, name, sub (keys starting with x- are free "
             "for tools)",
         ),
         (

@@ -26,7 +26,7 @@ This is the only module that imports pysat. Solvers are opened with `with Encodi
 from __future__ import annotations
 
 from array import array
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 from itertools import accumulate, chain
 from types import TracebackType
@@ -36,6 +36,7 @@ from pysat.examples.rc2 import RC2
 from pysat.formula import WCNF
 from pysat.solvers import Solver
 
+from ..language.formula import AND, IFF, IMPLIES, OR, Formula, Var, fold
 from ..language.model import Configuration, FeatureModel, Mode, Time
 
 SOLVER = "glucose4"  # forgiving API, assumptions and cores; CaDiCaL aborts the process on misuse
@@ -58,6 +59,7 @@ SUB_MODE = "sub-mode"  # 3.2: a Dynamic parent has no Static child
 SUB_TIME = "sub-time"  # 3.2: a child is not bound before its parent
 UNIT_TIME = "unit-time"  # 3.2: a Dynamic parent's mandatory child has its time (both ways)
 UNIT_MODE = "unit-mode"  # 3.2: ... and its mode (Dynamic)
+FORMULA = "formula"  # 2.4: a formula of the root holds over s and (with START) over a; `a` is its index
 ALLOWED_TIME = "allowed-time"  # 3: bindingTimeAllowed
 ALLOWED_MODE = "allowed-mode"  # 3: bindingModeAllowed
 START = "start"  # 4: the active set is part of the selection and satisfies section 2
@@ -264,6 +266,40 @@ class Encoding:
                 sel = self._fact(EXCLUDE, f.index, y)
                 self._alternatives(sel, start, f.index, y)
 
+        for k, formula in enumerate(self.model.formulas):
+            self._formula(self._fact(FORMULA, k), start, formula)
+
+    def _formula(self, sel: int, start: int, formula: Formula) -> None:
+        """Rule 2.4: the formula holds over the selection and, under START, over the active set.
+
+        Tseitin's encoding: each operator gets a variable equivalent to its value (both
+        directions, since a subformula may stand under a negation), and the whole formula's
+        literal is asserted; a negation is the negated literal, with no variable of its own.
+        """
+        index = self.model.index
+
+        def gate(op: str) -> Callable[[int, int], int]:
+            def make(x: int, y: int) -> int:
+                v = self._new_var()
+                if op == AND:
+                    self._add(sel, [-v, x], [-v, y], [v, -x, -y])
+                elif op == IFF:
+                    self._add(sel, [-v, -x, y], [-v, x, -y], [v, x, y], [v, -x, -y])
+                else:  # OR, and IMPLIES as (not x) or y
+                    x = -x if op == IMPLIES else x
+                    self._add(sel, [-v, x, y], [v, -x], [v, -y])
+                return v
+
+            return make
+
+        def leaf(variable: Callable[[int], int]) -> Callable[[Var], int]:
+            return lambda var: variable(index[var.id])
+
+        gates = {op: gate(op) for op in (AND, OR, IMPLIES, IFF)}
+        for variable, guard in ((self.s, 0), (self.a, start)):
+            top = fold(formula.tree, leaf(variable), lambda x: -x, gates)
+            self._add(sel, [-guard, top] if guard else [top])
+
     def _alternatives(self, sel: int, start: int, x: int, y: int) -> None:
         """Rule 3.3: not (s(x) and s(y) and (S(x) or S(y) or (E(x) and E(y)))); never both active."""
         s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
@@ -443,6 +479,8 @@ class Encoding:
         fact = self.facts[k]
         if fact.kind in (GROUP_OR, GROUP_XOR, XOR_ALTERNATIVES):
             return self.model.groups[fact.a].parent
+        if fact.kind == FORMULA:
+            return min(self.model.index[name] for name in self.model.formulas[fact.a].ids())
         return fact.a
 
     def cover(

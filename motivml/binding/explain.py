@@ -63,6 +63,7 @@ WHY: dict[str, tuple[str, str]] = {
         "features that exclude each other can both be selected only as Dynamic alternatives, at most "
         "one of them Early (rules 2.3 and 3.3)",
     ),
+    enc.FORMULA: ("2.4", "every formula of the model holds over the selection (rule 2.4)"),
     enc.GROUP_XOR: ("2.2", "an XOR group needs a selected member when its parent is selected (rule 2.2)"),
     enc.GROUP_OR: ("2.2", "an OR group needs a selected member when its parent is selected (rule 2.2)"),
     enc.MANDATORY: ("2.2", "a mandatory sub-feature is selected whenever its parent is (rule 2.2)"),
@@ -98,6 +99,12 @@ VALUE_KINDS = frozenset(
     }
 )
 STATE_KINDS = frozenset({enc.START, enc.START_EARLY})
+# A formula in a conflict about the active set (a start state, a reconfiguration).
+START_FORMULA_WHY = (
+    "no start state exists: at start every selected Early feature is active, and the active set "
+    "satisfies section 2 and every formula of the model (rule 2.4, section 4)"
+)
+RUN_TIME_FORMULA_WHY = "at every moment the active set satisfies every formula of the model (rule 2.4, section 4)"
 RUN_TIME_WHY = (
     "section 4",
     "at every moment the active set has every active parent's mandatory sub-features, one active "
@@ -222,6 +229,13 @@ class Explainer:
                 self.model_location(a, "constraints", "featuresExcluded", position),
                 rule,
             )
+        if kind == enc.FORMULA:
+            formula = model.formulas[a]
+            return LocatedFact(
+                f"formula {formula.position + 1}, `{formula.text}`, must hold",
+                self.model_location(0, "formulas", formula.position),
+                rule,
+            )
         if kind == enc.ALLOWED_TIME:
             feature = model.features[a]
             return LocatedFact(
@@ -268,6 +282,8 @@ class Explainer:
             return (fact.b, fact.a)
         if fact.kind in (enc.EXCLUDE, enc.XOR_PAIR):
             return (fact.a, fact.b)
+        if fact.kind == enc.FORMULA:
+            return tuple(self.model.index[name] for name in self.model.formulas[fact.a].ids())
         parent = self.model.features[fact.a].parent
         return (fact.a,) if parent is None else (fact.a, parent)
 
@@ -281,6 +297,10 @@ class Explainer:
         rule, why = WHY[main] if main is not None else ("", "these facts contradict each other")
         if self.run_time:
             main, (rule, why) = enc.START, RUN_TIME_WHY
+            if enc.FORMULA in kinds:
+                rule, why = "2.4", RUN_TIME_FORMULA_WHY
+        elif main == enc.START and enc.FORMULA in kinds:
+            rule, why = "2.4", START_FORMULA_WHY
         main_k = next((k for k in mus if facts[k].kind == main), mus[0])
         focus = self.mentions(main_k)[0] if main not in VALUE_KINDS else facts[main_k].a
 
@@ -341,7 +361,8 @@ class Explainer:
         message, rule, primary, words, facts = self.sentence(mus)
         fact = self.encoding.facts[primary]
         group = fact.kind in (enc.GROUP_OR, enc.GROUP_XOR, enc.XOR_ALTERNATIVES)
-        feature = self._id(self.model.groups[fact.a].parent if group else fact.a)
+        formula = fact.kind == enc.FORMULA
+        feature = self._id(self.mentions(primary)[0] if formula else self.model.groups[fact.a].parent if group else fact.a)
         return Diagnostic(severity, words[primary].location, prefix + message, rule, feature, facts)
 
 

@@ -198,6 +198,26 @@ class Document:
         line, column = self.position(self._offset(path, key))
         return Location(self.file, line, column, format_path(path))
 
+    def locate_in_string(self, path: JSONPath, index: int) -> Location:
+        """Location of character `index` of the string value at `path` (its escapes counted as
+        written: `\\n` is two characters of the text, one of the value)."""
+        text = self.text
+        offset = self._offset(path, False)
+        if not text.startswith('"', offset):
+            return self.locate(path)
+        raw = offset + 1
+        for _ in range(index):
+            if text[raw] != "\\":
+                raw += 1
+            elif text[raw + 1] != "u":
+                raw += 2
+            elif 0xD800 <= int(text[raw + 2 : raw + 6], 16) < 0xDC00 and text.startswith("\\u", raw + 6):
+                raw += 12  # a surrogate pair: one character of the value
+            else:
+                raw += 6
+        line, column = self.position(raw)
+        return Location(self.file, line, column, format_path(path))
+
 
 @dataclass
 class _Scan:

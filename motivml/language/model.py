@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any, Final, Literal
 
+from .formula import Formula
+
 PathItem = str | int
 
 
@@ -129,6 +131,7 @@ class FeatureModel:
     groups: list[Group]
     name: str = ""
     source: Any = None  # the loader's Document, to locate messages
+    formulas: list[Formula] = field(default_factory=list)  # the root's cross-tree formulas (2.4)
 
     @property
     def root(self) -> Feature:

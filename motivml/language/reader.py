@@ -17,6 +17,7 @@ from typing import Any
 from ..documents.loader import Document, no_gc
 from ..documents.schema import check_configuration, check_feature_model, read_checked, read_with_problems
 from ..errors import Diagnostic, Severity, error, warning
+from .formula import FormulaError, parse
 from .model import ANY, Configuration, Entry, Feature, FeatureModel, Group, Mode, Time
 
 # Tokens the schema admits, to values, and the model's defaults (semantics.md section 1).
@@ -176,6 +177,8 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
                         )
                     )
 
+    _read_formulas(doc, model, diagnostics, suggest)
+
     # Groups (rule 2.2): the label sits on the child; a group needs two members.
     for owner in features:
         for kind in ("OR", "XOR"):
@@ -209,6 +212,34 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
         if not feature.group:
             feature.mandatory = feature.declared_mandatory is not False
     return model, diagnostics
+
+
+def _read_formulas(doc: Document, model: FeatureModel, diagnostics: list[Diagnostic], suggest: _Suggestions) -> None:
+    """The root's `formulas` (rule 2.4): each parsed, each id known, errors at the character."""
+    for position, text in enumerate(doc.root.get("formulas", ())):
+        path = ("formulas", position)
+        try:
+            formula = parse(text, position)
+        except FormulaError as problem:
+            diagnostics.append(
+                error(
+                    doc.locate_in_string(path, problem.offset),
+                    f"formula {position + 1}, `{text}`, does not parse: {problem.message} (rule 2.4)",
+                    "2.4",
+                )
+            )
+            continue
+        unknown = [v for v in formula.variables() if v.id not in model.index]
+        for var in unknown:
+            diagnostics.append(
+                error(
+                    doc.locate_in_string(path, var.offset),
+                    f"formula {position + 1}, `{text}`, names unknown feature {var.id!r}{suggest(var.id)} (rule 2.4)",
+                    "2.4",
+                )
+            )
+        if not unknown:
+            model.formulas.append(formula)
 
 
 def read_configuration(
