@@ -757,6 +757,38 @@ def valid_variants(model: dict, config: dict | None) -> Iterator[dict[str, Bindi
         yield {f: assignment[f] for f in features if assignment[f] is not None}
 
 
+def section_2_selections(model: dict) -> Iterator[frozenset[str]]:
+    """Every selection satisfying section 2 read on its own, without bindings (what section 7's
+    selection count counts and section 8's DIMACS holds): 2.1 root and hierarchy, 2.2
+    mandatory children and groups (an XOR group "at most one selected member": its relaxation
+    by 3.3 needs bindings), 2.3 includes and excludes, 2.4 formulas.  By enumeration of
+    every subset of the non-root features."""
+    parsed = _Model(model)
+    others = [f for f in parsed.features if f != parsed.root]
+    for bits in itertools.product((False, True), repeat=len(others)):
+        chosen = {parsed.root} | {f for f, on in zip(others, bits) if on}
+        if _section_2_holds(parsed, chosen):
+            yield frozenset(chosen)
+
+
+def _section_2_holds(model: _Model, chosen: set[str]) -> bool:
+    for f in model.features.values():
+        if f.id in chosen and f.parent is not None and f.parent not in chosen:  # 2.1
+            return False
+        if f.id not in chosen:
+            continue
+        if any(c not in chosen for c in model.ungrouped_mandatory_children(f.id)):  # 2.2
+            return False
+        for label in ("OR", "XOR"):
+            members = model.group_members(f.id, label)
+            picked = sum(m in chosen for m in members)
+            if members and (picked == 0 or (label == "XOR" and picked > 1)):  # 2.2
+                return False
+        if any(y not in chosen for y in f.includes) or any(y in chosen for y in f.excludes):  # 2.3
+            return False
+    return all(formula.holds(lambda g: g in chosen) for formula in model.formulas)  # 2.4
+
+
 def is_valid(model: dict, config: dict | None) -> bool:
     return next(valid_variants(model, config), None) is not None
 

@@ -98,6 +98,44 @@ class EncodedFact:
     b: int = -1
 
 
+# Tseitin's definitions of a formula's operators: v <-> (x op y), both directions, since a
+# subformula may stand under a negation (which is the negated literal, no variable).
+_GATES: dict[str, Callable[[int, int, int], tuple[list[int], ...]]] = {
+    AND: lambda v, x, y: ([-v, x], [-v, y], [v, -x, -y]),
+    OR: lambda v, x, y: ([-v, x, y], [v, -x], [v, -y]),
+    IMPLIES: lambda v, x, y: ([-v, -x, y], [v, x], [v, -y]),
+    IFF: lambda v, x, y: ([-v, -x, y], [-v, x, -y], [v, x, y], [v, -x, -y]),
+}
+
+
+def tseitin(
+    formula: Formula,
+    literal: Callable[[str], int],
+    new_var: Callable[[], int],
+    emit: Callable[[list[int]], None],
+) -> int:
+    """The literal equivalent to `formula` (ids read by `literal`), its definitions emitted.
+
+    Every variable it makes is defined by the others, so a count over the feature
+    variables is not changed by them.
+    """
+
+    def gate(op: str) -> Callable[[int, int], int]:
+        define = _GATES[op]
+
+        def make(x: int, y: int) -> int:
+            v = new_var()
+            for clause in define(v, x, y):
+                emit(clause)
+            return v
+
+        return make
+
+    leaf: Callable[[Var], int] = lambda var: literal(var.id)  # noqa: E731
+    negate: Callable[[int], int] = lambda x: -x  # noqa: E731
+    return fold(formula.tree, leaf, negate, {op: gate(op) for op in _GATES})
+
+
 class Encoding:
     """A feature model (and optionally a configuration) in one incremental SAT solver."""
 
@@ -142,6 +180,15 @@ class Encoding:
     @staticmethod
     def a(i: int) -> int:
         return 4 * i + 4
+
+    @property
+    def top(self) -> int:
+        """The highest variable in use."""
+        return self._top
+
+    def selection_of(self, values: Sequence[int]) -> bytes:
+        """Which features an assignment selects: one byte (0 or 1) per feature, in pre-order."""
+        return bytes(map((0).__lt__, values[0 : 4 * self.n : 4]))  # s(i) is variable 4i + 1
 
     def _new_var(self) -> int:
         self._top += 1
@@ -270,34 +317,15 @@ class Encoding:
             self._formula(self._fact(FORMULA, k), start, formula)
 
     def _formula(self, sel: int, start: int, formula: Formula) -> None:
-        """Rule 2.4: the formula holds over the selection and, under START, over the active set.
-
-        Tseitin's encoding: each operator gets a variable equivalent to its value (both
-        directions, since a subformula may stand under a negation), and the whole formula's
-        literal is asserted; a negation is the negated literal, with no variable of its own.
-        """
+        """Rule 2.4: the formula holds over the selection and, under START, over the active set."""
         index = self.model.index
-
-        def gate(op: str) -> Callable[[int, int], int]:
-            def make(x: int, y: int) -> int:
-                v = self._new_var()
-                if op == AND:
-                    self._add(sel, [-v, x], [-v, y], [v, -x, -y])
-                elif op == IFF:
-                    self._add(sel, [-v, -x, y], [-v, x, -y], [v, x, y], [v, -x, -y])
-                else:  # OR, and IMPLIES as (not x) or y
-                    x = -x if op == IMPLIES else x
-                    self._add(sel, [-v, x, y], [v, -x], [v, -y])
-                return v
-
-            return make
-
-        def leaf(variable: Callable[[int], int]) -> Callable[[Var], int]:
-            return lambda var: variable(index[var.id])
-
-        gates = {op: gate(op) for op in (AND, OR, IMPLIES, IFF)}
         for variable, guard in ((self.s, 0), (self.a, start)):
-            top = fold(formula.tree, leaf(variable), lambda x: -x, gates)
+            top = tseitin(
+                formula,
+                lambda name, variable=variable: variable(index[name]),  # type: ignore[misc]
+                self._new_var,
+                lambda clause: self._add(sel, clause),
+            )
             self._add(sel, [-guard, top] if guard else [top])
 
     def _alternatives(self, sel: int, start: int, x: int, y: int) -> None:
@@ -488,8 +516,12 @@ class Encoding:
         targets: Sequence[Sequence[int]],
         with_config: bool = True,
         hints: Sequence[Sequence[int]] = (),
+        witness: Callable[[list[int]], None] | None = None,
     ) -> list[bool]:
         """Which conjunctions of literals hold in some valid variant.
+
+        `witness`, if given, is called with each valid variant found on the way (the
+        solver's assignment), so that a caller can learn more from them (atomic sets).
 
         1. Solves under polarity hints (each of `hints`, then towards the targets still
            open, again while a witness settles at least WITNESS_GAIN of them) find
@@ -505,13 +537,13 @@ class Encoding:
             self.solver.set_phases(list(hint))
             if not self.solver.solve(assumptions=base):
                 return possible
-            pending = self._mark(targets, possible, pending)
+            pending = self._mark(targets, possible, pending, witness)
         while pending:
             self._prefer(targets, pending)
             if not self.solver.solve(assumptions=base):
                 return possible
             before = len(pending)
-            pending = self._mark(targets, possible, pending)
+            pending = self._mark(targets, possible, pending, witness)
             if before - len(pending) < WITNESS_GAIN:
                 break
         pending = [k for k in pending if self.solver.propagate(assumptions=[*base, *targets[k]])[0]]
@@ -519,7 +551,7 @@ class Encoding:
             k = pending[0]
             self._prefer(targets, pending)
             if self.solver.solve(assumptions=[*base, *targets[k]]):
-                pending = self._mark(targets, possible, pending)
+                pending = self._mark(targets, possible, pending, witness)
             else:
                 pending = pending[1:]
         return possible
@@ -533,9 +565,15 @@ class Encoding:
         self.solver.set_phases(list(preferred.values()))
 
     def _mark(
-        self, targets: Sequence[Sequence[int]], possible: list[bool], candidates: Iterable[int]
+        self,
+        targets: Sequence[Sequence[int]],
+        possible: list[bool],
+        candidates: Iterable[int],
+        witness: Callable[[list[int]], None] | None = None,
     ) -> list[int]:
         values = self.assignment()
+        if witness is not None:
+            witness(values)
         left = []
         for k in candidates:
             if all(values[abs(lit) - 1] == lit for lit in targets[k]):
@@ -637,3 +675,67 @@ class Encoding:
         self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
     ) -> None:
         self.close()
+
+
+@dataclass(frozen=True, slots=True)
+class SelectionCNF:
+    """The CNF of section 2 alone (formulas included): the selections, as other tools read them.
+
+    Variable i + 1 is feature i's selection, in pre-order; the variables after `features`
+    (XOR counters, formula operators) are each defined by the feature variables, so the
+    count of the CNF is the count of selections, read projected or not.
+    """
+
+    features: int
+    variables: int
+    clauses: list[list[int]]
+
+
+def selection_cnf(model: FeatureModel) -> SelectionCNF:
+    """Section 2 over one variable per feature: root, hierarchy, mandatory children, OR and
+    XOR groups (exactly one member: no run-time alternatives without bindings), includes,
+    excludes and formulas; the DIMACS export and the selection count read it."""
+    n = len(model.features)
+    clauses: list[list[int]] = [[1]]
+    top = n
+
+    def new_var() -> int:
+        nonlocal top
+        top += 1
+        return top
+
+    for f in model.features:
+        if f.parent is None:
+            continue
+        child, parent = f.index + 1, f.parent + 1
+        clauses.append([-child, parent])
+        if f.mandatory:
+            clauses.append([-parent, child])
+    for group in model.groups:
+        members = [m + 1 for m in group.members]
+        clauses.append([-(group.parent + 1), *members])
+        if group.kind != "XOR":
+            continue
+        if len(members) <= PAIRWISE_UP_TO:
+            clauses += [[-x, -y] for k, x in enumerate(members) for y in members[k + 1 :]]
+            continue
+        # at most one, as a sequential counter whose variables are defined, not only implied:
+        # some_k <-> some_(k-1) or m_k, and never some_(k-1) and m_k
+        some = members[0]
+        for member in members[1:]:
+            clauses.append([-some, -member])
+            both = new_var()
+            clauses += [[-both, some, member], [both, -some], [both, -member]]
+            some = both
+    index = model.index
+    for f in model.features:
+        for target in dict.fromkeys(f.includes):
+            if target in index and index[target] != f.index:
+                clauses.append([-(f.index + 1), index[target] + 1])
+        for target in dict.fromkeys(f.excludes):
+            if target in index and index[target] != f.index:
+                clauses.append([-(f.index + 1), -(index[target] + 1)])
+    for formula in model.formulas:
+        top_literal = tseitin(formula, lambda name: index[name] + 1, new_var, clauses.append)
+        clauses.append([top_literal])
+    return SelectionCNF(n, top, clauses)

@@ -70,20 +70,34 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
 
 
 @click.command("export")
-@click.argument("what", type=click.Choice(["scxml"]))
+@click.argument("what", type=click.Choice(["scxml", "dimacs"]))
 @click.argument("target", default=".", type=click.Path())
 @click.option(
     "-o",
     "--output",
     type=click.Path(dir_okay=False),
-    help="Output file (default build/<robot>/coordination.scxml).",
+    help="Output file (default build/<robot>/coordination.scxml, build/<robot>/model.dimacs).",
 )
-def export_command(what: str, target: str, output: str | None) -> None:
-    """Export the robot's coordination statechart as W3C SCXML.
+@click.option(
+    "--bindings",
+    is_flag=True,
+    help="dimacs: sections 2-4 (selection, time and mode, start state), not the selection alone.",
+)
+def export_command(what: str, target: str, output: str | None, bindings: bool) -> None:
+    """Export the robot's coordination statechart as W3C SCXML, or its model as DIMACS.
 
-    Domain conditions and actions are kept in the namespace urn:motivml:coordination:1
-    (see guidelines/coordinating-behaviour.md); the file is rewritten only when it changes.
+    scxml: domain conditions and actions are kept in the namespace
+    urn:motivml:coordination:1 (see guidelines/coordinating-behaviour.md). dimacs: the CNF
+    of the model's selections (section 2, formulas included) over one variable per feature,
+    named in `c <var> <id>` lines as FeatureIDE writes them; with --bindings, the CNF of
+    sections 2-4 and the projection onto the variants' variables (`c p show`). TARGET is a
+    robot folder (or, for dimacs, a model.json). The file is rewritten only when it changes.
     """
+    if bindings and what != "dimacs":
+        raise click.UsageError("--bindings is for dimacs")
+    if what == "dimacs":
+        _export_dimacs(target, output, bindings)
+        return
     from ..coordination.scxml import to_scxml
     from ..documents.writing import write_if_changed
     from ..runtime.launch import load, read_robot_coordination
@@ -98,6 +112,34 @@ def export_command(what: str, target: str, output: str | None) -> None:
             sys.exit(3)
         path = Path(output) if output else Path("build") / loaded.folder.name / "coordination.scxml"
         written = write_if_changed(path.parent, {path.name: to_scxml(coordination, loaded.folder.name)})
+    except MotivmlError as exc:
+        for d in exc.diagnostics:
+            print_diagnostic(d)
+        out.print(f"[bold red]nothing exported[/]: {escape(target)}")
+        sys.exit(exc.exit_code)
+    out.print(f"  {'wrote' if written[path.name] else 'unchanged'} {escape(str(path))}")
+
+
+def _export_dimacs(target: str, output: str | None, bindings: bool) -> None:
+    from ..binding.dimacs import selection_dimacs, variant_dimacs
+    from ..documents.writing import write_if_changed
+    from ..validate import validate
+    from .common import targets
+
+    try:
+        model_path, _, _ = targets(target, None, None)
+        reports = validate(model_path, [], partial=True, analyse=False)
+        model = reports[0].model
+        if model is None:
+            for d in reports[0].errors:
+                print_diagnostic(d)
+            out.print(f"[bold red]nothing exported[/]: {escape(str(model_path))} has errors")
+            sys.exit(1)
+        name = "model-variants.dimacs" if bindings else "model.dimacs"
+        robot = model_path.parent.name if model_path.name == "model.json" else model_path.stem
+        path = Path(output) if output else Path("build") / robot / name
+        text = variant_dimacs(model) if bindings else selection_dimacs(model)
+        written = write_if_changed(path.parent, {path.name: text})
     except MotivmlError as exc:
         for d in exc.diagnostics:
             print_diagnostic(d)

@@ -1,0 +1,312 @@
+"""Analyses of a model alone (semantics.md section 7): core, dead and false-optional
+features, atomic sets, impossible bindings, and exact counts.
+
+Every question but the counts is asked of one hard (selector-free) build of the one
+encoding, with `Encoding.cover`: a few solves under polarity hints settle most questions at
+once, unit propagation refutes most of the rest, and only what is left is solved for one by
+one. Atomic sets are classes of features that every valid variant selects together: the
+variants found while answering the other questions split the features by what they select,
+and each class left is confirmed (or split again) by asking whether its first feature can
+differ from each other member.
+
+Counts are exact (Python integers) and come from Ganak (`pyganak`), an exact projected
+model counter: the selection count counts `selection_cnf` (section 2 alone, as other tools
+read it); the variant count counts the hard build of the encoding projected onto each
+feature's selection, time and mode, with the time and mode of a feature left out fixed (the
+start state's variables are existential: a variant counts when some start state exists).
+Exact counting is #P-hard: the variant count of a generated model of 3,000 features takes a
+minute, so each count has a time limit and is reported as not done when it runs out.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..documents.loader import no_gc
+from ..language.model import FeatureModel, Mode, Time
+from . import encoding as enc
+
+Progress = Callable[[str], None]  # told the name of each step as it begins
+COUNT_TIMEOUT = 60.0  # seconds per count, by default: exact counting can take exponential time
+
+STEPS = (
+    "satisfiability",
+    "core and dead features",
+    "impossible bindings",
+    "atomic sets",
+    "false-optional features",
+    "selection count",
+    "variant count",
+)
+
+
+@dataclass
+class Analysis:
+    """What section 7 asks of a model; feature ids in pre-order throughout."""
+
+    void: bool  # no valid variant at all: every list below is empty, both counts 0
+    core: list[str] = field(default_factory=list)
+    dead: list[str] = field(default_factory=list)
+    false_optional: list[str] = field(default_factory=list)
+    atomic_sets: list[list[str]] = field(default_factory=list)  # every class, singletons too
+    impossible: list[tuple[str, str, str]] = field(default_factory=list)  # (id, "time"/"mode", value)
+    selection_count: int | None = None  # None: not asked for, or not done in time (`uncounted`)
+    variant_count: int | None = None
+    uncounted: list[str] = field(default_factory=list)  # the counts given up on ("selection", "variant")
+
+
+def analyse(
+    model: FeatureModel,
+    counts: bool = True,
+    progress: Progress | None = None,
+    count_timeout: float | None = COUNT_TIMEOUT,
+) -> Analysis:
+    """Every analysis of section 7 (the counts only with `counts`, each given up after
+    `count_timeout` seconds)."""
+    step = progress or (lambda _: None)
+    features = model.features
+    n = len(features)
+    with no_gc(), enc.Encoding(model) as hard:
+        step(STEPS[0])
+        if not hard.solve(with_config=False):
+            return Analysis(True, selection_count=0 if counts else None, variant_count=0 if counts else None)
+        selections: list[bytes] = []  # what each variant found selects, one byte per feature
+
+        def witness(values: list[int]) -> None:
+            selections.append(hard.selection_of(values))
+
+        step(STEPS[1])
+        s = [hard.s(i) for i in range(n)]
+        possible = hard.cover(
+            [[literal] for literal in s] + [[-literal] for literal in s],
+            with_config=False,
+            hints=[s, [s[0], *(-literal for literal in s[1:])]],
+            witness=witness,
+        )
+        alive = possible[:n]
+        core = [i for i in range(n) if not possible[n + i]]
+
+        step(STEPS[2])
+        impossible = _impossible_bindings(hard, model, alive, witness)
+
+        step(STEPS[3])
+        hard.solver.set_phases([-v for v in range(1, hard.top + 1)])
+        atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], selections, witness)
+    # s(f) -> s(parent) always holds, so f is selected whenever its parent is iff the two
+    # are selected together in every variant: iff they share an atomic set
+    step(STEPS[4])
+    atomic_set_of = {i: k for k, members in enumerate(atomic) for i in members}
+    false_optional = [
+        f.index
+        for f in features
+        if f.parent is not None
+        and not f.mandatory
+        and alive[f.index]
+        and atomic_set_of[f.index] == atomic_set_of[f.parent]
+    ]
+
+    analysis = Analysis(
+        False,
+        core=[features[i].id for i in core],
+        dead=[f.id for f in features if not alive[f.index]],
+        false_optional=[features[i].id for i in false_optional],
+        atomic_sets=[[features[i].id for i in members] for members in atomic],
+        impossible=[(features[i].id, aspect, str(value)) for i, aspect, value in impossible],
+    )
+    if counts:
+        step(STEPS[5])
+        analysis.selection_count = count_selections(model, count_timeout)
+        step(STEPS[6])
+        analysis.variant_count = count_variants(model, count_timeout)
+        analysis.uncounted = [
+            name
+            for name, value in (("selection", analysis.selection_count), ("variant", analysis.variant_count))
+            if value is None
+        ]
+    return analysis
+
+
+def _atomic_sets(
+    hard: enc.Encoding, alive: list[int], selections: list[bytes], witness: Callable[[list[int]], None]
+) -> list[list[int]]:
+    """The classes of `alive` features selected together in every valid variant, pre-order.
+
+    A class waits with the number of variants already used to split it; when its turn
+    comes, the variants found since split it further, then its first member is compared
+    with each other one: unit propagation of "first selected" and "first not selected"
+    confirms most at once, and a pair it cannot confirm is solved for, both ways. A variant
+    where the two differ splits the class (and every class after it, when their turn
+    comes); a class whose members are all confirmed is atomic.
+    """
+    from collections import deque
+
+    import numpy as np  # lazy: only this analysis needs it
+
+    s, solver = hard.s, hard.solver
+    n = len(hard.model.features)
+    rows = np.frombuffer(b"".join(selections), dtype=np.uint8).reshape(len(selections), n)
+    columns = np.ascontiguousarray(np.packbits(rows[:, alive], axis=0).T)
+    first_split: dict[bytes, list[int]] = {}
+    for i, column in zip(alive, columns, strict=True):
+        first_split.setdefault(column.tobytes(), []).append(i)
+    final: list[list[int]] = []
+    waiting: deque[tuple[list[int], int]] = deque((part, len(selections)) for part in first_split.values())
+    while waiting:
+        members, seen = waiting.popleft()
+        if len(members) > 1 and seen < len(selections):
+            parts: dict[bytes, list[int]] = {}
+            recent = selections[seen:]
+            for i in members:
+                parts.setdefault(bytes(row[i] for row in recent), []).append(i)
+            if len(parts) > 1:
+                waiting.extend((part, len(selections)) for part in parts.values())
+                continue
+        if len(members) == 1:
+            final.append(members)
+            continue
+        first = s(members[0])
+        ok_up, up = solver.propagate(assumptions=[first])
+        ok_down, down = solver.propagate(assumptions=[-first])
+        selected_with, deselected_with = set(up), set(down)
+        split = False
+        for other in members[1:]:
+            for target, confirmed in (  # (a direction whose propagation fails cannot differ)
+                ([first, -s(other)], not ok_up or s(other) in selected_with),
+                ([-first, s(other)], not ok_down or -s(other) in deselected_with),
+            ):
+                if not confirmed and solver.solve(assumptions=target):
+                    witness(hard.assignment())
+                    split = True
+                    break
+            if split:
+                break
+        if split:
+            waiting.append((members, seen))
+        else:
+            final.append(members)
+    return sorted(final)
+
+
+def _impossible_bindings(
+    hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool], witness: Callable[[list[int]], None]
+) -> list[tuple[int, str, Time | Mode]]:
+    """(feature, aspect, value) for each time or mode a live feature allows and never takes."""
+    targets, owners = binding_targets(hard, model, alive)
+    hints = [
+        [lit for i in range(len(model.features)) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
+        for e in (1, -1)
+        for m in (1, -1)
+    ]
+    possible = hard.cover(targets, with_config=False, hints=hints, witness=witness)
+    return [owners[k] for k in range(len(targets)) if not possible[k]]
+
+
+def binding_targets(
+    hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool]
+) -> tuple[list[list[int]], list[tuple[int, str, Time | Mode]]]:
+    """For each live feature allowing Any time or mode, "selected and bound so" per value."""
+    targets: list[list[int]] = []
+    owners: list[tuple[int, str, Time | Mode]] = []
+    for f in model.features:
+        if not alive[f.index]:
+            continue
+        i = f.index
+        if f.time_allowed is None:
+            targets += [[hard.s(i), hard.E(i)], [hard.s(i), -hard.E(i)]]
+            owners += [(i, "time", Time.EARLY), (i, "time", Time.LATE)]
+        if f.mode_allowed is None:
+            targets += [[hard.s(i), hard.S(i)], [hard.s(i), -hard.S(i)]]
+            owners += [(i, "mode", Mode.STATIC), (i, "mode", Mode.DYNAMIC)]
+    return targets, owners
+
+
+# ----------------------------------------------------------------------------- counts
+def _count(
+    variables: int, clauses: list[list[int]], projection: Sequence[int], timeout: float | None
+) -> int | None:
+    """The exact count of the CNF projected onto `projection`; None if not done in `timeout`.
+
+    Ganak runs in a child process (forked: the clauses are not copied or pickled) that is
+    killed when the time is up or the caller is interrupted, since a count cannot be
+    stopped from within.
+    """
+    import multiprocessing
+
+    context = multiprocessing.get_context("fork")
+    receive, send = context.Pipe(duplex=False)
+    child = context.Process(target=_count_here, args=(variables, clauses, projection, send), daemon=True)
+    child.start()
+    send.close()
+    try:
+        if not receive.poll(timeout):
+            return None
+        try:
+            outcome = receive.recv()
+        except EOFError:  # the child died without an answer (killed, out of memory)
+            raise CountFailed(
+                f"the model counter stopped without an answer (exit code {child.exitcode})"
+            ) from None
+    finally:
+        child.kill()
+        child.join()
+    if isinstance(outcome, str):
+        raise CountFailed(outcome)
+    return int(outcome)
+
+
+def _count_here(variables: int, clauses: list[list[int]], projection: Sequence[int], send: Any) -> None:
+    try:
+        from pyganak import Counter
+
+        counter = Counter(verbose=0, seed=0)
+        counter.new_vars(variables)
+        counter.add_clauses(clauses)
+        counter.set_sampling_set(list(projection))
+        send.send(int(counter.count()))
+    except BaseException as exc:  # noqa: BLE001 - whatever it is, the parent says it
+        send.send(f"the model counter failed: {type(exc).__name__}: {exc}")
+
+
+class CountFailed(RuntimeError):
+    """The model counter ended without a count."""
+
+
+def count_selections(model: FeatureModel, timeout: float | None = COUNT_TIMEOUT) -> int | None:
+    """The number of selections satisfying section 2 (the count of `selection_cnf`); None if
+    not counted within `timeout` seconds."""
+    cnf = enc.selection_cnf(model)
+    return _count(cnf.variables, cnf.clauses, range(1, cnf.features + 1), timeout)
+
+
+def count_variants(model: FeatureModel, timeout: float | None = COUNT_TIMEOUT) -> int | None:
+    """The number of variants (section 4): each feature's selection and, when selected, its
+    time and mode, with some start state; counted over those values only. None if not
+    counted within `timeout` seconds."""
+    cnf = variant_cnf(model)
+    return _count(cnf.variables, cnf.clauses, cnf.projection, timeout)
+
+
+@dataclass(frozen=True, slots=True)
+class VariantCNF:
+    """Sections 2-4 as a CNF whose count projected onto `projection` is the variant count."""
+
+    variables: int
+    clauses: list[list[int]]
+    projection: list[int]  # s(f), E(f), S(f) of every feature, in pre-order
+
+
+def variant_cnf(model: FeatureModel) -> VariantCNF:
+    """The hard build of the encoding, with the time and mode of a feature left out fixed
+    (Late, Dynamic: false), so that a variant is counted once, not once per value of what it
+    leaves out. Nothing else constrains them: every clause on them has the feature selected."""
+    with enc.Encoding(model, record=True) as hard:
+        clauses = hard.recorded
+        assert clauses is not None
+        projection: list[int] = []
+        for i in range(len(model.features)):
+            s, e, st = hard.s(i), hard.E(i), hard.S(i)
+            clauses += [[s, -e], [s, -st]]
+            projection += [s, e, st]
+        return VariantCNF(hard.top, clauses, projection)

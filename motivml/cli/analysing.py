@@ -1,0 +1,156 @@
+"""analyse: what a feature model allows (semantics.md section 7)."""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+from typing import TYPE_CHECKING, NoReturn
+
+import click
+from rich.markup import escape
+
+from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from .common import err, fail, out, plural, print_diagnostic, targets
+
+if TYPE_CHECKING:
+    from rich.progress import Progress
+
+SHOWN = 20  # ids listed per line of the text output; --format json lists them all
+PROGRESS_AFTER = 1.0  # seconds: a quicker analysis shows no progress bar
+
+
+@click.command("analyse")
+@click.argument("target", default=".", type=click.Path())
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+@click.option("--no-counts", is_flag=True, help="Leave out the selection and variant counts.")
+@click.option(
+    "--count-timeout",
+    type=click.FloatRange(min=0, min_open=True),
+    default=60.0,
+    show_default=True,
+    help="Seconds each exact count may take before it is given up (and reported as not counted).",
+)
+def analyse_command(target: str, fmt: str, no_counts: bool, count_timeout: float) -> None:
+    """Core, dead and false-optional features, atomic sets, impossible bindings and exact counts.
+
+    TARGET is a model.json or a robot folder (default: the current folder). The selection
+    count is the number of selections satisfying the model (section 2, formulas included:
+    what other product-line tools count); the variant count also tells apart each selected
+    feature's binding time and mode (sections 2-4). Counts are exact integers; exact
+    counting can take very long on large models, so each is given up after --count-timeout
+    seconds. Exit 1 when the model has errors or no valid variant, 3 when the model counter
+    fails.
+    """
+    from ..binding.analysis import STEPS, CountFailed, analyse
+    from ..binding.check import analyse_model
+    from ..validate import validate
+
+    try:
+        model_path, _, _ = targets(target, None, None)
+        reports = validate(model_path, [], partial=True, analyse=False)
+        model = reports[0].model
+        if model is None:
+            _refuse([d for r in reports for d in r.errors], fmt, "the model has errors")
+        with _Bar(len(STEPS)) as bar:
+            try:
+                analysis = analyse(model, not no_counts, bar.step, count_timeout)
+            except CountFailed as exc:
+                raise EnvironmentProblem(error(Location(str(model_path)), str(exc), "count")) from None
+        if analysis.void:
+            _refuse(analyse_model(model), fmt, "the model has no valid variant")
+    except MotivmlError as exc:
+        fail(exc)
+    if fmt == "json":
+        payload = {
+            "model": str(model_path),
+            "features": len(model.features),
+            "void": False,
+            "core": analysis.core,
+            "dead": analysis.dead,
+            "false_optional": analysis.false_optional,
+            "atomic_sets": analysis.atomic_sets,
+            "impossible_bindings": [
+                {"feature": f, "aspect": aspect, "value": value} for f, aspect, value in analysis.impossible
+            ],
+            "selection_count": analysis.selection_count,
+            "variant_count": analysis.variant_count,
+            "uncounted": analysis.uncounted,
+        }
+        click.echo(json.dumps(payload, indent=2))
+        sys.exit(0)
+    out.print(f"{escape(str(model_path))}: {plural(len(model.features), 'feature')}")
+    _line("core", analysis.core)
+    _line("dead", analysis.dead)
+    _line("false-optional", analysis.false_optional)
+    grouped = [members for members in analysis.atomic_sets if len(members) > 1]
+    sets = ["{" + ", ".join(members) + "}" for members in grouped]
+    alone = len(analysis.atomic_sets) - len(grouped)
+    _line("atomic sets", sets, f" (and {plural(alone, 'live feature')} each in a set of its own)")
+    _line("impossible bindings", [f"{f} never {value}" for f, _, value in analysis.impossible])
+    if not no_counts:
+        for name, value in (("selections", analysis.selection_count), ("variants", analysis.variant_count)):
+            shown = str(value) if value is not None else f"not counted within {count_timeout:g} s (see --count-timeout)"
+            out.print(f"{name}: {shown}")
+
+
+def _line(title: str, items: list[str], tail: str = "") -> None:
+    shown = ", ".join(items[:SHOWN]) + (f" and {len(items) - SHOWN} more" if len(items) > SHOWN else "")
+    out.print(f"{title} ({len(items)}): {escape(shown or 'none')}{escape(tail)}")
+
+
+def _refuse(found: list[Diagnostic], fmt: str, why: str) -> NoReturn:
+    if fmt == "json":
+        click.echo(json.dumps({"void": why.endswith("variant"), "errors": [d.as_dict() for d in found]}, indent=2))
+    else:
+        for d in found:
+            print_diagnostic(d)
+        out.print(f"[bold red]nothing analysed[/]: {why}")
+    sys.exit(1)
+
+
+class _Bar:
+    """A progress bar on stderr, shown once an analysis has taken PROGRESS_AFTER seconds (and
+    only on a terminal); it names the step under way."""
+
+    def __init__(self, total: int) -> None:
+        self.total = total
+        self.done = -1
+        self.name = ""
+        self.lock = threading.Lock()
+        self.progress: Progress | None = None
+        self.closed = False
+        self.timer = threading.Timer(PROGRESS_AFTER, self._show)
+        self.timer.daemon = True
+
+    def __enter__(self) -> _Bar:
+        if err.is_terminal:
+            self.timer.start()
+        return self
+
+    def step(self, name: str) -> None:
+        with self.lock:
+            self.done += 1
+            self.name = name
+            if self.progress is not None:
+                self.progress.update(self.task, completed=self.done, description=name)
+
+    def _show(self) -> None:
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+        with self.lock:
+            if self.closed:
+                return
+            progress = Progress(
+                TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=err, transient=True
+            )
+            self.task = progress.add_task(self.name, total=self.total, completed=max(self.done, 0))
+            progress.start()
+            self.progress = progress
+
+    def __exit__(self, *exc: object) -> None:
+        self.timer.cancel()
+        with self.lock:
+            self.closed = True
+            if self.progress is not None:
+                self.progress.stop()

@@ -1,0 +1,332 @@
+"""Section 7's analyses and counts against brute force, and `motivml analyse` itself.
+
+The reference (reference_semantics.py) enumerates every valid variant of a small random
+model, and every selection satisfying section 2 alone; core, dead and false-optional
+features, atomic sets, impossible bindings and both counts are read off those lists here,
+with no code of the product's.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+import reference_semantics as ref
+from click.testing import CliRunner
+from helpers import feature
+from hypothesis import HealthCheck, given, settings
+from test_property_sat import models
+
+from motivml.binding import analysis as analysis_module
+from motivml.binding.analysis import CountFailed, analyse, count_selections, count_variants
+from motivml.cli import main
+from motivml.documents.loader import parse
+from motivml.language.reader import read_model
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def read(raw: dict[str, Any]) -> Any:
+    model, problems = read_model(parse(json.dumps(raw, indent=1), "model.json"))
+    assert not [p for p in problems if p.severity.value == "error"]
+    return model
+
+
+def ids_in_order(raw: dict[str, Any]) -> list[str]:
+    found, stack = [], [raw]
+    while stack:
+        node = stack.pop()
+        found.append(node["id"])
+        stack.extend(reversed(node.get("sub", [])))
+    return found
+
+
+def parents(raw: dict[str, Any]) -> dict[str, str | None]:
+    found: dict[str, str | None] = {raw["id"]: None}
+    stack = [raw]
+    while stack:
+        node = stack.pop()
+        for child in node.get("sub", []):
+            found[child["id"]] = node["id"]
+            stack.append(child)
+    return found
+
+
+def optional(raw: dict[str, Any]) -> set[str]:
+    """Features that are not ungrouped mandatory children (section 7: "not mandatory (or a
+    group member)"), read from the document: a group member is one of at least two children
+    of its parent with the same group label."""
+    found, stack = set(), [raw]
+    while stack:
+        node = stack.pop()
+        children = node.get("sub", [])
+        for child in children:
+            label = child.get("group", "")
+            grouped = label and sum(1 for c in children if c.get("group", "") == label) >= 2
+            if grouped or child.get("isMandatory", True) is False:
+                found.add(child["id"])
+            stack.append(child)
+    return found
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=8))
+def test_analyses_equal_brute_force(raw: dict[str, Any]) -> None:
+    variants = list(ref.valid_variants(raw, None))
+    result = analyse(read(raw), counts=True, count_timeout=60)
+    if not variants:
+        assert result.void and result.selection_count == 0 and result.variant_count == 0
+        return
+    order = ids_in_order(raw)
+    selections = [set(v) for v in variants]
+    alive = [f for f in order if any(f in chosen for chosen in selections)]
+    assert not result.void
+    assert result.dead == [f for f in order if f not in alive]
+    assert result.core == [f for f in order if all(f in chosen for chosen in selections)]
+    up = parents(raw)
+    assert result.false_optional == [
+        f
+        for f in alive
+        if f in optional(raw) and all(f in chosen for chosen in selections if up[f] in chosen)
+    ]
+    by_pattern: dict[tuple[bool, ...], list[str]] = {}
+    for f in alive:
+        by_pattern.setdefault(tuple(f in chosen for chosen in selections), []).append(f)
+    assert sorted(result.atomic_sets) == sorted(by_pattern.values())
+    assert all(members == sorted(members, key=order.index) for members in result.atomic_sets)
+    taken = {
+        (f, aspect, value)
+        for v in variants
+        for f, (early, static) in v.items()
+        for aspect, value in (
+            ("time", "Early" if early else "Late"),
+            ("mode", "Static" if static else "Dynamic"),
+        )
+    }
+    allowed = _allowed(raw)
+    expected_impossible = {
+        (f, aspect, value)
+        for f in alive
+        for aspect, values in (("time", ("Early", "Late")), ("mode", ("Static", "Dynamic")))
+        if allowed[f][aspect] == "Any"
+        for value in values
+        if (f, aspect, value) not in taken
+    }
+    assert set(result.impossible) == expected_impossible
+    assert result.variant_count == len(variants)
+    assert result.selection_count == sum(1 for _ in ref.section_2_selections(raw))
+
+
+def _allowed(raw: dict[str, Any]) -> dict[str, dict[str, str]]:
+    found, stack = {}, [raw]
+    while stack:
+        node = stack.pop()
+        constraints = node.get("constraints", {})
+        found[node["id"]] = {
+            "time": constraints.get("bindingTimeAllowed", "Early"),
+            "mode": constraints.get("bindingModeAllowed", "Static"),
+        }
+        stack.extend(node.get("sub", []))
+    return found
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=12))
+def test_selection_count_equals_brute_force_up_to_12_features(raw: dict[str, Any]) -> None:
+    assert count_selections(read(raw)) == sum(1 for _ in ref.section_2_selections(raw))
+
+
+# ---------------------------------------------------------------------------- fixtures
+SENSORBOT = ROOT / "guidelines" / "examples" / "sensorbot" / "model.json"
+
+
+def test_sensorbot_by_hand() -> None:
+    """Three OR-grouped sensors, not lidar and sonar together, SLAM only with lidar or camera:
+    5 sensor sets without SLAM ({l}, {c}, {s}, {l,c}, {c,s}), 4 with it (all but {s})."""
+    runner = CliRunner()
+    result = runner.invoke(main, ["analyse", str(SENSORBOT), "--format", "json"])
+    assert result.exit_code == 0, result.output
+    payload = json.loads(result.output)
+    assert payload["selection_count"] == 9
+    assert payload["core"] == ["sensorbot", "sensors"]
+    assert payload["dead"] == [] and payload["false_optional"] == []
+    assert payload["atomic_sets"][0] == ["sensorbot", "sensors"]
+    assert isinstance(payload["variant_count"], int) and payload["uncounted"] == []
+
+
+def test_counts_are_exact_integers_beyond_64_bits() -> None:
+    """200 optional features: 2^200 selections, exactly (no float, no modulo 2^64)."""
+    raw = feature("r", [feature(f"f{i}", isMandatory=False) for i in range(200)])
+    model = read(raw)
+    assert count_selections(model) == 2**200
+    assert count_variants(model) == 2**200  # each allows Static Early only
+
+
+def test_text_output(tmp_path: Path) -> None:
+    result = CliRunner().invoke(main, ["analyse", str(SENSORBOT)])
+    assert result.exit_code == 0
+    assert result.output.splitlines() == [
+        f"{SENSORBOT}: 6 features",
+        "core (2): sensorbot, sensors",
+        "dead (0): none",
+        "false-optional (0): none",
+        "atomic sets (1): {sensorbot, sensors} (and 4 live features each in a set of its own)",
+        "impossible bindings (0): none",
+        "selections: 9",
+        "variants: 84",
+    ]
+
+
+def test_dead_false_optional_and_impossible(tmp_path: Path) -> None:
+    raw = feature(
+        "r",
+        [
+            feature("a", isMandatory=False, inc=["b"]),
+            feature("b", isMandatory=False, exc=["a"]),
+            feature("c", isMandatory=False, time="Any", mode="Any", inc=["d"]),
+            feature("d", isMandatory=False, time="Any", mode="Any"),
+        ],
+        formulas=["d"],
+    )
+    (tmp_path / "model.json").write_text(json.dumps(raw))
+    result = CliRunner().invoke(main, ["analyse", str(tmp_path), "--format", "json"])
+    payload = json.loads(result.output)
+    assert payload["dead"] == ["a"]  # a needs b, which excludes it
+    assert payload["core"] == ["r", "d"]  # the formula
+    assert payload["false_optional"] == ["d"]  # optional, yet always there
+    # c requires d: d is Static Early whenever c is selected (3.1), but without c it may be
+    # anything, and c itself any binding: no value is impossible
+    assert payload["impossible_bindings"] == []
+    assert payload["selection_count"] == 4  # b on/off x c on/off, d always, a never
+
+
+def test_void_model(tmp_path: Path) -> None:
+    raw = feature("r", [feature("a", exc=["b"]), feature("b")])
+    (tmp_path / "model.json").write_text(json.dumps(raw))
+    result = CliRunner().invoke(main, ["analyse", str(tmp_path)])
+    assert result.exit_code == 1
+    assert "the model has no valid variant: " in result.output
+    assert result.output.splitlines()[-1] == "nothing analysed: the model has no valid variant"
+    as_json = CliRunner().invoke(main, ["analyse", str(tmp_path), "--format", "json"])
+    assert as_json.exit_code == 1 and json.loads(as_json.output)["void"] is True
+
+
+def test_a_model_with_errors(tmp_path: Path) -> None:
+    (tmp_path / "model.json").write_text('{"id": "r", "name": "R", "formulas": ["a &"]}')
+    result = CliRunner().invoke(main, ["analyse", str(tmp_path / "model.json")])
+    assert result.exit_code == 1
+    assert "does not parse" in result.output and "nothing analysed: the model has errors" in result.output
+
+
+def test_a_count_that_runs_out_of_time_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The counter runs in a child process that is killed when the time is up."""
+    monkeypatch.setattr(analysis_module, "_count_here", _never_answers)
+    result = CliRunner().invoke(main, ["analyse", str(SENSORBOT), "--count-timeout", "0.2"])
+    assert result.exit_code == 0
+    assert result.output.splitlines()[-2:] == [
+        "selections: not counted within 0.2 s (see --count-timeout)",
+        "variants: not counted within 0.2 s (see --count-timeout)",
+    ]
+    as_json = CliRunner().invoke(
+        main, ["analyse", str(SENSORBOT), "--count-timeout", "0.2", "--format", "json"]
+    )
+    payload = json.loads(as_json.output)
+    assert payload["selection_count"] is None and payload["uncounted"] == ["selection", "variant"]
+
+
+def _never_answers(*_: object) -> None:
+    import threading
+
+    threading.Event().wait()  # until killed
+
+
+def test_a_counter_that_fails_is_an_environment_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(analysis_module, "_count_here", _dies)
+    with pytest.raises(CountFailed, match="stopped without an answer"):
+        count_selections(read(feature("r")), timeout=30)
+    result = CliRunner().invoke(main, ["analyse", str(SENSORBOT)])
+    assert result.exit_code == 3 and "the model counter stopped without an answer" in result.output
+
+
+def _dies(*_: object) -> None:
+    import os
+
+    os._exit(9)
+
+
+def test_no_counts() -> None:
+    result = CliRunner().invoke(main, ["analyse", str(SENSORBOT), "--no-counts"])
+    assert result.exit_code == 0 and "selections" not in result.output
+
+
+# ------------------------------------------------------------------------------ DIMACS
+def read_dimacs(text: str) -> tuple[dict[int, str], int, list[list[int]], list[int] | None]:
+    """Names, variable count, clauses and projection (`c p show`) of a DIMACS text."""
+    names: dict[int, str] = {}
+    shown: list[int] | None = None
+    clauses: list[list[int]] = []
+    variables = 0
+    for line in text.splitlines():
+        if line.startswith("c p show "):
+            shown = [int(x) for x in line.split()[3:-1]]
+        elif line.startswith("c "):
+            number, _, name = line[2:].partition(" ")
+            if number.isdigit():
+                names[int(number)] = name
+        elif line.startswith("p cnf "):
+            variables, count = map(int, line.split()[2:])
+        else:
+            clause = [int(x) for x in line.split()]
+            assert clause[-1] == 0
+            clauses.append(clause[:-1])
+    assert len(clauses) == count
+    return names, variables, clauses, shown
+
+
+def count_directly(variables: int, clauses: list[list[int]], shown: list[int] | None) -> int:
+    from pyganak import Counter
+
+    counter = Counter()
+    counter.new_vars(variables)
+    counter.add_clauses(clauses)
+    if shown is not None:
+        counter.set_sampling_set(shown)
+    return int(counter.count())
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=7))
+def test_exported_dimacs_counts_as_the_analysis_and_brute_force(raw: dict[str, Any]) -> None:
+    from motivml.binding.dimacs import selection_dimacs, variant_dimacs
+
+    model = read(raw)
+    names, variables, clauses, shown = read_dimacs(selection_dimacs(model))
+    assert names == {k + 1: f for k, f in enumerate(ids_in_order(raw))}  # one per feature, pre-order
+    assert shown is None
+    expected = sum(1 for _ in ref.section_2_selections(raw))
+    assert count_directly(variables, clauses, None) == expected  # plain: the extra variables are defined
+    names, variables, clauses, shown = read_dimacs(variant_dimacs(model))
+    assert shown is not None and len(shown) == 3 * len(ids_in_order(raw))
+    assert count_directly(variables, clauses, shown) == sum(1 for _ in ref.valid_variants(raw, None))
+
+
+def test_export_dimacs_command(tmp_path: Path) -> None:
+    runner = CliRunner()
+    target = tmp_path / "out" / "sensorbot.dimacs"
+    result = runner.invoke(main, ["export", "dimacs", str(SENSORBOT.parent), "-o", str(target)])
+    assert result.exit_code == 0 and result.output == f"  wrote {target}\n"
+    names, variables, clauses, _ = read_dimacs(target.read_text())
+    assert list(names.values()) == ["sensorbot", "slam", "sensors", "lidar", "camera", "sonar"]
+    assert count_directly(variables, clauses, None) == 9
+    again = runner.invoke(main, ["export", "dimacs", str(SENSORBOT), "-o", str(target)])
+    assert again.output == f"  unchanged {target}\n"
+    usage = runner.invoke(main, ["export", "scxml", str(SENSORBOT.parent), "--bindings"])
+    assert usage.exit_code == 2 and "--bindings is for dimacs" in usage.output
+    (tmp_path / "bad.json").write_text('{"id": "r", "name": "R", "formulas": ["nope"]}')
+    bad = runner.invoke(
+        main, ["export", "dimacs", str(tmp_path / "bad.json"), "-o", str(tmp_path / "bad.dimacs")]
+    )
+    assert bad.exit_code == 1 and "names unknown feature 'nope'" in bad.output
+    assert not (tmp_path / "bad.dimacs").exists()
