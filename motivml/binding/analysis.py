@@ -34,8 +34,8 @@ COUNT_TIMEOUT = 60.0  # seconds per count, by default: exact counting can take e
 STEPS = (
     "satisfiability",
     "core and dead features",
-    "impossible bindings",
     "atomic sets",
+    "impossible bindings",
     "false-optional features",
     "selection count",
     "variant count",
@@ -89,11 +89,17 @@ def analyse(
         core = [i for i in range(n) if not possible[n + i]]
 
         step(STEPS[2])
-        impossible = _impossible_bindings(hard, model, alive, witness)
-
-        step(STEPS[3])
-        hard.solver.set_phases([-v for v in range(1, hard.top + 1)])
+        # a variant with a parent but not its optional child (one per child, found together
+        # under polarity hints): the quickest splitters of atomic-set candidates
+        optional = [f for f in features if f.parent is not None and not f.mandatory and alive[f.index]]
+        hard.cover([[s[f.parent], -s[f.index]] for f in optional], with_config=False, witness=witness)  # type: ignore[index]
         atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], selections, witness)
+    # The bindings in a solver of their own: after the questions above, the same solver
+    # takes several times as long over them (its learnt clauses and saved phases lead it
+    # astray), and the other way round.
+    step(STEPS[3])
+    with no_gc(), enc.Encoding(model) as hard:
+        impossible = _impossible_bindings(hard, model, alive)
     # s(f) -> s(parent) always holds, so f is selected whenever its parent is iff the two
     # are selected together in every variant: iff they share an atomic set
     step(STEPS[4])
@@ -133,64 +139,47 @@ def _atomic_sets(
 ) -> list[list[int]]:
     """The classes of `alive` features selected together in every valid variant, pre-order.
 
-    A class waits with the number of variants already used to split it; when its turn
-    comes, the variants found since split it further, then its first member is compared
-    with each other one: unit propagation of "first selected" and "first not selected"
-    confirms most at once, and a pair it cannot confirm is solved for, both ways. A variant
-    where the two differ splits the class (and every class after it, when their turn
-    comes); a class whose members are all confirmed is atomic.
+    Rounds: the variants found so far split the candidate classes by what they select; then
+    one `cover` asks, for every class, whether its first member can differ from each other
+    one. A class where none can is atomic; the variants that answered yes split the others
+    in the next round.
     """
-    from collections import deque
-
     import numpy as np  # lazy: only this analysis needs it
 
-    s, solver = hard.s, hard.solver
-    n = len(hard.model.features)
-    rows = np.frombuffer(b"".join(selections), dtype=np.uint8).reshape(len(selections), n)
-    columns = np.ascontiguousarray(np.packbits(rows[:, alive], axis=0).T)
-    first_split: dict[bytes, list[int]] = {}
-    for i, column in zip(alive, columns, strict=True):
-        first_split.setdefault(column.tobytes(), []).append(i)
+    s = hard.s
+    candidates = [alive]
     final: list[list[int]] = []
-    waiting: deque[tuple[list[int], int]] = deque((part, len(selections)) for part in first_split.values())
-    while waiting:
-        members, seen = waiting.popleft()
-        if len(members) > 1 and seen < len(selections):
-            parts: dict[bytes, list[int]] = {}
-            recent = selections[seen:]
+    seen = 0  # the variants already used to split
+    while candidates and len(selections) > seen:  # (a class that may split has a new variant)
+        # split every candidate class by what the variants found since the last split select
+        # (per feature, its column of the variants' selections, packed to bits)
+        rows = np.frombuffer(b"".join(selections[seen:]), dtype=np.uint8).reshape(len(selections) - seen, -1)
+        columns = np.ascontiguousarray(np.packbits(rows, axis=0).T)
+        split: list[list[int]] = []
+        for members in candidates:
+            by_pattern: dict[bytes, list[int]] = {}
             for i in members:
-                parts.setdefault(bytes(row[i] for row in recent), []).append(i)
-            if len(parts) > 1:
-                waiting.extend((part, len(selections)) for part in parts.values())
-                continue
-        if len(members) == 1:
-            final.append(members)
-            continue
-        first = s(members[0])
-        ok_up, up = solver.propagate(assumptions=[first])
-        ok_down, down = solver.propagate(assumptions=[-first])
-        selected_with, deselected_with = set(up), set(down)
-        split = False
-        for other in members[1:]:
-            for target, confirmed in (  # (a direction whose propagation fails cannot differ)
-                ([first, -s(other)], not ok_up or s(other) in selected_with),
-                ([-first, s(other)], not ok_down or -s(other) in deselected_with),
-            ):
-                if not confirmed and solver.solve(assumptions=target):
-                    witness(hard.assignment())
-                    split = True
-                    break
-            if split:
-                break
-        if split:
-            waiting.append((members, seen))
-        else:
-            final.append(members)
-    return sorted(final)
+                by_pattern.setdefault(columns[i].tobytes(), []).append(i)
+            split += by_pattern.values()
+        seen = len(selections)
+        final += [members for members in split if len(members) == 1]
+        open_classes = [members for members in split if len(members) > 1]
+        targets: list[list[int]] = []
+        owners: list[int] = []
+        for k, members in enumerate(open_classes):
+            first = s(members[0])
+            for other in members[1:]:
+                targets += [[first, -s(other)], [-first, s(other)]]
+                owners += [k, k]
+        possible = hard.cover(targets, with_config=False, witness=witness)
+        differing = {owners[t] for t, can in enumerate(possible) if can}
+        final += [members for k, members in enumerate(open_classes) if k not in differing]
+        candidates = [members for k, members in enumerate(open_classes) if k in differing]
+    return sorted(final + candidates)
 
 
 def _impossible_bindings(
-    hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool], witness: Callable[[list[int]], None]
+    hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool]
 ) -> list[tuple[int, str, Time | Mode]]:
     """(feature, aspect, value) for each time or mode a live feature allows and never takes."""
     targets, owners = binding_targets(hard, model, alive)
@@ -199,7 +188,7 @@ def _impossible_bindings(
         for e in (1, -1)
         for m in (1, -1)
     ]
-    possible = hard.cover(targets, with_config=False, hints=hints, witness=witness)
+    possible = hard.cover(targets, with_config=False, hints=hints)
     return [owners[k] for k in range(len(targets)) if not possible[k]]
 
 

@@ -1,0 +1,134 @@
+"""Benchmark: `motivml analyse` on generated models, against the bare-SAT floor of issue 14.
+
+For n = 1,000, 10,000 and 100,000 features (generate.py) it prints, each in a fresh process:
+
+* the floor (validate_bench.py's): the model's CNF read from a DIMACS file by pysat and
+  solved once under a full configuration's assumptions, with its peak memory;
+* `motivml analyse MODEL --no-counts --format json` (core, dead and false-optional
+  features, atomic sets, impossible bindings): wall time, ratio to the floor, peak memory;
+* `motivml analyse MODEL` with the exact counts, at the sizes given to --count-sizes
+  (default 1,000 only: exact counting of these models is exponential in their treewidth;
+  at 3,000 features the selection count does not finish in minutes).
+
+A run that does not finish within --timeout seconds is printed as such.
+
+    python bench/analyse_bench.py [--sizes 1000 10000 100000] [--timeout 900]
+
+Target (issue 15): analyse within 10x the floor at 10k (printed met/MISSED).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from generate import write  # noqa: E402
+from validate_bench import FLOOR, run_measured, stages  # noqa: E402
+
+TARGETS = {10_000: 10.0}  # issue 15: analyse / floor
+
+
+def run_limited(args: list[str], timeout: float) -> tuple[float, int, str] | None:
+    """Wall seconds, peak RSS in MiB and stdout of a child; None if it ran out of time."""
+    start = time.perf_counter()
+    child = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    timer = threading.Timer(timeout, child.kill)
+    timer.start()
+    assert child.stdout is not None
+    output = child.stdout.read()
+    _, status, usage = os.wait4(child.pid, 0)
+    timer.cancel()
+    wall = time.perf_counter() - start
+    code = os.waitstatus_to_exitcode(status)
+    if code == -9 and wall >= timeout:
+        return None
+    if code != 0:
+        raise SystemExit(f"{' '.join(args)} failed ({code}):\n{output}")
+    return wall, usage.ru_maxrss // 1024, output
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000])
+    parser.add_argument("--count-sizes", type=int, nargs="*", default=[1000])
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--timeout", type=float, default=900.0)
+    args = parser.parse_args()
+    from motivml.binding.encoding import SOLVER
+
+    motivml = str(Path(sys.executable).with_name("motivml"))
+    print(f"solver {SOLVER}; python {sys.version.split()[0]}; {os.cpu_count()} cores")
+    print(
+        f"{'features':>9} {'floor s':>8} {'MiB':>5} | {'analyse s':>9} {'ratio':>6} {'MiB':>5} {'target':>6}"
+        f" | core dead f-opt atomic impossible | {'with counts s':>13}  selections / variants (digits)"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in args.sizes:
+            folder = os.path.join(tmp, f"m{n}")
+            model_path, config_path = write(n, args.seed, folder)
+            cnf_path, assumptions_path = os.path.join(folder, "f.cnf"), os.path.join(folder, "a.txt")
+            stages(model_path, config_path, cnf_path, assumptions_path)
+            floor_wall, floor_peak, _ = run_measured(
+                [sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER]
+            )
+            measured = run_limited(
+                [motivml, "analyse", model_path, "--no-counts", "--format", "json"], args.timeout
+            )
+            row = f"{n:>9,} {floor_wall:>8.2f} {floor_peak:>5} | "
+            if measured is None:
+                row += f"{'did not finish in ' + format(args.timeout, 'g') + ' s':>29} | {'':>33} |"
+            else:
+                wall, peak, output = measured
+                found = json.loads(output)
+                target = TARGETS.get(n)
+                verdict = "-" if target is None else ("met" if wall / floor_wall <= target else "MISSED")
+                sizes = [
+                    len(found[k])
+                    for k in ("core", "dead", "false_optional", "atomic_sets", "impossible_bindings")
+                ]
+                row += (
+                    f"{wall:>9.2f} {wall / floor_wall:>6.1f} {peak:>5} {verdict:>6} | "
+                    + " ".join(f"{k:>4}" for k in sizes)
+                    + " |"
+                )
+            if n in args.count_sizes:
+                counted = run_limited(
+                    [
+                        motivml,
+                        "analyse",
+                        model_path,
+                        "--format",
+                        "json",
+                        "--count-timeout",
+                        str(args.timeout),
+                    ],
+                    2 * args.timeout + 60,
+                )
+                if counted is None:
+                    row += " did not finish"
+                else:
+                    found = json.loads(counted[2])
+                    digits = [
+                        len(str(found[k])) if found[k] is not None else "-"
+                        for k in ("selection_count", "variant_count")
+                    ]
+                    row += f" {counted[0]:>13.2f}  {digits[0]} / {digits[1]} digits"
+            else:
+                row += f" {'not run':>13}"
+            print(row, flush=True)
+    print(
+        "target (issue 15): analyse (without counts) at most 10x the floor at 10k; the t=2 sample "
+        "size and time: `motivml sample` is not built yet"
+    )
+
+
+if __name__ == "__main__":
+    main()
