@@ -55,6 +55,7 @@ test: setup cpp-plugins ros2
 bench: setup ros2
 	$(BIN)/python bench/startup_bench.py
 	$(BIN)/python bench/validate_bench.py
+	$(BIN)/python bench/analyse_bench.py
 	$(BIN)/python bench/configure_bench.py
 	$(BIN)/python bench/run_bench.py
 	$(BIN)/python bench/swap_bench.py
