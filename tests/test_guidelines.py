@@ -95,3 +95,22 @@ def update() -> None:
 if __name__ == "__main__":  # python tests/test_guidelines.py --update
     if sys.argv[1:] == ["--update"]:
         update()
+
+
+def test_the_reference_explains_every_rule_messages_cite() -> None:
+    """guidelines/reference.md: each rule number a message of motivml cites (rule 2.2,
+    binding rule 3.1, section 4, ...) has its own paragraph (bold) or section (heading)."""
+    cited: set[str] = set()
+    for source in (ROOT / "motivml").rglob("*.py"):
+        text = source.read_text()
+        pattern = r"\((?:binding )?rules? ([0-9.]+)(?: and ([0-9.]+))?(?:, section ([0-9]))?\)"
+        for match in re.finditer(pattern, text):
+            cited |= {number for number in match.groups() if number}
+        cited |= set(re.findall(r"\(section ([0-9])\)", text))
+    assert {"2.1", "2.2", "2.3", "2.4", "3.1", "3.2", "3.3", "3", "4"} <= cited  # (the pattern reads them)
+    reference = (ROOT / "guidelines" / "reference.md").read_text()
+    for number in cited:
+        if "." in number:
+            assert f"\n**{number} " in reference, number
+        else:
+            assert f"\n## Section {number}:" in reference, number
