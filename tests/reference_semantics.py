@@ -766,7 +766,7 @@ def section_2_selections(model: dict) -> Iterator[frozenset[str]]:
     parsed = _Model(model)
     others = [f for f in parsed.features if f != parsed.root]
     for bits in itertools.product((False, True), repeat=len(others)):
-        chosen = {parsed.root} | {f for f, on in zip(others, bits) if on}
+        chosen = {parsed.root} | {f for f, on in zip(others, bits, strict=True) if on}
         if _section_2_holds(parsed, chosen):
             yield frozenset(chosen)
 

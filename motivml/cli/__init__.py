@@ -11,7 +11,7 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 * `checking`: validate, show, configure, diff (the model and its variants);
 * `analysing`: analyse (what a model allows: section 7's analyses and counts);
 * `running`: run and ctl (the robot at run time);
-* `drawing`: graph and export (pictures and SCXML).
+* `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL).
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "ctl": ("running", "ctl_command"),
     "graph": ("drawing", "graph_command"),
     "export": ("drawing", "export_command"),
+    "import": ("drawing", "import_command"),
 }
 
 

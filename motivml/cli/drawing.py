@@ -1,4 +1,5 @@
-"""graph and export: pictures of the model and architecture, SCXML of the coordination."""
+"""graph, export and import: pictures of the model and architecture, SCXML of the coordination,
+the model in other tools' formats (DIMACS, UVL) and from UVL."""
 
 from __future__ import annotations
 
@@ -70,13 +71,13 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
 
 
 @click.command("export")
-@click.argument("what", type=click.Choice(["scxml", "dimacs"]))
+@click.argument("what", type=click.Choice(["scxml", "dimacs", "uvl"]))
 @click.argument("target", default=".", type=click.Path())
 @click.option(
     "-o",
     "--output",
     type=click.Path(dir_okay=False),
-    help="Output file (default build/<robot>/coordination.scxml, build/<robot>/model.dimacs).",
+    help="Output file (default build/<robot>/coordination.scxml, build/<robot>/model.dimacs, build/<robot>/model.uvl).",
 )
 @click.option(
     "--bindings",
@@ -84,19 +85,22 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
     help="dimacs: sections 2-4 (selection, time and mode, start state), not the selection alone.",
 )
 def export_command(what: str, target: str, output: str | None, bindings: bool) -> None:
-    """Export the robot's coordination statechart as W3C SCXML, or its model as DIMACS.
+    """Export the robot's coordination statechart as W3C SCXML, or its model as DIMACS or UVL.
 
     scxml: domain conditions and actions are kept in the namespace
     urn:motivml:coordination:1 (see guidelines/coordinating-behaviour.md). dimacs: the CNF
     of the model's selections (section 2, formulas included) over one variable per feature,
     named in `c <var> <id>` lines as FeatureIDE writes them; with --bindings, the CNF of
-    sections 2-4 and the projection onto the variants' variables (`c p show`). TARGET is a
-    robot folder (or, for dimacs, a model.json). The file is rewritten only when it changes.
+    sections 2-4 and the projection onto the variants' variables (`c p show`). uvl: the
+    feature tree by id, bindings, names, includes and excludes as attributes, and every
+    cross-tree rule as a constraint; `motivml import uvl` reads it back to the same model.
+    TARGET is a robot folder (or, for dimacs and uvl, a model.json). The file is rewritten
+    only when it changes.
     """
     if bindings and what != "dimacs":
         raise click.UsageError("--bindings is for dimacs")
-    if what == "dimacs":
-        _export_dimacs(target, output, bindings)
+    if what in ("dimacs", "uvl"):
+        _export_model(what, target, output, bindings)
         return
     from ..coordination.scxml import to_scxml
     from ..documents.writing import write_if_changed
@@ -120,9 +124,10 @@ def export_command(what: str, target: str, output: str | None, bindings: bool) -
     out.print(f"  {'wrote' if written[path.name] else 'unchanged'} {escape(str(path))}")
 
 
-def _export_dimacs(target: str, output: str | None, bindings: bool) -> None:
+def _export_model(what: str, target: str, output: str | None, bindings: bool) -> None:
     from ..binding.dimacs import selection_dimacs, variant_dimacs
     from ..documents.writing import write_if_changed
+    from ..language.uvl import write_uvl
     from ..validate import validate
     from .common import targets
 
@@ -135,10 +140,13 @@ def _export_dimacs(target: str, output: str | None, bindings: bool) -> None:
                 print_diagnostic(d)
             out.print(f"[bold red]nothing exported[/]: {escape(str(model_path))} has errors")
             sys.exit(1)
-        name = "model-variants.dimacs" if bindings else "model.dimacs"
+        name = "model.uvl" if what == "uvl" else "model-variants.dimacs" if bindings else "model.dimacs"
         robot = model_path.parent.name if model_path.name == "model.json" else model_path.stem
         path = Path(output) if output else Path("build") / robot / name
-        text = variant_dimacs(model) if bindings else selection_dimacs(model)
+        if what == "uvl":
+            text = write_uvl(model)
+        else:
+            text = variant_dimacs(model) if bindings else selection_dimacs(model)
         written = write_if_changed(path.parent, {path.name: text})
     except MotivmlError as exc:
         for d in exc.diagnostics:
@@ -146,3 +154,61 @@ def _export_dimacs(target: str, output: str | None, bindings: bool) -> None:
         out.print(f"[bold red]nothing exported[/]: {escape(target)}")
         sys.exit(exc.exit_code)
     out.print(f"  {'wrote' if written[path.name] else 'unchanged'} {escape(str(path))}")
+
+
+@click.command("import")
+@click.argument("what", type=click.Choice(["uvl"]))
+@click.argument("source", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False), help="The robot folder to create.")
+def import_command(what: str, source: str, output: str) -> None:
+    """Read a UVL model into a new robot folder: OUTPUT/model.json and an empty variants/.
+
+    UVL's Boolean level is kept whole: mandatory, optional, or and alternative children,
+    abstract features, constraints (as formulas) and the attributes bindingTime and
+    bindingMode; names that are not ids become ids, the name kept. What cannot be kept
+    (group or feature cardinalities, typed features, arithmetic constraints, imports) is
+    refused, located, and nothing is written. An existing model.json is not overwritten.
+    """
+    import json
+
+    from ..documents.loader import load_bytes, no_gc
+    from ..documents.writing import write_if_changed
+    from ..errors import DocumentError, EnvironmentProblem, Location, error
+    from ..language.reader import read_model
+    from ..language.uvl import read_uvl
+
+    folder = Path(output)
+    model_path = folder / "model.json"
+    try:
+        if model_path.exists():
+            raise EnvironmentProblem(
+                error(Location(str(model_path)), "exists already: import into a new folder, or remove it", "io")
+            )
+        try:
+            text = Path(source).read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
+        document = read_uvl(text, source)
+        written = json.dumps(document, indent=2, ensure_ascii=False) + "\n"
+        with no_gc():
+            _, problems = read_model(load_bytes(written.encode("utf-8"), str(model_path)))
+        errors = [d for d in problems if d.severity.value == "error"]
+        if errors:  # (a model the importer made that motivml refuses: said, not written)
+            raise DocumentError(errors)
+        write_if_changed(folder, {"model.json": written})
+        (folder / "variants").mkdir(exist_ok=True)
+    except MotivmlError as exc:
+        for d in exc.diagnostics:
+            print_diagnostic(d)
+        out.print(f"[bold red]nothing imported[/]: {escape(source)}")
+        sys.exit(exc.exit_code)
+    out.print(f"  wrote {escape(str(model_path))} ({_count(document)} features)")
+
+
+def _count(document: dict[str, object]) -> int:
+    total, stack = 0, [document]
+    while stack:
+        node = stack.pop()
+        total += 1
+        stack.extend(node.get("sub", []))  # type: ignore[arg-type]
+    return total

@@ -1,0 +1,464 @@
+"""UVL (semantics.md section 8): read a UVL model into a feature model document, write one back.
+
+UVL is the product-line community's exchange language (FeatureIDE, flamapy, UVLHub). Its
+Boolean level maps onto MoTiVML one to one: `mandatory` and `optional` children, `or` and
+`alternative` groups (a parent's second group of a kind becomes formulas, since a parent
+has one OR and one XOR group here), the `abstract` attribute, and constraints as formulas
+(rule 2.4). Binding time and mode travel as the attributes `bindingTime` and `bindingMode`
+with section 1's tokens, includes and excludes as `includes` and `excludes` (each also
+written as a constraint, so that other tools count the same selections), the feature's
+name as `name`; other attributes are kept under the document's `x-uvl` key.
+
+What cannot be kept is refused, located at its line and column: group cardinalities,
+feature cardinalities, typed features, arithmetic constraints, imports, and language levels
+beyond Boolean. Feature names become ids deterministically: a name that is an id and free
+is kept; otherwise its other characters become `_` (a leading digit gets one before it)
+and a clash, also one of case only, gets `_2`, `_3`, ...
+
+The text is parsed by lark (MIT) with a grammar of our own and lark's indentation
+post-lexer; the parse tree is turned into a document iteratively, so a deep model does not
+exhaust Python's stack.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable
+from typing import Any
+
+from ..errors import DocumentError, Location, error
+from .formula import AND, IFF, IMPLIES, OR, fold
+from .model import Feature, FeatureModel, token
+
+_GRAMMAR = r"""
+start: _NL? _header* features? constraints?
+
+_header: namespace | include | imports
+namespace: "namespace" name _NL
+include: "include" _NL _INDENT (level _NL)+ _DEDENT
+level: NAME ("." (NAME | STAR))*
+imports: "imports" _NL _INDENT (name ("as" name)? _NL)+ _DEDENT
+
+features: "features" _NL _INDENT feature _DEDENT
+feature: TYPE? name feature_cardinality? attributes? _NL (_INDENT group+ _DEDENT)?
+feature_cardinality: "cardinality" cardinality
+group: GROUP _NL _INDENT feature+ _DEDENT
+     | cardinality _NL _INDENT feature+ _DEDENT -> cardinality_group
+cardinality: "[" INT (".." (INT | STAR))? "]"
+
+attributes: "{" [attribute ("," attribute)*] "}"
+attribute: name value?
+value: STRING -> string
+     | SIGNED_NUMBER -> number
+     | "true" -> true
+     | "false" -> false
+     | attributes
+     | "[" [value ("," value)*] "]" -> vector
+     | "constraint" expression -> attribute_constraint
+     | "constraints" "[" [expression ("," expression)*] "]" -> attribute_constraint
+
+constraints: "constraints" _NL (_INDENT (expression _NL)+ _DEDENT)?
+
+?expression: iff
+?iff: implies | implies IFF_OP implies (IFF_OP implies)*
+?implies: disjunction | disjunction IMPLIES_OP disjunction (IMPLIES_OP disjunction)*
+?disjunction: conjunction ("|" conjunction)*
+?conjunction: negation ("&" negation)*
+?negation: "!" negation -> negation
+         | atom
+?atom: name -> reference
+     | "(" expression ")"
+     | SIGNED_NUMBER -> arithmetic
+     | STRING -> arithmetic
+     | atom ARITHMETIC_OP atom -> arithmetic
+     | NAME "(" [expression ("," expression)*] ")" -> arithmetic
+
+name: NAME ("." NAME)* | QUOTED
+GROUP: "mandatory" | "optional" | "or" | "alternative"
+TYPE: "Boolean" | "Integer" | "Real" | "String"
+IFF_OP: "<=>"
+IMPLIES_OP: "=>"
+ARITHMETIC_OP: "==" | "!=" | "<=" | ">=" | "<" | ">" | "+" | "-" | "*" | "/"
+STAR: "*"
+NAME: /(?!(mandatory|optional|or|alternative|features|constraints|constraint|cardinality|namespace|include|imports|as|true|false|Boolean|Integer|Real|String)\b)[^\s"'.,(){}\[\]!&|=<>+\-*\/]+/
+QUOTED: /"[^"\n]*"/
+STRING: /'[^'\n]*'/
+%import common.INT
+%import common.SIGNED_NUMBER
+_NL: /(\r?\n[\t ]*((\/\/[^\n]*)|(\/\*([^*]|\*(?!\/))*\*\/))?)+/
+COMMENT: /\/\/[^\n]*/ | /\/\*([^*]|\*(?!\/))*\*\//
+%ignore COMMENT
+%ignore /[\t \f]+/
+%declare _INDENT _DEDENT
+"""
+
+_ID = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+_UVL_KEYWORDS = frozenset(
+    "mandatory optional or alternative features constraints constraint cardinality namespace include "
+    "imports as true false Boolean Integer Real String".split()
+)
+_PARSER: Any = None
+_POSITION = "\0position"  # a child's position attribute while the tree is read
+
+
+def _parser() -> Any:
+    global _PARSER
+    if _PARSER is None:
+        from lark import Lark
+        from lark.indenter import Indenter
+
+        class UVLIndenter(Indenter):
+            NL_type = "_NL"
+            OPEN_PAREN_types = ["LPAR", "LSQB", "LBRACE"]
+            CLOSE_PAREN_types = ["RPAR", "RSQB", "RBRACE"]
+            INDENT_type = "_INDENT"
+            DEDENT_type = "_DEDENT"
+            tab_len = 4
+
+        _PARSER = Lark(_GRAMMAR, parser="lalr", postlex=UVLIndenter(), propagate_positions=True, maybe_placeholders=False)
+    return _PARSER
+
+
+class _Refusal(Exception):
+    def __init__(self, meta: Any, message: str) -> None:
+        super().__init__(message)
+        self.line = getattr(meta, "line", None)
+        self.column = getattr(meta, "column", None)
+        self.message = message
+
+
+def read_uvl(text: str, file: str) -> dict[str, Any]:
+    """The feature model document of a UVL text; DocumentError (located) if it cannot be kept."""
+    from lark.exceptions import LarkError, UnexpectedInput
+
+    try:
+        tree = _parser().parse(text if text.endswith("\n") else text + "\n")
+        return _Reader(file).document(tree)
+    except _Refusal as refusal:
+        raise DocumentError(
+            error(Location(file, refusal.line, refusal.column), refusal.message + " (section 8)", "uvl")
+        ) from None
+    except UnexpectedInput as problem:
+        where = Location(file, getattr(problem, "line", None), getattr(problem, "column", None))
+        found = getattr(problem, "token", None) or getattr(problem, "char", None)
+        what = f"unexpected {str(found)!r}" if found not in (None, "") else "unexpected end of the text"
+        raise DocumentError(error(where, f"not UVL: {what}", "uvl")) from None
+    except LarkError as problem:  # (the indenter: a dedent to a level never opened)
+        raise DocumentError(error(Location(file), f"not UVL: {problem}", "uvl")) from None
+
+
+class _Reader:
+    def __init__(self, file: str) -> None:
+        self.file = file
+        self.ids: dict[str, str] = {}  # UVL name -> id
+        self.folded: set[str] = set()
+
+    def _id(self, name: str) -> str:
+        if name in self.ids:
+            return self.ids[name]
+        base = name if _ID.match(name) else re.sub(r"[^A-Za-z0-9_]", "_", name) or "_"
+        if base[0].isdigit():
+            base = "_" + base
+        candidate, k = base, 1
+        while candidate.casefold() in self.folded:
+            k += 1
+            candidate = f"{base}_{k}"
+        self.folded.add(candidate.casefold())
+        self.ids[name] = candidate
+        return candidate
+
+    def document(self, tree: Any) -> dict[str, Any]:
+        sections = {child.data: child for child in tree.children if hasattr(child, "data")}
+        for kind in ("imports",):
+            if kind in sections:
+                raise _Refusal(sections[kind].meta, "imports of other UVL models cannot be kept: merge them first")
+        if "include" in sections:
+            for level in sections["include"].children:
+                words = [str(t) for t in level.children]
+                if words[0] != "Boolean":
+                    raise _Refusal(level.meta, f"the language level {'.'.join(words)} cannot be kept: only Boolean")
+        if "features" not in sections:
+            raise _Refusal(tree.meta, "the model has no features")
+        root = self._features(sections["features"].children[0])
+        formulas: list[str] = root.pop("formulas", [])
+        kept = root.pop("x-kept", set())
+        if "constraints" in sections:
+            for expression in sections["constraints"].children:
+                text = self._formula(expression)
+                if text not in kept:
+                    formulas.append(text)
+        if formulas:
+            root["formulas"] = formulas
+        return root
+
+    # -- the feature tree, iteratively (a work list of (tree node, parent document))
+    def _features(self, top: Any) -> dict[str, Any]:
+        documents: list[dict[str, Any]] = []
+        extra_formulas: list[str] = []
+        kept: set[str] = set()  # constraints that are includes and excludes, kept as such
+        relations: list[tuple[dict[str, Any], str, list[str]]] = []
+        work: list[tuple[Any, dict[str, Any] | None, str]] = [(top, None, "")]
+        while work:
+            node, parent, kind = work.pop()
+            document = self._feature(node, kind, relations)
+            documents.append(document)
+            if parent is not None:
+                parent.setdefault("sub", []).append(document)
+            groups_seen: dict[str, int] = {}
+            pending: list[tuple[Any, dict[str, Any], str]] = []
+            for group in (child for child in node.children if getattr(child, "data", None) in ("group", "cardinality_group")):
+                if group.data == "cardinality_group":
+                    raise _Refusal(group.meta, "group cardinalities cannot be kept: only mandatory, optional, or, alternative")
+                label = str(group.children[0])
+                members = group.children[1:]
+                if label in ("or", "alternative"):
+                    groups_seen[label] = groups_seen.get(label, 0) + 1
+                    if len(members) == 1:
+                        label = "mandatory"  # one member: selected with its parent, as a group would
+                    elif groups_seen[label] > 1:  # a second group of a kind: its meaning as formulas
+                        names = [self._id(self._name(m)) for m in members]
+                        extra_formulas.append(f"{document['id']} => {' | '.join(names)}")
+                        if label == "alternative":
+                            extra_formulas += [f"!({a} & {b})" for k, a in enumerate(names) for b in names[k + 1 :]]
+                        label = "optional"
+                pending += [(member, document, label) for member in members]
+            work.extend(reversed(pending))
+        for document in documents:  # children back in the order positions give (export's own)
+            sub = document.get("sub", [])
+            if any(_POSITION in child for child in sub):
+                sub.sort(key=lambda child: child.get(_POSITION, len(sub)))
+            for child in sub:
+                child.pop(_POSITION, None)
+        root = documents[0]
+        for document, key, targets in relations:
+            unknown = [t for t in targets if t not in self.ids]
+            if unknown:
+                verb = "includes" if key == "featuresIncluded" else "excludes"
+                raise _Refusal(top.meta, f"{document['id']} {verb} {unknown[0]!r}, which is not a feature of the model")
+            ids = [self.ids[t] for t in targets]
+            document.setdefault("constraints", {})[key] = ids
+            if key == "featuresIncluded":
+                kept |= {f"{document['id']} => {y}" for y in ids}
+            else:
+                kept |= {f"!({document['id']} & {y})" for y in ids}
+        if extra_formulas:
+            root["formulas"] = extra_formulas
+        root["x-kept"] = kept
+        return root
+
+    def _name(self, node: Any) -> str:
+        name = next(child for child in node.children if getattr(child, "data", None) == "name")
+        return _name_text(name)
+
+    def _feature(self, node: Any, kind: str, relations: list[tuple[dict[str, Any], str, list[str]]]) -> dict[str, Any]:
+        children = node.children
+        if children and not hasattr(children[0], "data") and children[0].type == "TYPE" and str(children[0]) != "Boolean":
+            raise _Refusal(children[0], f"a feature of type {children[0]} cannot be kept: only Boolean features")
+        name = self._name(node)
+        document: dict[str, Any] = {"id": self._id(name), "name": name}
+        if kind == "or":
+            document["group"] = "OR"
+        elif kind == "alternative":
+            document["group"] = "XOR"
+        elif kind == "optional":
+            document["isMandatory"] = False
+        for child in children:
+            data = getattr(child, "data", None)
+            if data == "feature_cardinality":
+                raise _Refusal(child.meta, f"the feature cardinality of {name} cannot be kept")
+            if data == "attributes":
+                self._attributes(child, document, relations)
+        return document
+
+    def _attributes(self, node: Any, document: dict[str, Any], relations: list[tuple[dict[str, Any], str, list[str]]]) -> None:
+        others: dict[str, Any] = {}
+        for attribute in node.children:
+            key = _name_text(attribute.children[0])
+            value = _value(attribute.children[1]) if len(attribute.children) > 1 else True
+            if key == "abstract":
+                if not isinstance(value, bool):
+                    raise _Refusal(attribute.meta, "abstract is true or false")
+                if value:
+                    document["abstract"] = True
+            elif key in ("bindingTime", "bindingMode"):
+                allowed = ("Early", "Late", "Any") if key == "bindingTime" else ("Static", "Dynamic", "Any")
+                if value not in allowed:
+                    raise _Refusal(attribute.meta, f"{key} is one of {', '.join(allowed)}, not {value!r}")
+                constraint = "bindingTimeAllowed" if key == "bindingTime" else "bindingModeAllowed"
+                document.setdefault("constraints", {})[constraint] = value
+            elif key == "name" and isinstance(value, str) and value:
+                document["name"] = value
+            elif key == "position" and isinstance(value, int):
+                document[_POSITION] = value
+            elif key in ("includes", "excludes") and isinstance(value, list) and all(isinstance(v, str) for v in value):
+                relations.append((document, "featuresIncluded" if key == "includes" else "featuresExcluded", value))
+            elif key == "isMandatory" or key == "group":
+                raise _Refusal(attribute.meta, f"the attribute {key} is motivml's own word: write the group instead")
+            else:
+                others[key] = value
+        if others:
+            document["x-uvl"] = others
+
+    def _formula(self, expression: Any) -> str:
+        """A constraint as rule 2.4 writes it (ids renamed, every operator parenthesised)."""
+        results: list[str] = []
+        work: list[tuple[Any, bool]] = [(expression, False)]
+        while work:
+            node, done = work.pop()
+            data = getattr(node, "data", None)
+            if data == "reference":
+                name = _name_text(node.children[0])
+                if name not in self.ids:
+                    raise _Refusal(node.meta, f"the constraint names {name!r}, which is not a feature of the model")
+                results.append(self.ids[name])
+            elif data == "arithmetic":
+                raise _Refusal(node.meta, "arithmetic and type-level constraints cannot be kept: only Boolean ones")
+            elif data in ("negation", "disjunction", "conjunction", "iff", "implies"):
+                operands = [c for c in node.children if hasattr(c, "data")]
+                if not done:
+                    if data in ("iff", "implies") and len(operands) > 2:
+                        raise _Refusal(node.meta, "a chain of => or <=> without parentheses is read differently by different tools: add them")
+                    work.append((node, True))
+                    work.extend((c, False) for c in reversed(operands))
+                    continue
+                parts = results[len(results) - len(operands) :]
+                del results[len(results) - len(operands) :]
+                if data == "negation":
+                    results.append(f"!{parts[0]}")
+                else:
+                    op = {"disjunction": " | ", "conjunction": " & ", "iff": " <=> ", "implies": " => "}[data]
+                    results.append("(" + op.join(parts) + ")")
+            else:
+                raise _Refusal(getattr(node, "meta", None), f"cannot read this constraint ({data})")
+        text = results[0]
+        return text[1:-1] if text.startswith("(") and _balanced_inside(text) else text
+
+
+def _balanced_inside(text: str) -> bool:
+    depth = 0
+    for k, ch in enumerate(text):
+        depth += ch == "("
+        depth -= ch == ")"
+        if depth == 0 and k < len(text) - 1:
+            return False
+    return True
+
+
+def _name_text(node: Any) -> str:
+    parts = [str(t) for t in node.children]
+    if len(parts) == 1 and parts[0].startswith('"'):
+        return parts[0][1:-1]
+    return ".".join(parts)
+
+
+def _value(node: Any) -> Any:
+    while node.data == "value":  # (an attribute list as a value)
+        node = node.children[0]
+    data = node.data
+    if data == "string":
+        return str(node.children[0])[1:-1]
+    if data == "number":
+        text = str(node.children[0])
+        return int(text) if re.fullmatch(r"[+-]?\d+", text) else float(text)
+    if data in ("true", "false"):
+        return data == "true"
+    if data == "vector":
+        return [_value(child) for child in node.children]
+    if data == "attributes":
+        return {_name_text(a.children[0]): _value(a.children[1]) if len(a.children) > 1 else True for a in node.children}
+    raise _Refusal(node.meta, "attribute constraints cannot be kept")
+
+
+# ----------------------------------------------------------------------------- export
+def write_uvl(model: FeatureModel) -> str:
+    """The model in UVL: features by id, bindings, names, includes and excludes as attributes,
+    includes, excludes and formulas as constraints (so other tools count the same selections)."""
+    features = model.features
+    for feature in features:  # UVL's strings have no escapes: a name it cannot hold is refused
+        if "'" in feature.name or not feature.name.isprintable():
+            where = model.source.locate(model.path(feature.index, "name")) if model.source else Location(model.name)
+            raise DocumentError(
+                error(where, f"the name of {feature.id} cannot be written in UVL (a quote or a control character)", "uvl")
+            )
+    lines = ["features"]
+    positions: dict[int, int] = {}  # a child's position among its siblings, where UVL moves it
+    work: list[tuple[str | int, int]] = [(0, 1)]  # a feature's index or a group keyword, and its indent
+    while work:
+        item, level = work.pop()
+        if isinstance(item, str):
+            lines.append("    " * level + item)
+            continue
+        feature = features[item]
+        lines.append("    " * level + _uvl_name(feature.id) + _uvl_attributes(feature, positions.get(item)))
+        # children in their order, one keyword per run of a kind; a group's members together
+        # where its first one stands (UVL has one place per group): if that moves a child,
+        # each child says its position, so that the order comes back on import
+        runs: list[tuple[str, list[int]]] = []
+        placed: dict[str, list[int]] = {}
+        for c in feature.children:
+            kind = _KIND[features[c].group] if features[c].group else ("mandatory" if features[c].mandatory else "optional")
+            if kind in ("or", "alternative") and kind in placed:
+                placed[kind].append(c)
+            elif runs and runs[-1][0] == kind and kind not in ("or", "alternative"):
+                runs[-1][1].append(c)
+            else:
+                runs.append((kind, [c]))
+                placed.setdefault(kind, runs[-1][1])
+        order = [c for _, members in runs for c in members]
+        if order != feature.children:
+            positions.update({c: k for k, c in enumerate(feature.children)})
+        pending: list[tuple[str | int, int]] = []
+        for keyword, members in runs:
+            pending.append((keyword, level + 1))
+            pending += [(m, level + 2) for m in members]
+        work.extend(reversed(pending))
+    constraints: list[str] = []
+    for feature in features:
+        name = _uvl_name(feature.id)
+        constraints += [f"{name} => {_uvl_name(y)}" for y in dict.fromkeys(feature.includes)]
+        constraints += [f"!({name} & {_uvl_name(y)})" for y in dict.fromkeys(feature.excludes)]
+    for formula in model.formulas:
+        text = fold(
+            formula.tree,
+            lambda var: _uvl_name(var.id),
+            lambda x: f"!{x}",
+            {op: _joiner(op) for op in (AND, OR, IMPLIES, IFF)},
+        )
+        constraints.append(text[1:-1] if text.startswith("(") and _balanced_inside(text) else text)
+    if constraints:
+        lines += ["constraints", *("    " + c for c in constraints)]
+    return "\n".join(lines) + "\n"
+
+
+def _joiner(op: str) -> Callable[[str, str], str]:
+    return lambda x, y: f"({x} {op} {y})"
+
+
+def _uvl_name(feature_id: str) -> str:
+    return f'"{feature_id}"' if feature_id in _UVL_KEYWORDS else feature_id
+
+
+_KIND = {"OR": "or", "XOR": "alternative"}
+
+
+def _uvl_attributes(feature: Feature, position: int | None = None) -> str:
+    parts: list[str] = []
+    if position is not None:
+        parts.append(f"position {position}")
+    if feature.abstract:
+        parts.append("abstract")
+    if feature.name != feature.id:
+        parts.append(f"name {_uvl_string(feature.name)}")
+    parts.append(f"bindingTime '{token(feature.time_allowed)}'")
+    parts.append(f"bindingMode '{token(feature.mode_allowed)}'")
+    if feature.includes:
+        parts.append("includes [" + ", ".join(f"'{i}'" for i in dict.fromkeys(feature.includes)) + "]")
+    if feature.excludes:
+        parts.append("excludes [" + ", ".join(f"'{i}'" for i in dict.fromkeys(feature.excludes)) + "]")
+    return " {" + ", ".join(parts) + "}"
+
+
+def _uvl_string(text: str) -> str:
+    return "'" + text + "'"
+
+

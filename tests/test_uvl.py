@@ -1,0 +1,327 @@
+"""UVL import and export (semantics.md section 8): round trips, counts, refusals, the CLI.
+
+Random UVL models are built here as plain data, written as UVL text and counted by brute
+force from that data alone (no code of the product's); the product imports the text, and
+its selections are counted by the reference semantics and by the product's counter.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+import reference_semantics as ref
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_property_sat import models
+
+from motivml.binding.analysis import count_selections
+from motivml.cli import main
+from motivml.documents.loader import parse
+from motivml.errors import DocumentError
+from motivml.language.reader import read_model
+from motivml.language.uvl import read_uvl, write_uvl
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def read(document: dict[str, Any]) -> Any:
+    model, problems = read_model(parse(json.dumps(document, indent=1), "model.json"))
+    assert not [p for p in problems if p.severity.value == "error"], problems
+    return model
+
+
+# ------------------------------------------------------------- UVL -> motivml -> UVL
+# A random UVL model as data: (name, [(group kind, [child, ...]), ...]); constraints over names.
+@st.composite
+def uvl_models(draw: st.DrawFn, max_features: int = 15) -> tuple[Any, list[tuple[str, str, str, bool]]]:
+    n = draw(st.integers(2, max_features))
+    names = [
+        "Root",
+        *(draw(st.sampled_from(["f", "Feature ", "x-", "9lives", "or_"])) + str(i) for i in range(1, n)),
+    ]
+    nodes: list[tuple[str, list[tuple[str, list[Any]]]]] = [(names[0], [])]
+    for i in range(1, n):
+        parent = nodes[draw(st.integers(0, i - 1))]
+        kind = draw(st.sampled_from(["mandatory", "optional", "optional", "or", "alternative"]))
+        node: tuple[str, list[tuple[str, list[Any]]]] = (names[i], [])
+        # a new group of that kind, or the last one of that kind (so parents get two or groups)
+        same = [g for g in parent[1] if g[0] == kind]
+        if same and draw(st.booleans()):
+            same[-1][1].append(node)
+        else:
+            parent[1].append((kind, [node]))
+        nodes.append(node)
+    constraints = [
+        (
+            draw(st.sampled_from(names)),
+            draw(st.sampled_from(["=>", "|", "&", "<=>"])),
+            draw(st.sampled_from(names)),
+            draw(st.booleans()),
+        )
+        for _ in range(draw(st.integers(0, 2)))
+    ]
+    return nodes[0], constraints
+
+
+def uvl_text(root: Any, constraints: list[tuple[str, str, str, bool]]) -> str:
+    lines = ["features"]
+    stack: list[tuple[Any, int]] = [(root, 1)]
+    while stack:
+        item, depth = stack.pop()
+        if isinstance(item, str):
+            lines.append("    " * depth + item)
+            continue
+        name, groups = item
+        lines.append("    " * depth + (name if name.isidentifier() and name != "or_" else f'"{name}"'))
+        pending: list[tuple[Any, int]] = []
+        for kind, children in groups:
+            pending.append((kind, depth + 1))
+            pending += [(child, depth + 2) for child in children]
+        stack.extend(reversed(pending))
+    if constraints:
+        lines.append("constraints")
+        for a, op, b, negate in constraints:
+            q = lambda x: x if x.isidentifier() and x != "or_" else f'"{x}"'  # noqa: E731
+            lines.append(f"    {'!' if negate else ''}({q(a)} {op} {q(b)})")
+    return "\n".join(lines) + "\n"
+
+
+def uvl_count(root: Any, constraints: list[tuple[str, str, str, bool]]) -> int:
+    """UVL's Boolean semantics by enumeration: root selected, children need parents,
+    mandatory children, or groups at least one, alternative groups exactly one, constraints."""
+    parent: dict[str, str] = {}
+    rules: list[tuple[str, str, list[str]]] = []  # (parent, kind, members)
+    stack = [root]
+    names = []
+    while stack:
+        name, groups = stack.pop()
+        names.append(name)
+        for kind, children in groups:
+            rules.append((name, kind, [c[0] for c in children]))
+            for child in children:
+                parent[child[0]] = name
+                stack.append(child)
+    total = 0
+    for bits in itertools.product((False, True), repeat=len(names) - 1):
+        on = {root[0]} | {n for n, b in zip(names[1:], bits, strict=True) if b}
+        if any(n in on and parent[n] not in on for n in names[1:]):
+            continue
+        ok = True
+        for p, kind, members in rules:
+            picked = sum(m in on for m in members)
+            if p in on and (
+                (kind == "mandatory" and picked < len(members))
+                or (kind == "or" and picked == 0)
+                or (kind == "alternative" and picked != 1)
+            ):
+                ok = False
+        for a, op, b, negate in constraints:
+            x, y = a in on, b in on
+            value = {"=>": (not x) or y, "|": x or y, "&": x and y, "<=>": x == y}[op]
+            ok &= value != negate
+        total += ok
+    return total
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(uvl_models())
+def test_uvl_to_motivml_to_uvl_keeps_the_selection_count(data: tuple[Any, Any]) -> None:
+    root, constraints = data
+    expected = uvl_count(root, constraints)
+    document = read_uvl(uvl_text(root, constraints), "m.uvl")
+    assert sum(1 for _ in ref.section_2_selections(document)) == expected  # the reference
+    model = read(document)
+    assert count_selections(model) == expected  # the product's counter
+    again = read_uvl(write_uvl(model), "again.uvl")
+    assert sum(1 for _ in ref.section_2_selections(again)) == expected
+    assert read_uvl(write_uvl(read(again)), "third.uvl") == again  # a fixed point from there on
+
+
+# ------------------------------------------------------------- motivml -> UVL -> motivml
+def normal(model: Any) -> list[tuple[Any, ...]]:
+    return [
+        (
+            f.id,
+            f.name,
+            f.parent,
+            f.group,
+            f.mandatory,
+            f.time_allowed,
+            f.mode_allowed,
+            tuple(dict.fromkeys(f.includes)),
+            tuple(dict.fromkeys(f.excludes)),
+            f.abstract,
+        )
+        for f in model.features
+    ]
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=8), st.booleans())
+def test_motivml_to_uvl_reads_back_to_the_same_model(raw: dict[str, Any], abstract: bool) -> None:
+    if abstract and raw.get("sub"):
+        raw["sub"][0]["abstract"] = True
+    model = read(raw)
+    back = read_uvl(write_uvl(model), "m.uvl")
+    assert normal(read(back)) == normal(model)
+    assert sorted(map(sorted, ref.valid_variants(back, None))) == sorted(
+        map(sorted, ref.valid_variants(raw, None))
+    )
+    assert sorted(map(str, ref.valid_variants(back, None))) == sorted(map(str, ref.valid_variants(raw, None)))
+
+
+@pytest.mark.parametrize(
+    "robot", sorted(p.parent.name for p in (ROOT / "feature_models").glob("*/model.json"))
+)
+def test_shipped_models_read_back_the_same(robot: str) -> None:
+    path = ROOT / "feature_models" / robot / "model.json"
+    model = read(json.loads(path.read_text()))
+    back = read_uvl(write_uvl(model), f"{robot}.uvl")
+    assert normal(read(back)) == normal(model)
+    assert count_selections(read(back)) == count_selections(model)
+
+
+# ------------------------------------------------------------------------- refusals
+@pytest.mark.parametrize(
+    ("text", "where", "message"),
+    [
+        (
+            "features\n    R\n        [1..2]\n            A\n            B\n",
+            (3, 9),
+            "group cardinalities cannot be kept",
+        ),
+        (
+            "features\n    R\n        optional\n            A cardinality [1..3]\n",
+            (4, 15),
+            "the feature cardinality of A cannot be kept",
+        ),
+        (
+            "features\n    R\n        optional\n            Integer A\n",
+            (4, 13),
+            "a feature of type Integer cannot be kept",
+        ),
+        (
+            "features\n    R\n        optional\n            A\nconstraints\n    A > 3\n",
+            (6, 5),
+            "arithmetic and type-level constraints cannot be kept",
+        ),
+        ("imports\n    other as o\nfeatures\n    R\n", (1, 1), "imports of other UVL models cannot be kept"),
+        (
+            "include\n    Arithmetic.*\nfeatures\n    R\n",
+            (2, 5),
+            "the language level Arithmetic.* cannot be kept",
+        ),
+        (
+            "features\n    R\n        optional\n            A\nconstraints\n    A => B\n",
+            (6, 10),
+            "the constraint names 'B', which is not a feature of the model",
+        ),
+        (
+            "features\n    R\n        optional\n            A\n            B\n            C\nconstraints\n    A => B => C\n",
+            (8, 5),
+            "a chain of => or <=> without parentheses",
+        ),
+        (
+            "features\n    R {bindingTime 'early'}\n",
+            (2, 8),
+            "bindingTime is one of Early, Late, Any, not 'early'",
+        ),
+    ],
+    ids=[
+        "group cardinality",
+        "feature cardinality",
+        "type",
+        "arithmetic",
+        "imports",
+        "language level",
+        "unknown name",
+        "chain",
+        "binding token",
+    ],
+)
+def test_refusals_are_located(text: str, where: tuple[int, int], message: str) -> None:
+    with pytest.raises(DocumentError) as refused:
+        read_uvl(text, "m.uvl")
+    (diagnostic,) = refused.value.diagnostics
+    assert (diagnostic.location.line, diagnostic.location.column) == where
+    assert message in diagnostic.message and diagnostic.message.endswith("(section 8)")
+
+
+def test_not_uvl_is_located() -> None:
+    with pytest.raises(DocumentError) as refused:
+        read_uvl("features\n    R\n        optional\n            A &\n", "m.uvl")
+    (diagnostic,) = refused.value.diagnostics
+    assert (diagnostic.location.line, diagnostic.location.column) == (4, 15)
+    assert diagnostic.message == "not UVL: unexpected '&'"
+
+
+def test_names_become_ids_deterministically() -> None:
+    text = 'features\n    "My Robot"\n        optional\n            "2D lidar"\n            lidar\n            Lidar\n            "lidar"\n'
+    document = read_uvl(text, "m.uvl")
+    ids = [document["id"], *(child["id"] for child in document["sub"])]
+    names = [document["name"], *(child["name"] for child in document["sub"])]
+    assert ids == ["My_Robot", "_2D_lidar", "lidar", "Lidar_2", "lidar"][:4] + ["lidar"]
+    assert names == ["My Robot", "2D lidar", "lidar", "Lidar", "lidar"]
+
+
+def test_a_second_group_of_a_kind_becomes_formulas() -> None:
+    text = "features\n    R\n        alternative\n            A\n            B\n        alternative\n            C\n            D\n"
+    document = read_uvl(text, "m.uvl")
+    assert [c.get("group", "") for c in document["sub"]] == ["XOR", "XOR", "", ""]
+    assert document["formulas"] == ["R => C | D", "!(C & D)"]
+    assert sum(1 for _ in ref.section_2_selections(document)) == 4
+
+
+def test_attributes_kept_and_a_name_uvl_cannot_hold() -> None:
+    text = "features\n    R {color 'red', weight 3, tags ['a', 'b'], x {y true}}\n"
+    assert read_uvl(text, "m.uvl")["x-uvl"] == {
+        "color": "red",
+        "weight": 3,
+        "tags": ["a", "b"],
+        "x": {"y": True},
+    }
+    model = read({"id": "r", "name": "Rob's bot"})
+    with pytest.raises(DocumentError, match="cannot be written in UVL"):
+        write_uvl(model)
+
+
+# ------------------------------------------------------------------------------ CLI
+def test_import_and_export_commands(tmp_path: Path) -> None:
+    source = tmp_path / "sandwich.uvl"
+    source.write_text(
+        "features\n    Sandwich {abstract}\n        mandatory\n            Bread\n        optional\n"
+        "            Cheese\n            Sauce\n                alternative\n                    Ketchup\n"
+        "                    Mustard\nconstraints\n    Ketchup => Cheese\n"
+    )
+    runner = CliRunner()
+    result = runner.invoke(main, ["import", "uvl", str(source), "-o", str(tmp_path / "sandwich")])
+    assert result.exit_code == 0, result.output
+    assert result.output == f"  wrote {tmp_path / 'sandwich' / 'model.json'} (6 features)\n"
+    assert (tmp_path / "sandwich" / "variants").is_dir()
+    analysed = runner.invoke(main, ["analyse", str(tmp_path / "sandwich"), "--format", "json"])
+    assert json.loads(analysed.output)["selection_count"] == 5
+    again = runner.invoke(main, ["import", "uvl", str(source), "-o", str(tmp_path / "sandwich")])
+    assert again.exit_code == 3 and "exists already" in again.output
+    exported = runner.invoke(
+        main, ["export", "uvl", str(tmp_path / "sandwich"), "-o", str(tmp_path / "back.uvl")]
+    )
+    assert exported.exit_code == 0
+    assert (tmp_path / "back.uvl").read_text().splitlines()[:3] == [
+        "features",
+        "    Sandwich {abstract, bindingTime 'Early', bindingMode 'Static'}",
+        "        mandatory",
+    ]
+    bad = tmp_path / "bad.uvl"
+    bad.write_text("features\n    R\n        [2..3]\n            A\n            B\n")
+    refused = runner.invoke(main, ["import", "uvl", str(bad), "-o", str(tmp_path / "bad")])
+    assert refused.exit_code == 1
+    assert refused.output.splitlines() == [
+        f"{bad}:3:9: $: error: group cardinalities cannot be kept: only mandatory, optional, or, alternative (section 8)",
+        f"nothing imported: {bad}",
+    ]
+    assert not (tmp_path / "bad").exists()
