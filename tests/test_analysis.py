@@ -330,3 +330,30 @@ def test_export_dimacs_command(tmp_path: Path) -> None:
     )
     assert bad.exit_code == 1 and "names unknown feature 'nope'" in bad.output
     assert not (tmp_path / "bad.dimacs").exists()
+
+
+def test_the_progress_bar_shows_on_a_terminal_only_once_started(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The bar appears when its timer fires (after PROGRESS_AFTER seconds, here called at
+    once), follows the steps, and is gone when the analysis ends; a timer that fires after
+    the end draws nothing."""
+    import io
+
+    from rich.console import Console
+
+    from motivml.cli import analysing
+
+    screen = io.StringIO()
+    monkeypatch.setattr(analysing, "err", Console(file=screen, force_terminal=True, width=80))
+    with analysing._Bar(3) as bar:
+        bar.step("first")
+        bar._show()
+        bar.step("second")
+        assert bar.progress is not None
+        (task,) = bar.progress.tasks
+        assert (task.completed, task.description, task.total) == (1, "second", 3)
+    assert bar.closed and bar.progress.finished is False  # stopped, not completed
+    late = analysing._Bar(3)
+    late.__exit__(None, None, None)
+    late._show()
+    assert late.progress is None
+    assert "second" in screen.getvalue()

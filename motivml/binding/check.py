@@ -12,6 +12,7 @@ from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
 from . import encoding as enc
+from .analysis import binding_targets
 from .explain import Explainer
 
 EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
@@ -51,18 +52,7 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
         alive = hard.cover(
             [[hard.s(i)] for i in range(n)], with_config=False, hints=[[hard.s(i) for i in range(n)]]
         )
-        targets: list[list[int]] = []
-        owners: list[tuple[int, str, Time | Mode]] = []  # (feature, aspect, value)
-        for f in features:
-            if not alive[f.index]:
-                continue
-            i = f.index
-            if f.time_allowed is None:
-                targets += [[hard.s(i), hard.E(i)], [hard.s(i), -hard.E(i)]]
-                owners += [(i, "time", Time.EARLY), (i, "time", Time.LATE)]
-            if f.mode_allowed is None:
-                targets += [[hard.s(i), hard.S(i)], [hard.s(i), -hard.S(i)]]
-                owners += [(i, "mode", Mode.STATIC), (i, "mode", Mode.DYNAMIC)]
+        targets, owners = binding_targets(hard, model, alive)
         hints = [
             [lit for i in range(n) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
             for e in (1, -1)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import shutil
 import sys
 from pathlib import Path
+from typing import NoReturn
 
 import click
 from rich.markup import escape
@@ -56,10 +57,7 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
         folder = Path(output) if output else Path("build") / robot.name / (variant or "model")
         written = write_if_changed(folder, files)
     except MotivmlError as exc:
-        for d in exc.diagnostics:
-            print_diagnostic(d)
-        out.print(f"[bold red]nothing drawn[/]: {escape(target)}")
-        sys.exit(exc.exit_code)
+        _nothing(exc, "drawn", target)
     if architecture is None:
         out.print(f"{escape(robot.name)} has no {ARCHITECTURE_FILE}: drawing the feature model only")
     for name, changed in written.items():
@@ -117,10 +115,7 @@ def export_command(what: str, target: str, output: str | None, bindings: bool) -
         path = Path(output) if output else Path("build") / loaded.folder.name / "coordination.scxml"
         written = write_if_changed(path.parent, {path.name: to_scxml(coordination, loaded.folder.name)})
     except MotivmlError as exc:
-        for d in exc.diagnostics:
-            print_diagnostic(d)
-        out.print(f"[bold red]nothing exported[/]: {escape(target)}")
-        sys.exit(exc.exit_code)
+        _nothing(exc, "exported", target)
     out.print(f"  {'wrote' if written[path.name] else 'unchanged'} {escape(str(path))}")
 
 
@@ -149,10 +144,7 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
             text = variant_dimacs(model) if bindings else selection_dimacs(model)
         written = write_if_changed(path.parent, {path.name: text})
     except MotivmlError as exc:
-        for d in exc.diagnostics:
-            print_diagnostic(d)
-        out.print(f"[bold red]nothing exported[/]: {escape(target)}")
-        sys.exit(exc.exit_code)
+        _nothing(exc, "exported", target)
     out.print(f"  {'wrote' if written[path.name] else 'unchanged'} {escape(str(path))}")
 
 
@@ -198,10 +190,7 @@ def import_command(what: str, source: str, output: str) -> None:
         write_if_changed(folder, {"model.json": written})
         (folder / "variants").mkdir(exist_ok=True)
     except MotivmlError as exc:
-        for d in exc.diagnostics:
-            print_diagnostic(d)
-        out.print(f"[bold red]nothing imported[/]: {escape(source)}")
-        sys.exit(exc.exit_code)
+        _nothing(exc, "imported", source)
     out.print(f"  wrote {escape(str(model_path))} ({_count(document)} features)")
 
 
@@ -212,3 +201,11 @@ def _count(document: dict[str, object]) -> int:
         total += 1
         stack.extend(node.get("sub", []))  # type: ignore[arg-type]
     return total
+
+
+def _nothing(exc: MotivmlError, done: str, what: str) -> NoReturn:
+    """An error's diagnostics, then "nothing <done>: <what>", and its exit code."""
+    for d in exc.diagnostics:
+        print_diagnostic(d)
+    out.print(f"[bold red]nothing {done}[/]: {escape(what)}")
+    sys.exit(exc.exit_code)
