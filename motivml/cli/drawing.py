@@ -69,13 +69,13 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
 
 
 @click.command("export")
-@click.argument("what", type=click.Choice(["scxml", "dimacs", "uvl"]))
+@click.argument("what", type=click.Choice(["scxml", "dimacs", "uvl", "featureide"]))
 @click.argument("target", default=".", type=click.Path())
 @click.option(
     "-o",
     "--output",
     type=click.Path(dir_okay=False),
-    help="Output file (default build/<robot>/coordination.scxml, build/<robot>/model.dimacs, build/<robot>/model.uvl).",
+    help="Output file (default build/<robot>/coordination.scxml, or model.dimacs, model.uvl, model.xml there).",
 )
 @click.option(
     "--bindings",
@@ -92,12 +92,13 @@ def export_command(what: str, target: str, output: str | None, bindings: bool) -
     sections 2-4 and the projection onto the variants' variables (`c p show`). uvl: the
     feature tree by id, bindings, names, includes and excludes as attributes, and every
     cross-tree rule as a constraint; `motivml import uvl` reads it back to the same model.
-    TARGET is a robot folder (or, for dimacs and uvl, a model.json). The file is rewritten
-    only when it changes.
+    featureide: FeatureIDE's <featureModel> XML, a parent's mixed groups as rules, bindings
+    as attributes. TARGET is a robot folder (or, for a model format, a model.json). The file
+    is rewritten only when it changes.
     """
     if bindings and what != "dimacs":
         raise click.UsageError("--bindings is for dimacs")
-    if what in ("dimacs", "uvl"):
+    if what in ("dimacs", "uvl", "featureide"):
         _export_model(what, target, output, bindings)
         return
     from ..coordination.scxml import to_scxml
@@ -122,6 +123,7 @@ def export_command(what: str, target: str, output: str | None, bindings: bool) -
 def _export_model(what: str, target: str, output: str | None, bindings: bool) -> None:
     from ..binding.dimacs import selection_dimacs, variant_dimacs
     from ..documents.writing import write_if_changed
+    from ..language.featureide import write_featureide
     from ..language.uvl import write_uvl
     from ..validate import validate
     from .common import targets
@@ -135,11 +137,14 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
                 print_diagnostic(d)
             out.print(f"[bold red]nothing exported[/]: {escape(str(model_path))} has errors")
             sys.exit(1)
-        name = "model.uvl" if what == "uvl" else "model-variants.dimacs" if bindings else "model.dimacs"
+        names = {"uvl": "model.uvl", "featureide": "model.xml"}
+        name = names.get(what) or ("model-variants.dimacs" if bindings else "model.dimacs")
         robot = model_path.parent.name if model_path.name == "model.json" else model_path.stem
         path = Path(output) if output else Path("build") / robot / name
         if what == "uvl":
             text = write_uvl(model)
+        elif what == "featureide":
+            text = write_featureide(model)
         else:
             text = variant_dimacs(model) if bindings else selection_dimacs(model)
         written = write_if_changed(path.parent, {path.name: text})
@@ -149,23 +154,27 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
 
 
 @click.command("import")
-@click.argument("what", type=click.Choice(["uvl"]))
+@click.argument("what", type=click.Choice(["uvl", "featureide"]))
 @click.argument("source", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False), help="The robot folder to create.")
 def import_command(what: str, source: str, output: str) -> None:
-    """Read a UVL model into a new robot folder: OUTPUT/model.json and an empty variants/.
+    """Read a UVL or FeatureIDE XML model into a new robot folder: OUTPUT/model.json and an
+    empty variants/.
 
     UVL's Boolean level is kept whole: mandatory, optional, or and alternative children,
     abstract features, constraints (as formulas) and the attributes bindingTime and
     bindingMode; names that are not ids become ids, the name kept. What cannot be kept
     (group or feature cardinalities, typed features, arithmetic constraints, imports) is
-    refused, located, and nothing is written. An existing model.json is not overwritten.
+    refused, located, and nothing is written. FeatureIDE's <featureModel> keeps the same:
+    and/or/alt/feature, mandatory, abstract, and its <constraints> rules. An existing
+    model.json is not overwritten.
     """
     import json
 
     from ..documents.loader import load_bytes, no_gc
     from ..documents.writing import write_if_changed
     from ..errors import DocumentError, EnvironmentProblem, Location, error
+    from ..language.featureide import read_featureide
     from ..language.reader import read_model
     from ..language.uvl import read_uvl
 
@@ -176,11 +185,14 @@ def import_command(what: str, source: str, output: str) -> None:
             raise EnvironmentProblem(
                 error(Location(str(model_path)), "exists already: import into a new folder, or remove it", "io")
             )
-        try:
-            text = Path(source).read_text(encoding="utf-8")
-        except UnicodeDecodeError as exc:
-            raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
-        document = read_uvl(text, source)
+        if what == "featureide":
+            document = read_featureide(Path(source).read_bytes(), source)
+        else:
+            try:
+                text = Path(source).read_text(encoding="utf-8")
+            except UnicodeDecodeError as exc:
+                raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
+            document = read_uvl(text, source)
         written = json.dumps(document, indent=2, ensure_ascii=False) + "\n"
         with no_gc():
             _, problems = read_model(load_bytes(written.encode("utf-8"), str(model_path)))

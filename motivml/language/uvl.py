@@ -147,15 +147,18 @@ def read_uvl(text: str, file: str) -> dict[str, Any]:
         raise DocumentError(error(Location(file), f"not UVL: {problem}", "uvl")) from None
 
 
-class _Reader:
-    def __init__(self, file: str) -> None:
-        self.file = file
-        self.ids: dict[str, str] = {}  # UVL name -> id
+class Ids(dict[str, str]):
+    """Names of another tool's features -> ids, made deterministically (in the order asked):
+    a name that is an id and free is kept; otherwise its other characters become `_` (a
+    leading digit gets one before it) and a clash, also one of case only, gets `_2`, ..."""
+
+    def __init__(self) -> None:
+        super().__init__()
         self.folded: set[str] = set()
 
-    def _id(self, name: str) -> str:
-        if name in self.ids:
-            return self.ids[name]
+    def of(self, name: str) -> str:
+        if name in self:
+            return self[name]
         base = name if _ID.match(name) else re.sub(r"[^A-Za-z0-9_]", "_", name) or "_"
         if base[0].isdigit():
             base = "_" + base
@@ -164,8 +167,17 @@ class _Reader:
             k += 1
             candidate = f"{base}_{k}"
         self.folded.add(candidate.casefold())
-        self.ids[name] = candidate
+        self[name] = candidate
         return candidate
+
+
+class _Reader:
+    def __init__(self, file: str) -> None:
+        self.file = file
+        self.ids = Ids()  # UVL name -> id
+
+    def _id(self, name: str) -> str:
+        return self.ids.of(name)
 
     def document(self, tree: Any) -> dict[str, Any]:
         sections = {child.data: child for child in tree.children if hasattr(child, "data")}

@@ -1,0 +1,283 @@
+"""FeatureIDE XML (semantics.md section 8): `<featureModel>` read into a feature model
+document, and a model written as one.
+
+In FeatureIDE the element of a feature says how its *children* are grouped: `<and>` (each
+child mandatory or not by its `mandatory` attribute), `<or>`, `<alt>`; `<feature>` is a leaf.
+`abstract="true"` is kept, `<constraints>` rules (`var`, `not`, `conj`, `disj`, `imp`, `eq`)
+become formulas (rule 2.4), and the attributes `bindingTime` and `bindingMode` (FeatureIDE's
+`<attribute name=... value=...>`) the allowed binding. Anything else of the model's meaning
+(other constraint elements, feature cardinalities) is refused, located at its line and
+column; a description or a property that means nothing for selection is dropped (a
+description is kept under `x-featureide`).
+
+A MoTiVML parent may mix ungrouped children with an OR and an XOR group; FeatureIDE gives a
+parent one kind of children. Such a parent is written as `<and>` with its group members
+optional, and each group as rules (the parent implies one of them; for an XOR group, no two
+together), which keeps its selections, over the same features.
+
+XML is read with expat (Python's own, which refuses entity expansion bombs and does not
+fetch external entities), building the element tree by hand to keep each element's place.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+from xml.parsers import expat
+
+from ..errors import DocumentError, Location, error
+from .formula import AND, IFF, IMPLIES, OR, fold
+from .model import FeatureModel, token
+from .uvl import Ids
+
+_GROUPS = {"and": "", "or": "OR", "alt": "XOR", "feature": ""}
+_OPERATORS = {"conj": " & ", "disj": " | ", "imp": " => ", "eq": " <=> "}
+
+
+@dataclass
+class _Element:
+    tag: str
+    attributes: dict[str, str]
+    line: int
+    column: int
+    children: list[_Element] = field(default_factory=list)
+    text: str = ""
+
+
+class _Refusal(Exception):
+    def __init__(self, element: _Element | None, message: str) -> None:
+        super().__init__(message)
+        self.element = element
+        self.message = message
+
+
+def _tree(data: bytes, file: str) -> _Element:
+    parser = expat.ParserCreate()
+    root: list[_Element] = []
+    stack: list[_Element] = []
+
+    def start(tag: str, attributes: dict[str, str]) -> None:
+        element = _Element(tag, attributes, parser.CurrentLineNumber, parser.CurrentColumnNumber + 1)
+        (stack[-1].children if stack else root).append(element)
+        stack.append(element)
+
+    def end(tag: str) -> None:
+        stack.pop()
+
+    def text(content: str) -> None:
+        if stack:
+            stack[-1].text += content
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.CharacterDataHandler = text
+    try:
+        parser.Parse(data, True)
+    except expat.ExpatError as problem:
+        where = Location(file, problem.lineno, problem.offset + 1)
+        raise DocumentError(error(where, f"not XML: {expat.ErrorString(problem.code)}", "featureide")) from None
+    return root[0]
+
+
+def read_featureide(data: bytes, file: str) -> dict[str, Any]:
+    """The feature model document of a FeatureIDE XML text; DocumentError (located) if it
+    cannot be kept."""
+    top = _tree(data, file)
+    try:
+        return _Reader().document(top)
+    except _Refusal as refusal:
+        element = refusal.element
+        where = Location(file, element.line, element.column) if element else Location(file)
+        raise DocumentError(error(where, refusal.message + " (section 8)", "featureide")) from None
+
+
+class _Reader:
+    def __init__(self) -> None:
+        self.ids = Ids()
+
+    def document(self, top: _Element) -> dict[str, Any]:
+        if top.tag not in ("featureModel", "extendedFeatureModel"):
+            raise _Refusal(top, f"<{top.tag}> is not a FeatureIDE model (<featureModel>)")
+        struct = next((c for c in top.children if c.tag == "struct"), None)
+        if struct is None or len(struct.children) != 1:
+            raise _Refusal(struct or top, "a FeatureIDE model has one root feature in <struct>")
+        root = self._features(struct.children[0])
+        constraints = next((c for c in top.children if c.tag == "constraints"), None)
+        formulas = [self._formula(rule) for rule in constraints.children] if constraints else []
+        if formulas:
+            root["formulas"] = formulas
+        return root
+
+    def _features(self, top: _Element) -> dict[str, Any]:
+        documents: dict[int, dict[str, Any]] = {}
+        work: list[tuple[_Element, dict[str, Any] | None, str]] = [(top, None, "")]
+        while work:
+            element, parent, group = work.pop()
+            if element.tag not in _GROUPS:
+                raise _Refusal(element, f"<{element.tag}> is not a feature (and, or, alt, feature)")
+            name = element.attributes.get("name", "")
+            if not name:
+                raise _Refusal(element, "a feature without a name")
+            document: dict[str, Any] = {"id": self.ids.of(name), "name": name}
+            if group:
+                document["group"] = group
+            elif parent is not None and element.attributes.get("mandatory") != "true":
+                document["isMandatory"] = False
+            if element.attributes.get("abstract") == "true":
+                document["abstract"] = True
+            children: list[_Element] = []
+            for child in element.children:
+                if child.tag in _GROUPS:
+                    children.append(child)
+                elif child.tag == "attribute":
+                    self._attribute(child, document)
+                elif child.tag == "description":
+                    document.setdefault("x-featureide", {})["description"] = child.text.strip()
+                elif child.tag not in ("graphics", "property"):
+                    raise _Refusal(child, f"<{child.tag}> in a feature cannot be kept")
+            if parent is not None:
+                parent.setdefault("sub", []).append(document)
+            documents[id(element)] = document
+            kind = _GROUPS[element.tag]
+            if kind and len(children) == 1:
+                kind = ""  # one member: selected with its parent, as the group would have it
+                children[0].attributes["mandatory"] = "true"
+            work.extend((child, document, kind) for child in reversed(children))
+        return documents[id(top)]
+
+    def _attribute(self, element: _Element, document: dict[str, Any]) -> None:
+        key, value = element.attributes.get("name", ""), element.attributes.get("value", "")
+        if key in ("bindingTime", "bindingMode"):
+            allowed = ("Early", "Late", "Any") if key == "bindingTime" else ("Static", "Dynamic", "Any")
+            if value not in allowed:
+                raise _Refusal(element, f"{key} is one of {', '.join(allowed)}, not {value!r}")
+            constraint = "bindingTimeAllowed" if key == "bindingTime" else "bindingModeAllowed"
+            document.setdefault("constraints", {})[constraint] = value
+        else:
+            document.setdefault("x-featureide", {})[key] = value
+
+    def _formula(self, rule: _Element) -> str:
+        if rule.tag != "rule" or len(rule.children) != 1:
+            raise _Refusal(rule, "a constraint is one <rule> holding one expression")
+        results: list[str] = []
+        work: list[tuple[_Element, bool]] = [(rule.children[0], False)]
+        while work:
+            element, done = work.pop()
+            if element.tag == "var":
+                name = element.text.strip()
+                if name not in self.ids:
+                    raise _Refusal(element, f"the constraint names {name!r}, which is not a feature of the model")
+                results.append(self.ids[name])
+                continue
+            arity = {"not": 1, "imp": 2, "eq": 2}.get(element.tag)
+            if element.tag not in ("not", *_OPERATORS):
+                raise _Refusal(element, f"<{element.tag}> in a constraint cannot be kept: only var, not, conj, disj, imp, eq")
+            if (arity and len(element.children) != arity) or not element.children:
+                raise _Refusal(element, f"<{element.tag}> with {len(element.children)} operands")
+            if not done:
+                work.append((element, True))
+                work.extend((child, False) for child in reversed(element.children))
+                continue
+            count = len(element.children)
+            parts = results[len(results) - count :]
+            del results[len(results) - count :]
+            if element.tag == "not":
+                results.append(f"!{parts[0]}")
+            else:
+                results.append("(" + _OPERATORS[element.tag].join(parts) + ")" if count > 1 else parts[0])
+        text = results[0]
+        return text[1:-1] if text.startswith("(") and _closes_at_end(text) else text
+
+
+def _closes_at_end(text: str) -> bool:
+    depth = 0
+    for k, ch in enumerate(text):
+        depth += (ch == "(") - (ch == ")")
+        if depth == 0 and k < len(text) - 1:
+            return False
+    return True
+
+
+# ----------------------------------------------------------------------------- export
+def write_featureide(model: FeatureModel) -> str:
+    """The model as FeatureIDE XML: features by id (the name as a description when it
+    differs), groups as FeatureIDE can hold them, the rest as rules; bindings as attributes."""
+    from xml.sax.saxutils import quoteattr
+
+    features = model.features
+    rules: list[str] = []
+    lines = ['<?xml version="1.0" encoding="UTF-8" standalone="no"?>', "<featureModel>", "    <struct>"]
+    work: list[tuple[int | str, int]] = [(0, 2)]
+    while work:
+        item, depth = work.pop()
+        pad = "    " * depth
+        if isinstance(item, str):
+            lines.append(pad + item)
+            continue
+        feature = features[item]
+        kinds = {features[c].group for c in feature.children}
+        tag = "feature" if not feature.children else ("or" if kinds == {"OR"} else "alt" if kinds == {"XOR"} else "and")
+        mixed = tag == "and"
+        if mixed:  # groups of a parent with other children: as rules
+            for kind in ("OR", "XOR"):
+                members = [features[c].id for c in feature.children if features[c].group == kind]
+                if members:
+                    rules.append(_rule_disj(feature.id, members))
+                    if kind == "XOR":
+                        rules += [_rule_not_both(a, b) for k, a in enumerate(members) for b in members[k + 1 :]]
+        parent = features[feature.parent] if feature.parent is not None else None
+        mandatory = parent is None or (feature.mandatory and not feature.group)
+        attributes = f"name={quoteattr(feature.id)}"
+        if feature.abstract:
+            attributes += ' abstract="true"'
+        if mandatory and parent is not None:
+            attributes += ' mandatory="true"'
+        inner = [
+            f'<attribute name="bindingTime" type="string" value="{token(feature.time_allowed)}"/>',
+            f'<attribute name="bindingMode" type="string" value="{token(feature.mode_allowed)}"/>',
+        ]
+        if feature.name != feature.id:
+            inner.insert(0, f"<description>{_escape(feature.name)}</description>")
+        lines.append(f"{pad}<{tag} {attributes}>")
+        lines += [pad + "    " + line for line in inner]
+        work.append((f"</{tag}>", depth))
+        work.extend((c, depth + 1) for c in reversed(feature.children))
+    for feature in features:
+        rules += [_rule_imp(feature.id, y) for y in dict.fromkeys(feature.includes)]
+        rules += [_rule_not_both(feature.id, y) for y in dict.fromkeys(feature.excludes)]
+    for formula in model.formulas:
+        rules.append(
+            fold(
+                formula.tree,
+                lambda var: f"<var>{var.id}</var>",
+                lambda x: f"<not>{x}</not>",
+                {op: _element(op) for op in (AND, OR, IMPLIES, IFF)},
+            )
+        )
+    lines += ["    </struct>", "    <constraints>"]
+    lines += [f"        <rule>{rule}</rule>" for rule in rules]
+    lines += ["    </constraints>", "</featureModel>"]
+    return "\n".join(lines) + "\n"
+
+
+def _element(op: str) -> Any:
+    tag = {AND: "conj", OR: "disj", IMPLIES: "imp", IFF: "eq"}[op]
+    return lambda x, y: f"<{tag}>{x}{y}</{tag}>"
+
+
+def _rule_disj(parent: str, members: list[str]) -> str:
+    return f"<imp><var>{parent}</var><disj>{''.join(f'<var>{m}</var>' for m in members)}</disj></imp>"
+
+
+def _rule_not_both(a: str, b: str) -> str:
+    return f"<not><conj><var>{a}</var><var>{b}</var></conj></not>"
+
+
+def _rule_imp(a: str, b: str) -> str:
+    return f"<imp><var>{a}</var><var>{b}</var></imp>"
+
+
+def _escape(text: str) -> str:
+    from xml.sax.saxutils import escape
+
+    return escape(text)

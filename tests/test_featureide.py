@@ -1,0 +1,223 @@
+"""FeatureIDE XML import and export (semantics.md section 8): counts kept, refusals located.
+
+Random FeatureIDE models are built here as plain data, written as XML and counted by brute
+force from that data alone; the product imports the XML, and its selections are counted by
+the reference semantics and by the product's counter, then again after a trip through UVL.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+from typing import Any
+from xml.sax.saxutils import quoteattr
+
+import pytest
+import reference_semantics as ref
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_property_sat import models
+
+from motivml.binding.analysis import count_selections
+from motivml.cli import main
+from motivml.documents.loader import parse
+from motivml.errors import DocumentError
+from motivml.language.featureide import read_featureide, write_featureide
+from motivml.language.reader import read_model
+from motivml.language.uvl import read_uvl, write_uvl
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def read(document: dict[str, Any]) -> Any:
+    model, problems = read_model(parse(json.dumps(document, indent=1), "model.json"))
+    assert not [p for p in problems if p.severity.value == "error"], problems
+    return model
+
+
+# A node: (tag, name, mandatory, children); rules: (a, op, b) over names.
+@st.composite
+def featureide_models(draw: st.DrawFn, max_features: int = 15) -> tuple[Any, list[tuple[str, str, str]]]:
+    n = draw(st.integers(2, max_features))
+    names = ["Root", *(draw(st.sampled_from(["F", "feature ", "2x"])) + str(i) for i in range(1, n))]
+    nodes: list[list[Any]] = [["and", names[0], True, []]]
+    for i in range(1, n):
+        parent = nodes[draw(st.integers(0, i - 1))]
+        if parent[0] == "feature":
+            parent[0] = draw(st.sampled_from(["and", "or", "alt"]))
+        node = ["feature", names[i], draw(st.booleans()), []]
+        parent[3].append(node)
+        nodes.append(node)
+    rules = [
+        (
+            draw(st.sampled_from(names)),
+            draw(st.sampled_from(["imp", "disj", "conj", "eq", "not-conj"])),
+            draw(st.sampled_from(names)),
+        )
+        for _ in range(draw(st.integers(0, 2)))
+    ]
+    return nodes[0], rules
+
+
+def xml_text(root: Any, rules: list[tuple[str, str, str]]) -> str:
+    lines = ['<?xml version="1.0" encoding="UTF-8"?>', "<featureModel>", "<properties/>", "<struct>"]
+    stack: list[Any] = [root]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, str):
+            lines.append(item)
+            continue
+        tag, name, mandatory, children = item
+        flag = ' mandatory="true"' if mandatory else ""
+        lines.append(f"<{tag} name={quoteattr(name)}{flag}>")
+        stack.append(f"</{tag}>")
+        stack.extend(reversed(children))
+    lines += ["</struct>", "<constraints>"]
+    for a, op, b in rules:
+        pair = f"<var>{a}</var><var>{b}</var>"
+        lines.append(
+            f"<rule><not><conj>{pair}</conj></not></rule>"
+            if op == "not-conj"
+            else f"<rule><{op}>{pair}</{op}></rule>"
+        )
+    lines += ["</constraints>", "</featureModel>"]
+    return "\n".join(lines)
+
+
+def brute_count(root: Any, rules: list[tuple[str, str, str]]) -> int:
+    parent: dict[str, str] = {}
+    nodes: list[Any] = []
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        nodes.append(node)
+        for child in node[3]:
+            parent[child[1]] = node[1]
+            stack.append(child)
+    names = [node[1] for node in nodes]
+    total = 0
+    for bits in itertools.product((False, True), repeat=len(names) - 1):
+        on = {root[1]} | {n for n, b in zip(names[1:], bits, strict=True) if b}
+        ok = all(parent[n] in on for n in names[1:] if n in on)
+        for tag, name, _, children in nodes:
+            if name not in on or not children:
+                continue
+            picked = sum(c[1] in on for c in children)
+            if tag == "and":
+                ok &= all(c[1] in on for c in children if c[2])
+            elif tag == "or":
+                ok &= picked >= 1
+            elif tag == "alt":
+                ok &= picked == 1
+        for a, op, b in rules:
+            x, y = a in on, b in on
+            ok &= {
+                "imp": (not x) or y,
+                "disj": x or y,
+                "conj": x and y,
+                "eq": x == y,
+                "not-conj": not (x and y),
+            }[op]
+        total += ok
+    return total
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(featureide_models())
+def test_featureide_to_motivml_to_uvl_keeps_the_selection_count(data: tuple[Any, Any]) -> None:
+    root, rules = data
+    expected = brute_count(root, rules)
+    document = read_featureide(xml_text(root, rules).encode(), "m.xml")
+    assert sum(1 for _ in ref.section_2_selections(document)) == expected
+    model = read(document)
+    assert count_selections(model) == expected
+    through_uvl = read_uvl(write_uvl(model), "m.uvl")
+    assert sum(1 for _ in ref.section_2_selections(through_uvl)) == expected
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=10))
+def test_motivml_to_featureide_keeps_selections_and_bindings(raw: dict[str, Any]) -> None:
+    model = read(raw)
+    back = read(read_featureide(write_featureide(model).encode(), "m.xml"))
+    assert [(f.id, f.parent, f.time_allowed, f.mode_allowed, f.abstract) for f in back.features] == [
+        (f.id, f.parent, f.time_allowed, f.mode_allowed, f.abstract) for f in model.features
+    ]
+    selections = {frozenset(s) for s in ref.section_2_selections(raw)}
+    back_document = json.loads(json.dumps(read_featureide(write_featureide(model).encode(), "m.xml")))
+    assert {frozenset(s) for s in ref.section_2_selections(back_document)} == selections
+
+
+@pytest.mark.parametrize(
+    ("text", "where", "message"),
+    [
+        (
+            "<featureModel><struct><and name='R'><feature name='A'/></and></struct><constraints><rule><atmost1><var>A</var></atmost1></rule></constraints></featureModel>",
+            "<atmost1>",
+            "<atmost1> in a constraint cannot be kept",
+        ),
+        (
+            "<featureModel><struct><and name='R'/></struct><constraints><rule><var>B</var></rule></constraints></featureModel>",
+            "<var>B",
+            "the constraint names 'B', which is not a feature of the model",
+        ),
+        (
+            "<featureModel><struct><and name='R'><group name='A'/></and></struct></featureModel>",
+            "<group",
+            "<group> in a feature cannot be kept",
+        ),
+        (
+            "<featureModel><struct><and name='R'><attribute name='bindingMode' value='static'/></and></struct></featureModel>",
+            "<attribute",
+            "bindingMode is one of Static, Dynamic, Any, not 'static'",
+        ),
+        ("<model/>", "<model", "<model> is not a FeatureIDE model"),
+    ],
+    ids=["constraint element", "unknown name", "feature element", "binding token", "not a model"],
+)
+def test_refusals_are_located(text: str, where: str, message: str) -> None:
+    with pytest.raises(DocumentError) as refused:
+        read_featureide(text.encode(), "m.xml")
+    (diagnostic,) = refused.value.diagnostics
+    line = text.splitlines()[diagnostic.location.line - 1]
+    assert line[diagnostic.location.column - 1 :].startswith(where)  # at the element refused
+    assert message in diagnostic.message and diagnostic.message.endswith("(section 8)")
+
+
+def test_not_xml_is_located() -> None:
+    with pytest.raises(DocumentError) as refused:
+        read_featureide(b"<featureModel>\n  <struct>\n</featureModel>", "m.xml")
+    (diagnostic,) = refused.value.diagnostics
+    assert (diagnostic.location.line, diagnostic.location.column) == (3, 3)
+    assert diagnostic.message == "not XML: mismatched tag"
+
+
+def test_an_entity_bomb_is_refused() -> None:
+    bomb = (
+        b'<?xml version="1.0"?><!DOCTYPE x [<!ENTITY a "aaaaaaaaaa">'
+        + b"".join(
+            b'<!ENTITY %c "&%c;&%c;&%c;&%c;&%c;&%c;&%c;&%c;&%c;&%c;">' % ((c,) + (c - 1,) * 10)
+            for c in range(98, 108)
+        )
+        + b']><featureModel><struct><and name="&k;"/></struct></featureModel>'
+    )
+    with pytest.raises(DocumentError, match="not XML"):
+        read_featureide(bomb, "bomb.xml")
+
+
+def test_import_and_export_commands(tmp_path: Path) -> None:
+    runner = CliRunner()
+    target = tmp_path / "simplebot.xml"
+    exported = runner.invoke(
+        main, ["export", "featureide", str(ROOT / "feature_models" / "simplebot"), "-o", str(target)]
+    )
+    assert exported.exit_code == 0, exported.output
+    imported = runner.invoke(main, ["import", "featureide", str(target), "-o", str(tmp_path / "again")])
+    assert imported.exit_code == 0, imported.output
+    counts = [
+        json.loads(runner.invoke(main, ["analyse", str(path), "--format", "json"]).output)["selection_count"]
+        for path in (ROOT / "feature_models" / "simplebot", tmp_path / "again")
+    ]
+    assert counts == [96, 96]
