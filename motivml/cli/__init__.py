@@ -9,7 +9,8 @@ commands runs (or `--help` lists them), and each command imports the stages it u
 when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 
 * `checking`: validate, show, configure, diff (the model and its variants);
-* `analysing`: analyse (what a model allows: section 7's analyses and counts);
+* `analysing`: analyse and sample (what a model allows: section 7's analyses and counts,
+  t-wise samples);
 * `running`: run and ctl (the robot at run time);
 * `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL).
 """
@@ -32,6 +33,7 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "diff": ("checking", "diff_command"),
     "show": ("checking", "show_command"),
     "analyse": ("analysing", "analyse_command"),
+    "sample": ("analysing", "sample_command"),
     "run": ("running", "run_command"),
     "ctl": ("running", "ctl_command"),
     "graph": ("drawing", "graph_command"),

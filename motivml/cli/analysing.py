@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import sys
 import threading
+from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 import click
@@ -15,6 +16,8 @@ from .common import err, fail, out, plural, print_diagnostic, targets
 
 if TYPE_CHECKING:
     from rich.progress import Progress
+
+    from ..language.model import Binding, FeatureModel
 
 SHOWN = 20  # ids listed per line of the text output; --format json lists them all
 PROGRESS_AFTER = 1.0  # seconds: a quicker analysis shows no progress bar
@@ -154,3 +157,64 @@ class _Bar:
             self.closed = True
             if self.progress is not None:
                 self.progress.stop()
+
+
+@click.command("sample")
+@click.argument("target", default=".", type=click.Path())
+@click.option("--t", "t", type=click.IntRange(1, 3), default=2, show_default=True, help="Cover every combination of t feature values.")
+@click.option("--bindings", is_flag=True, help="A selected feature's values are also Early, Late, Static and Dynamic.")
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False), help="Folder for the sample's decisions files.")
+def sample_command(target: str, t: int, bindings: bool, output: str) -> None:
+    """Write a t-wise sample: a few valid variants such that every valid combination of t
+    feature values (selected or not; with --bindings, also each time and mode) is in one.
+
+    Each variant is a decisions file OUTPUT/sample-NNN.json ("partial": true) that
+    `validate` accepts and `configure` completes; without --bindings it leaves the bindings
+    to `configure`. TARGET is a model.json or a robot folder. Exit 1 when the model has
+    errors or no valid variant, 2 when t-wise is too large for the model.
+    """
+    from ..binding.sampling import TooMany, sample
+    from ..documents.writing import write_if_changed
+    from ..validate import validate
+
+    try:
+        model_path, _, _ = targets(target, None, None)
+        reports = validate(model_path, [], partial=True, analyse=False)
+        model = reports[0].model
+        if model is None:
+            _refuse([d for r in reports for d in r.errors], "text", "the model has errors")
+        try:
+            found = sample(model, t, bindings)
+        except TooMany as exc:
+            raise click.UsageError(f"{exc}: use a smaller t") from None
+        if found.void:
+            from ..binding.check import analyse_model
+
+            _refuse(analyse_model(model), "text", "the model has no valid variant")
+        files = {f"sample-{k:03d}.json": _decisions(model, variant, bindings) for k, variant in enumerate(found.variants, 1)}
+        folder = Path(output)
+        write_if_changed(folder, files)
+        for stale in folder.glob("sample-[0-9][0-9][0-9].json"):  # (an earlier, larger sample's)
+            if stale.name not in files:
+                stale.unlink()
+    except MotivmlError as exc:
+        fail(exc)
+    shown = 100 * found.shown / found.valid if found.valid else 100.0
+    out.print(
+        f"{plural(len(found.variants), 'variant')} cover {shown:.1f}% of {found.valid:,} valid {t}-wise combinations"
+        f" ({found.combinations - found.valid:,} of {found.combinations:,} have no valid variant)"
+    )
+    out.print(f"  wrote {escape(str(Path(output)))}/sample-001.json ... sample-{len(files):03d}.json")
+
+
+def _decisions(model: FeatureModel, variant: dict[int, Binding | None], bindings: bool) -> str:
+    properties: list[dict[str, object]] = []
+    for f in model.features[1:]:
+        binding = variant[f.index]
+        if binding is None:
+            properties.append({"id": f.id, "selected": False})
+        elif bindings:
+            properties.append({"id": f.id, "props": {"time": binding.time.value, "mode": binding.mode.value}})
+        else:
+            properties.append({"id": f.id})
+    return json.dumps({"x-generated": "motivml sample", "partial": True, "properties": properties}, indent=2) + "\n"

@@ -301,7 +301,7 @@ def read_configuration(
             )
         entries[feature_id] = entry
     missing = [f.id for f in model.features[1:] if f.id not in entries and f.id not in skipped]
-    if missing and not partial:
+    if missing and not partial and doc.root.get("partial") is not True:  # (a decisions file: section 1)
         shown = ", ".join(missing[:10]) + (f" and {len(missing) - 10} more" if len(missing) > 10 else "")
         diagnostics.append(
             error(

@@ -1,0 +1,119 @@
+"""t-wise samples against brute force: every valid combination shown, every variant valid.
+
+The valid combinations are read off the reference's list of every valid variant; whether a
+sampled variant shows one is read from the decisions files `motivml sample` writes.
+"""
+
+from __future__ import annotations
+
+import json
+from itertools import combinations
+from pathlib import Path
+from typing import Any
+
+import reference_semantics as ref
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from test_property_sat import models
+
+from motivml.binding.sampling import sample
+from motivml.cli import main
+from motivml.documents.loader import parse
+from motivml.language.reader import read_model
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def values_of(variant: dict[str, Any], ids: list[str], bindings: bool) -> set[tuple[str, str]]:
+    """A variant's values: (feature, "on"/"off"), and with bindings (feature, Early...)."""
+    found = set()
+    for f in ids:
+        if f not in variant:
+            found.add((f, "off"))
+            continue
+        found.add((f, "on"))
+        if bindings:
+            early, static = variant[f]
+            found |= {(f, "Early" if early else "Late"), (f, "Static" if static else "Dynamic")}
+    return found
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=7), st.integers(1, 3), st.booleans())
+def test_every_valid_combination_is_shown_by_a_valid_variant(
+    raw: dict[str, Any], t: int, bindings: bool
+) -> None:
+    model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    ids = [f.id for f in model.features[1:]]
+    variants = list(ref.valid_variants(raw, None))
+    found = sample(model, t, bindings)
+    if not variants:
+        assert found.void
+        return
+    valid: set[tuple[tuple[str, str], ...]] = set()
+    for variant in variants:
+        mine = sorted(values_of(variant, ids, bindings))
+        valid |= {c for c in combinations(mine, t) if len({f for f, _ in c}) == t}
+    shown: set[tuple[tuple[str, str], ...]] = set()
+    for chosen in found.variants:
+        as_reference = {
+            model.features[i].id: (b.early, b.static) for i, b in chosen.items() if b is not None and i != 0
+        }
+        assert any(as_reference == {k: v for k, v in w.items() if k != raw["id"]} for w in variants), (
+            "not a valid variant"
+        )
+        mine = sorted(values_of(as_reference, ids, bindings))
+        shown |= {c for c in combinations(mine, t) if len({f for f, _ in c}) == t}
+    assert valid <= shown
+    assert found.valid == len(valid) == found.shown
+
+
+def test_sample_command_writes_valid_decisions_files(tmp_path: Path) -> None:
+    runner = CliRunner()
+    robot = ROOT / "feature_models" / "simplebot"
+    out = tmp_path / "sample"
+    (out).mkdir()
+    (out / "sample-099.json").write_text("{}")  # an earlier sample's: removed
+    result = runner.invoke(main, ["sample", str(robot), "--t", "2", "--bindings", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    first = result.output.splitlines()[0]
+    assert "cover 100.0% of" in first and "valid 2-wise combinations" in first
+    files = sorted(out.iterdir())
+    assert files and not (out / "sample-099.json").exists()
+    assert first.startswith(f"{len(files)} variants")
+    for path in files:
+        document = json.loads(path.read_text())
+        assert document["partial"] is True
+        checked = runner.invoke(main, ["validate", str(robot / "model.json"), "--config", str(path)])
+        assert checked.exit_code == 0, checked.output
+
+
+def test_sample_refusals(tmp_path: Path) -> None:
+    runner = CliRunner()
+    (tmp_path / "void").mkdir()
+    (tmp_path / "void" / "model.json").write_text(
+        json.dumps(
+            {
+                "id": "r",
+                "name": "R",
+                "sub": [
+                    {"id": "a", "name": "A", "constraints": {"featuresExcluded": ["b"]}},
+                    {"id": "b", "name": "B"},
+                ],
+            }
+        )
+    )
+    void = runner.invoke(main, ["sample", str(tmp_path / "void"), "-o", str(tmp_path / "out")])
+    assert void.exit_code == 1 and "nothing analysed: the model has no valid variant" in void.output
+    assert not (tmp_path / "out").exists()
+    big = {
+        "id": "r",
+        "name": "R",
+        "sub": [{"id": f"f{i}", "name": "F", "isMandatory": False} for i in range(600)],
+    }
+    (tmp_path / "big.json").write_text(json.dumps(big))
+    too_many = runner.invoke(
+        main, ["sample", str(tmp_path / "big.json"), "--t", "3", "--bindings", "-o", str(tmp_path / "out")]
+    )
+    assert too_many.exit_code == 2 and "3-wise combinations over 600 features: more than" in too_many.output
