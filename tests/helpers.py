@@ -95,3 +95,13 @@ def until(condition: Callable[[], Any], timeout: float = 20.0, what: str = "") -
             return value
         threading.Event().wait(0.02)  # a poll interval, not a wait for the outcome
     pytest.fail(f"timed out waiting for {what or condition}")
+
+
+def model_of(document: dict[str, Any]) -> Any:
+    """The FeatureModel of a model document (as model.json), which must have no errors."""
+    from motivml.documents.loader import parse
+    from motivml.language.reader import read_model
+
+    model, problems = read_model(parse(json.dumps(document, indent=1), "model.json"))
+    assert not [p for p in problems if p.severity.value == "error"], problems
+    return model

@@ -16,22 +16,16 @@ import pytest
 import reference_semantics as ref
 from click.testing import CliRunner
 from helpers import feature
+from helpers import model_of as read
 from hypothesis import HealthCheck, given, settings
 from test_property_sat import models
 
 from motivml.binding import analysis as analysis_module
 from motivml.binding.analysis import CountFailed, analyse, count_selections, count_variants
 from motivml.cli import main
-from motivml.documents.loader import parse
-from motivml.language.reader import read_model
 
 ROOT = Path(__file__).resolve().parent.parent
 
-
-def read(raw: dict[str, Any]) -> Any:
-    model, problems = read_model(parse(json.dumps(raw, indent=1), "model.json"))
-    assert not [p for p in problems if p.severity.value == "error"]
-    return model
 
 
 def ids_in_order(raw: dict[str, Any]) -> list[str]:

@@ -15,24 +15,18 @@ from typing import Any
 import pytest
 import reference_semantics as ref
 from click.testing import CliRunner
+from helpers import model_of as read
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_property_sat import models
 
 from motivml.binding.analysis import count_selections
 from motivml.cli import main
-from motivml.documents.loader import parse
 from motivml.errors import DocumentError
-from motivml.language.reader import read_model
 from motivml.language.uvl import read_uvl, write_uvl
 
 ROOT = Path(__file__).resolve().parent.parent
 
-
-def read(document: dict[str, Any]) -> Any:
-    model, problems = read_model(parse(json.dumps(document, indent=1), "model.json"))
-    assert not [p for p in problems if p.severity.value == "error"], problems
-    return model
 
 
 # ------------------------------------------------------------- UVL -> motivml -> UVL
