@@ -346,6 +346,12 @@ def test_the_progress_bar_shows_on_a_terminal_only_once_started(monkeypatch: pyt
         (task,) = bar.progress.tasks
         assert (task.completed, task.description, task.total) == (1, "second", 3)
     assert bar.closed and bar.progress.finished is False  # stopped, not completed
+    counted = analysing._Bar(1)
+    counted._show()
+    counted.reached(40, 400)
+    (task,) = counted.progress.tasks  # type: ignore[union-attr]
+    assert (task.completed, task.total, task.description) == (40, 400, "combinations settled")
+    counted.__exit__(None, None, None)
     late = analysing._Bar(3)
     late.__exit__(None, None, None)
     late._show()

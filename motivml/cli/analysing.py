@@ -138,6 +138,13 @@ class _Bar:
             if self.progress is not None:
                 self.progress.update(self.task, completed=self.done, description=name)
 
+    def reached(self, done: int, total: int) -> None:
+        """Progress as a count (`sample`: the combinations settled of all)."""
+        with self.lock:
+            self.done, self.total, self.name = done, total, "combinations settled"
+            if self.progress is not None:
+                self.progress.update(self.task, completed=done, total=total, description=self.name)
+
     def _show(self) -> None:
         from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -184,7 +191,8 @@ def sample_command(target: str, t: int, bindings: bool, output: str) -> None:
         if model is None:
             _refuse([d for r in reports for d in r.errors], "text", "the model has errors")
         try:
-            found = sample(model, t, bindings)
+            with _Bar(1) as bar:
+                found = sample(model, t, bindings, bar.reached)
         except TooMany as exc:
             raise click.UsageError(f"{exc}: use a smaller t") from None
         if found.void:
