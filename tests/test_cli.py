@@ -152,6 +152,12 @@ def test_show_prints_the_tree_with_forced_bindings() -> None:
     assert lines[-1].startswith("marks: ")
 
 
+def test_show_lists_the_formulas_under_the_tree() -> None:
+    code, output = run("show", str(ROOT / "guidelines" / "examples" / "sensorbot"))
+    assert code == 0
+    assert output.splitlines()[-3:-1] == ["formula 1: slam => lidar | camera", "formula 2: !(lidar & sonar)"]
+
+
 def test_show_invalid_variant_exit_1() -> None:
     code, output = run("show", str(SIMPLEBOT), "--variant", "broken_gridmap_dynamic")
     assert code == 1 and "binding rule 3.1" in output

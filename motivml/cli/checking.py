@@ -296,6 +296,8 @@ def show_command(target: str, config: str | None, variant: str | None) -> None:
         out if out.is_terminal else Console(highlight=False, emoji=False, width=max(out.width, 240))
     )
     tree_console.print(_tree(model, configuration, states))
+    for formula in model.formulas:  # (rule 2.4: they hold beside the tree)
+        out.print(f"formula {formula.position + 1}: {escape(formula.text)}")
     out.print(
         "[dim]marks: ! mandatory, ? optional, [OR]/[XOR] group member; allowed = mode/time a feature allows; "
         "set = what the configuration says; solver = what valid variants leave (one value: forced)[/]"
