@@ -137,3 +137,51 @@ def start_state(variant: Variant) -> list[Feature]:
     if active is None:
         raise NoVariant(check_variant(model, as_configuration(variant)))
     return [model.features[i] for i in active]
+
+
+def decisions(variant: Variant, prefer: Collection[str] = ()) -> Configuration:
+    """The smallest decisions file from which `resolve`, with the same preferences, derives
+    `variant` again (like Kconfig's savedefconfig): entries the solver would decide the
+    same way are left out.
+
+    Greedy, as savedefconfig is, in definition order (a feature before its sub-features, so
+    that a selected sub-feature, which implies its parent, is the entry that stays): each
+    entry is dropped if the rest still derives the variant, else its time and then its mode
+    are dropped if they may be. Every trial is one
+    resolution, so a model of n features costs up to 3n MaxSAT solves: fine for a robot's
+    hundreds of features, slow for tens of thousands.
+    """
+    model = variant.model
+    wanted = [(d.selected, d.binding if d.selected else None) for d in variant.decisions]
+    entries: dict[str, Entry] = {
+        d.feature.id: Entry(
+            d.feature.id,
+            d.selected,
+            d.binding.time if d.selected else None,
+            d.binding.mode if d.selected else None,
+            d.feature.index,
+        )
+        for d in variant.decisions[1:]
+    }
+
+    def derives(trial: dict[str, Entry]) -> bool:
+        found = resolve(model, Configuration(trial, variant.name), prefer)
+        return [(d.selected, d.binding if d.selected else None) for d in found.decisions] == wanted
+
+    for d in variant.decisions[1:]:
+        fid = d.feature.id
+        without = {k: v for k, v in entries.items() if k != fid}
+        if derives(without):
+            entries = without
+            continue
+        entry = entries[fid]
+        if entry.time is not None:
+            weaker = Entry(fid, entry.selected, None, entry.mode, entry.position)
+            if derives({**entries, fid: weaker}):
+                entries[fid] = entry = weaker
+        if entry.mode is not None:
+            weaker = Entry(fid, entry.selected, entry.time, None, entry.position)
+            if derives({**entries, fid: weaker}):
+                entries[fid] = weaker
+    ordered = dict(sorted(entries.items(), key=lambda item: item[1].position))
+    return Configuration(ordered, variant.name)

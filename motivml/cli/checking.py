@@ -135,8 +135,13 @@ def _verdict(report: Report, checked_variants: bool) -> None:
     help="Decide open bindings Late and/or Dynamic instead of the defaults Early and Static.",
 )
 @click.option("--prefix", default="MOTIVML_", show_default=True, help="Prefix of the C++ macros.")
+@click.option(
+    "--save-decisions",
+    type=click.Path(dir_okay=False),
+    help="Also write the smallest decisions file from which configure derives this variant again.",
+)
 def configure_command(
-    target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str
+    target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str, save_decisions: str | None
 ) -> None:
     """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml, plugins.json, ros2_params.yaml.
 
@@ -174,6 +179,12 @@ def configure_command(
         resolved = resolve(model, config, prefer)
         folder = Path(output) if output else Path("build") / robot.name / variant
         written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path))
+        if save_decisions is not None:
+            from ..binding.resolve import decisions
+            from ..documents.writing import write_if_changed
+
+            path = Path(save_decisions)
+            write_if_changed(path.parent, {path.name: _decisions_json(decisions(resolved, prefer))})
     except MotivmlError as exc:
         fail(exc)
     for d in missing_plugins(model, late_or_dynamic(resolved), plugins):
@@ -190,6 +201,22 @@ def configure_command(
     )
     for name, changed in written.items():
         out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")
+    if save_decisions is not None:
+        out.print(f"  wrote {escape(save_decisions)} (the decisions it derives from)")
+
+
+def _decisions_json(config: Configuration) -> str:
+    """A decisions file (semantics.md section 1): `"partial": true` and its entries only."""
+    properties: list[dict[str, object]] = []
+    for entry in config.entries.values():
+        item: dict[str, object] = {"id": entry.id}
+        if not entry.selected:
+            item["selected"] = False
+        props = {k: v.value for k, v in (("time", entry.time), ("mode", entry.mode)) if v is not None}
+        if entry.selected and props:
+            item["props"] = props
+        properties.append(item)
+    return json.dumps({"partial": True, "properties": properties}, indent=2) + "\n"
 
 
 @click.command("diff")
