@@ -27,7 +27,6 @@ from motivml.cli import main
 ROOT = Path(__file__).resolve().parent.parent
 
 
-
 def ids_in_order(raw: dict[str, Any]) -> list[str]:
     found, stack = [], [raw]
     while stack:
@@ -279,15 +278,36 @@ def read_dimacs(text: str) -> tuple[dict[int, str], int, list[list[int]], list[i
     return names, variables, clauses, shown
 
 
-def count_directly(variables: int, clauses: list[list[int]], shown: list[int] | None) -> int:
-    from pyganak import Counter
+COUNT = """
+import json, sys
+from pyganak import Counter
+variables, clauses, shown = json.load(sys.stdin)
+counter = Counter(verbose=0, seed=0)
+counter.new_vars(variables)
+counter.add_clauses(clauses)
+if shown is not None:
+    counter.set_sampling_set(shown)
+print(counter.count())
+sys.stdout.flush()
+import os
+os._exit(0)  # (as the product's counting child does: no C++ teardown at exit)
+"""
 
-    counter = Counter()
-    counter.new_vars(variables)
-    counter.add_clauses(clauses)
-    if shown is not None:
-        counter.set_sampling_set(shown)
-    return int(counter.count())
+
+def count_directly(variables: int, clauses: list[list[int]], shown: list[int] | None) -> int:
+    """The count by Ganak itself, in a process of its own (never in pytest's: its C++ state
+    is then not torn down with the interpreter's, which crashed one CI run at exit)."""
+    import subprocess
+    import sys
+
+    done = subprocess.run(
+        [sys.executable, "-c", COUNT],
+        input=json.dumps([variables, clauses, shown]),
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return int(done.stdout.split()[-1])  # (the counter may print lines of its own before)
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
