@@ -168,8 +168,13 @@ def test_motivml_to_featureide_keeps_selections_and_bindings(raw: dict[str, Any]
             "bindingMode is one of Static, Dynamic, Any, not 'static'",
         ),
         ("<model/>", "<model", "<model> is not a FeatureIDE model"),
+        (
+            "<featureModel><struct><and name='R'><feature name='A'/><feature name='A'/></and></struct></featureModel>",
+            "<feature name='A'/></and>",
+            "a second feature named 'A'",
+        ),
     ],
-    ids=["constraint element", "unknown name", "feature element", "binding token", "not a model"],
+    ids=["constraint element", "unknown name", "feature element", "binding token", "not a model", "name twice"],
 )
 def test_refusals_are_located(text: str, where: str, message: str) -> None:
     with pytest.raises(DocumentError) as refused:

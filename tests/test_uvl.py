@@ -225,6 +225,7 @@ def test_shipped_models_read_back_the_same(robot: str) -> None:
             (2, 8),
             "bindingTime is one of Early, Late, Any, not 'early'",
         ),
+        ("features\n    R\n        optional\n            A\n            A\n", (5, 13), "a second feature named 'A'"),
     ],
     ids=[
         "group cardinality",
@@ -236,6 +237,7 @@ def test_shipped_models_read_back_the_same(robot: str) -> None:
         "unknown name",
         "chain",
         "binding token",
+        "name twice",
     ],
 )
 def test_refusals_are_located(text: str, where: tuple[int, int], message: str) -> None:
@@ -255,12 +257,16 @@ def test_not_uvl_is_located() -> None:
 
 
 def test_names_become_ids_deterministically() -> None:
-    text = 'features\n    "My Robot"\n        optional\n            "2D lidar"\n            lidar\n            Lidar\n            "lidar"\n'
+    """Kept when an id; else other characters become _, a leading digit gets one before it,
+    and a clash (of case too: C++ macros) gets _2, _3 ...; a name given twice is refused."""
+    text = 'features\n    "My Robot"\n        optional\n            "2D lidar"\n            lidar\n            Lidar\n            "lidar 2"\n'
     document = read_uvl(text, "m.uvl")
     ids = [document["id"], *(child["id"] for child in document["sub"])]
     names = [document["name"], *(child["name"] for child in document["sub"])]
-    assert ids == ["My_Robot", "_2D_lidar", "lidar", "Lidar_2", "lidar"][:4] + ["lidar"]
-    assert names == ["My Robot", "2D lidar", "lidar", "Lidar", "lidar"]
+    assert ids == ["My_Robot", "_2D_lidar", "lidar", "Lidar_2", "lidar_2_2"]
+    assert names == ["My Robot", "2D lidar", "lidar", "Lidar", "lidar 2"]
+    with pytest.raises(DocumentError, match="a second feature named 'lidar'"):
+        read_uvl(text.replace('"lidar 2"', '"lidar"'), "m.uvl")
 
 
 def test_a_second_group_of_a_kind_becomes_formulas() -> None:

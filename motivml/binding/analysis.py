@@ -99,7 +99,7 @@ def analyse(
     # astray), and the other way round.
     step(STEPS[3])
     with no_gc(), enc.Encoding(model) as hard:
-        impossible = _impossible_bindings(hard, model, alive)
+        impossible = impossible_bindings(hard, model, alive)
     # s(f) -> s(parent) always holds, so f is selected whenever its parent is iff the two
     # are selected together in every variant: iff they share an atomic set
     step(STEPS[4])
@@ -178,11 +178,12 @@ def _atomic_sets(
     return sorted(final + candidates)
 
 
-def _impossible_bindings(
+def impossible_bindings(
     hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool]
 ) -> list[tuple[int, str, Time | Mode]]:
-    """(feature, aspect, value) for each time or mode a live feature allows and never takes."""
-    targets, owners = binding_targets(hard, model, alive)
+    """(feature, aspect, value) for each time or mode a live feature allows and never takes
+    (`alive`: which features some valid variant selects)."""
+    targets, owners = _binding_targets(hard, model, alive)
     hints = [
         [lit for i in range(len(model.features)) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
         for e in (1, -1)
@@ -192,7 +193,7 @@ def _impossible_bindings(
     return [owners[k] for k in range(len(targets)) if not possible[k]]
 
 
-def binding_targets(
+def _binding_targets(
     hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool]
 ) -> tuple[list[list[int]], list[tuple[int, str, Time | Mode]]]:
     """For each live feature allowing Any time or mode, "selected and bound so" per value."""

@@ -12,7 +12,7 @@ from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
 from . import encoding as enc
-from .analysis import binding_targets
+from .analysis import impossible_bindings
 from .explain import Explainer
 
 EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
@@ -52,16 +52,9 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
         alive = hard.cover(
             [[hard.s(i)] for i in range(n)], with_config=False, hints=[[hard.s(i) for i in range(n)]]
         )
-        targets, owners = binding_targets(hard, model, alive)
-        hints = [
-            [lit for i in range(n) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
-            for e in (1, -1)
-            for m in (1, -1)
-        ]
-        possible = hard.cover(targets, with_config=False, hints=hints)
+        impossible = impossible_bindings(hard, model, alive)
 
     dead = [f for f in features if not alive[f.index] and (f.parent is None or alive[f.parent])]
-    impossible = [owners[k] for k in range(len(targets)) if not possible[k]]
     if not dead and not impossible:
         return []
     found: list[Diagnostic] = []

@@ -61,7 +61,7 @@ def analyse_command(target: str, fmt: str, no_counts: bool, count_timeout: float
             except CountFailed as exc:
                 raise EnvironmentProblem(error(Location(str(model_path)), str(exc), "count")) from None
         if analysis.void:
-            _refuse(analyse_model(model), fmt, "the model has no valid variant")
+            _refuse(analyse_model(model), fmt, "the model has no valid variant", void=True)
     except MotivmlError as exc:
         fail(exc)
     if fmt == "json":
@@ -102,9 +102,9 @@ def _line(title: str, items: list[str], tail: str = "") -> None:
     out.print(f"{title} ({len(items)}): {escape(shown or 'none')}{escape(tail)}")
 
 
-def _refuse(found: list[Diagnostic], fmt: str, why: str) -> NoReturn:
+def _refuse(found: list[Diagnostic], fmt: str, why: str, void: bool = False) -> NoReturn:
     if fmt == "json":
-        click.echo(json.dumps({"void": why.endswith("variant"), "errors": [d.as_dict() for d in found]}, indent=2))
+        click.echo(json.dumps({"void": void, "errors": [d.as_dict() for d in found]}, indent=2))
     else:
         for d in found:
             print_diagnostic(d)
@@ -198,7 +198,7 @@ def sample_command(target: str, t: int, bindings: bool, output: str) -> None:
         if found.void:
             from ..binding.check import analyse_model
 
-            _refuse(analyse_model(model), "text", "the model has no valid variant")
+            _refuse(analyse_model(model), "text", "the model has no valid variant", void=True)
         files = {f"sample-{k:03d}.json": _decisions(model, variant, bindings) for k, variant in enumerate(found.variants, 1)}
         folder = Path(output)
         write_if_changed(folder, files)

@@ -109,7 +109,7 @@ class _Reader:
         return root
 
     def _features(self, top: _Element) -> dict[str, Any]:
-        documents: dict[int, dict[str, Any]] = {}
+        root: dict[str, Any] | None = None
         work: list[tuple[_Element, dict[str, Any] | None, str]] = [(top, None, "")]
         while work:
             element, parent, group = work.pop()
@@ -118,6 +118,8 @@ class _Reader:
             name = element.attributes.get("name", "")
             if not name:
                 raise _Refusal(element, "a feature without a name")
+            if name in self.ids:
+                raise _Refusal(element, f"a second feature named {name!r}: names are unique in FeatureIDE")
             document: dict[str, Any] = {"id": self.ids.of(name), "name": name}
             if group:
                 document["group"] = group
@@ -137,13 +139,14 @@ class _Reader:
                     raise _Refusal(child, f"<{child.tag}> in a feature cannot be kept")
             if parent is not None:
                 parent.setdefault("sub", []).append(document)
-            documents[id(element)] = document
+            root = root or document
             kind = _GROUPS[element.tag]
             if kind and len(children) == 1:
                 kind = ""  # one member: selected with its parent, as the group would have it
                 children[0].attributes["mandatory"] = "true"
             work.extend((child, document, kind) for child in reversed(children))
-        return documents[id(top)]
+        assert root is not None  # (the work list began with the root)
+        return root
 
     def _attribute(self, element: _Element, document: dict[str, Any]) -> None:
         key, value = element.attributes.get("name", ""), element.attributes.get("value", "")

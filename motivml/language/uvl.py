@@ -133,7 +133,7 @@ def read_uvl(text: str, file: str) -> dict[str, Any]:
 
     try:
         tree = _parser().parse(text if text.endswith("\n") else text + "\n")
-        return _Reader(file).document(tree)
+        return _Reader().document(tree)
     except _Refusal as refusal:
         raise DocumentError(
             error(Location(file, refusal.line, refusal.column), refusal.message + " (section 8)", "uvl")
@@ -172,18 +172,17 @@ class Ids(dict[str, str]):
 
 
 class _Reader:
-    def __init__(self, file: str) -> None:
-        self.file = file
+    def __init__(self) -> None:
         self.ids = Ids()  # UVL name -> id
+        self.declared: set[str] = set()  # names of the features read so far
 
     def _id(self, name: str) -> str:
         return self.ids.of(name)
 
     def document(self, tree: Any) -> dict[str, Any]:
         sections = {child.data: child for child in tree.children if hasattr(child, "data")}
-        for kind in ("imports",):
-            if kind in sections:
-                raise _Refusal(sections[kind].meta, "imports of other UVL models cannot be kept: merge them first")
+        if "imports" in sections:
+            raise _Refusal(sections["imports"].meta, "imports of other UVL models cannot be kept: merge them first")
         if "include" in sections:
             for level in sections["include"].children:
                 words = [str(t) for t in level.children]
@@ -191,9 +190,7 @@ class _Reader:
                     raise _Refusal(level.meta, f"the language level {'.'.join(words)} cannot be kept: only Boolean")
         if "features" not in sections:
             raise _Refusal(tree.meta, "the model has no features")
-        root = self._features(sections["features"].children[0])
-        formulas: list[str] = root.pop("formulas", [])
-        kept = root.pop("x-kept", set())
+        root, formulas, kept = self._features(sections["features"].children[0])
         if "constraints" in sections:
             for expression in sections["constraints"].children:
                 text = self._formula(expression)
@@ -204,7 +201,9 @@ class _Reader:
         return root
 
     # -- the feature tree, iteratively (a work list of (tree node, parent document))
-    def _features(self, top: Any) -> dict[str, Any]:
+    def _features(self, top: Any) -> tuple[dict[str, Any], list[str], set[str]]:
+        """The root's document, the formulas its second groups need, and the constraints
+        that its includes and excludes already say (not to be read again as formulas)."""
         documents: list[dict[str, Any]] = []
         extra_formulas: list[str] = []
         kept: set[str] = set()  # constraints that are includes and excludes, kept as such
@@ -253,10 +252,7 @@ class _Reader:
                 kept |= {f"{document['id']} => {y}" for y in ids}
             else:
                 kept |= {f"!({document['id']} & {y})" for y in ids}
-        if extra_formulas:
-            root["formulas"] = extra_formulas
-        root["x-kept"] = kept
-        return root
+        return root, extra_formulas, kept
 
     def _name(self, node: Any) -> str:
         name = next(child for child in node.children if getattr(child, "data", None) == "name")
@@ -267,6 +263,9 @@ class _Reader:
         if children and not hasattr(children[0], "data") and children[0].type == "TYPE" and str(children[0]) != "Boolean":
             raise _Refusal(children[0], f"a feature of type {children[0]} cannot be kept: only Boolean features")
         name = self._name(node)
+        if name in self.declared:
+            raise _Refusal(node.meta, f"a second feature named {name!r}: names are unique in UVL")
+        self.declared.add(name)
         document: dict[str, Any] = {"id": self._id(name), "name": name}
         if kind == "or":
             document["group"] = "OR"
