@@ -42,6 +42,8 @@ TOPICS = {
 }
 UNCONFIGURED, INACTIVE, ACTIVE = 1, 2, 3  # lifecycle_msgs/msg/State primary states
 CONFIGURE, CLEANUP, ACTIVATE, DEACTIVATE = 1, 2, 3, 4  # lifecycle_msgs/msg/Transition ids
+GOALS = {CONFIGURE: INACTIVE, CLEANUP: UNCONFIGURED, ACTIVATE: ACTIVE, DEACTIVATE: INACTIVE}
+RESEND = 1.0  # s: a request unanswered this long is sent again (see Graph.call)
 
 
 class Graph:
@@ -56,6 +58,7 @@ class Graph:
         self.node = rclpy.create_node("motivml_test", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+        self.clients: dict[str, Any] = {}
 
     def close(self) -> None:
         self.executor.shutdown()
@@ -75,16 +78,27 @@ class Graph:
         while time.monotonic() < end:
             self.executor.spin_once(timeout_sec=0.02)
 
-    def call(self, service_type: Any, name: str, request: Any) -> Any:
-        client = self.node.create_client(service_type, name)
-        try:
+    def call(self, service_type: Any, name: str, request: Any, resend: bool = True) -> Any:
+        """The answer to one request; without `resend`, None if none came within RESEND s.
+
+        A client is made once per service. A new client's first request can be lost: the
+        server may list the service before it has matched the client's reader (DDS discovery),
+        and its answer then goes nowhere. With `resend` (for requests that may be repeated, as
+        a question is) the request is sent again each second until the deadline."""
+        client = self.clients.get(name)
+        if client is None:
+            client = self.clients[name] = self.node.create_client(service_type, name)
             assert client.wait_for_service(timeout_sec=DEADLINE), f"no service {name}"
+        deadline = time.monotonic() + DEADLINE
+        while True:
             future = client.call_async(request)
-            self.executor.spin_until_future_complete(future, timeout_sec=DEADLINE)
-            assert future.done(), f"{name} did not answer within {DEADLINE} s"
-            return future.result()
-        finally:
-            self.node.destroy_client(client)
+            self.executor.spin_until_future_complete(future, timeout_sec=RESEND)
+            if future.done():
+                return future.result()
+            client.remove_pending_request(future)
+            if not resend:
+                return None
+            assert time.monotonic() < deadline, f"{name} did not answer within {DEADLINE} s"
 
     def state(self, node: str) -> int:
         from lifecycle_msgs.srv import GetState
@@ -92,11 +106,20 @@ class Graph:
         return int(self.call(GetState, f"{node}/get_state", GetState.Request()).current_state.id)
 
     def change(self, node: str, transition: int) -> bool:
+        """Ask for a transition; whether it succeeded. A transition is not sent twice blindly:
+        when no answer comes, the node's state says whether the request arrived."""
         from lifecycle_msgs.srv import ChangeState
 
         request = ChangeState.Request()
         request.transition.id = transition
-        return bool(self.call(ChangeState, f"{node}/change_state", request).success)
+        deadline = time.monotonic() + DEADLINE
+        while True:
+            answer = self.call(ChangeState, f"{node}/change_state", request, resend=False)
+            if answer is not None:
+                return bool(answer.success)
+            if self.state(node) == GOALS[transition]:
+                return True  # it arrived and succeeded; only the answer was lost
+            assert time.monotonic() < deadline, f"{node}/change_state did not answer within {DEADLINE} s"
 
     def parameters(self, node: str, names: list[str]) -> dict[str, Any]:
         from rcl_interfaces.srv import GetParameters
