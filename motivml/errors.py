@@ -42,8 +42,29 @@ class LocatedFact:
 
 
 @dataclass(frozen=True)
+class Change:
+    """One change of a repair (semantics.md section 6), in the user's words and as data.
+
+    `change` is "select" (value True or False), "time" (Early, Late) or "mode" (Static,
+    Dynamic) for a configuration; "load" or "unload" (value True: add it to the request,
+    False: take it out) for a run-time request."""
+
+    feature: str
+    change: str
+    value: bool | str
+    text: str
+
+    def as_dict(self) -> dict[str, object]:
+        return {"feature": self.feature, "change": self.change, "value": self.value, "text": self.text}
+
+
+Repair = tuple[Change, ...]
+
+
+@dataclass(frozen=True)
 class Diagnostic:
-    """One error or warning: what, where, which feature, which rule."""
+    """One error or warning: what, where, which feature, which rule, and (for a conflict)
+    the smallest changes that would fix it, fewest first."""
 
     severity: Severity
     location: Location
@@ -51,6 +72,7 @@ class Diagnostic:
     rule: str
     feature: str | None = None
     facts: tuple[LocatedFact, ...] = field(default=())
+    repairs: tuple[Repair, ...] = field(default=())
 
     def as_dict(self) -> dict[str, object]:
         return {
@@ -72,7 +94,39 @@ class Diagnostic:
                 }
                 for f in self.facts
             ],
+            "repairs": [
+                {"text": repair_text(r), "changes": [c.as_dict() for c in r]} for r in self.repairs
+            ],
         }
+
+
+def repair_text(repair: Repair) -> str:
+    """A repair in one line: "make grid_map Static", "deselect slam and kartoslam",
+    "make dmp_reach Dynamic and attractor_reach Dynamic Late"."""
+    verbs: dict[str, list[str]] = {}  # verb -> objects, in the repair's order
+    binding: dict[str, list[str]] = {}  # feature -> its new mode and time, for one "make"
+    for c in repair:
+        if c.change in ("time", "mode"):
+            if c.feature not in binding:
+                verbs.setdefault("make", []).append(c.feature)
+            binding.setdefault(c.feature, []).append(str(c.value))
+        else:
+            verb, _, what = c.text.rpartition(" ")
+            verbs.setdefault(verb, []).append(what)
+    groups = []
+    for verb, objects in verbs.items():
+        if verb == "make":
+            objects = [f"{f} {' '.join(sorted(binding[f], key=_MODE_FIRST.index))}" for f in objects]
+        groups.append((verb, _and(objects)))
+    between = "; " if any(len(objects) > 1 for objects in verbs.values()) else " and "
+    return between.join(f"{verb} {objects}" for verb, objects in groups)
+
+
+_MODE_FIRST = ["Static", "Dynamic", "Early", "Late"]  # "Static Early", as bindings are spoken
+
+
+def _and(parts: list[str]) -> str:
+    return parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
 
 
 class MotivmlError(Exception):

@@ -8,19 +8,24 @@ the CLI runs them when a model is validated without a configuration.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
 from . import encoding as enc
 from .analysis import impossible_bindings
 from .explain import Explainer
+from .repair import configuration_repairs
 
 EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
 LISTED_WARNINGS = 100  # per kind: located one by one; the rest are summed up in one warning
 
 
-def check_variant(model: FeatureModel, config: Configuration) -> list[Diagnostic]:
-    """Errors of a configuration: every independent minimal conflict, explained."""
+def check_variant(model: FeatureModel, config: Configuration, repairs: bool = True) -> list[Diagnostic]:
+    """Errors of a configuration: every independent minimal conflict, explained, and (with
+    `repairs`) the configuration's minimal repairs (section 6) beside each. A repair fixes
+    the whole configuration, so with several conflicts each carries the same list."""
     with no_gc():
         with enc.Encoding(model) as hard:
             hard.set_configuration(config)
@@ -31,7 +36,11 @@ def check_variant(model: FeatureModel, config: Configuration) -> list[Diagnostic
             explainer = Explainer(encoding, model, config)
             if not encoding.solve(with_config=False):
                 return _void(encoding, explainer)
-            return [explainer.diagnostic(mus) for mus in encoding.conflicts()]
+            found = [explainer.diagnostic(mus) for mus in encoding.conflicts()]
+        if not repairs:
+            return found
+        mended = tuple(configuration_repairs(model, config))
+    return [replace(d, repairs=mended) for d in found]
 
 
 def _void(encoding: enc.Encoding, explainer: Explainer) -> list[Diagnostic]:

@@ -12,7 +12,7 @@ import click
 from rich.markup import escape
 
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
-from .common import err, fail, out, plural, print_diagnostic, targets
+from .common import err, fail, out, plural, print_diagnostics, targets
 
 if TYPE_CHECKING:
     from rich.progress import Progress
@@ -106,8 +106,7 @@ def _refuse(found: list[Diagnostic], fmt: str, why: str, void: bool = False) -> 
     if fmt == "json":
         click.echo(json.dumps({"void": void, "errors": [d.as_dict() for d in found]}, indent=2))
     else:
-        for d in found:
-            print_diagnostic(d)
+        print_diagnostics(found)
         out.print(f"[bold red]nothing analysed[/]: {why}")
     sys.exit(1)
 

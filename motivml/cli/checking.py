@@ -16,7 +16,7 @@ from ..binding import PREFERENCES
 from ..documents.robot_folder import RobotFolder
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
 from ..language.model import OFF, Binding, FeatureState, Mode, Time
-from .common import fail, out, plural, print_diagnostic, printable, targets
+from .common import fail, out, plural, print_diagnostics, printable, targets
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
 
@@ -77,8 +77,7 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
         )
     else:
         for report in reports:
-            for d in report.errors + report.warnings:
-                print_diagnostic(d)
+            print_diagnostics(report.errors + report.warnings)
             if report.kind != "model" or report.analysed or report.diagnostics:
                 _verdict(report, checked_variants=len(reports) > 1 or not configs)
     sys.exit(0 if valid else 1)
@@ -164,16 +163,14 @@ def configure_command(
         reports = validate(robot.model_path, [robot.variant_path(variant)], partial=True, analyse=False)
         problems = [d for r in reports for d in r.errors]
         if problems or len(reports) != 2:
-            for d in problems:
-                print_diagnostic(d)
+            print_diagnostics(problems)
             out.print(f"[bold red]invalid[/]: {escape(reports[-1].file)}: nothing written")
             sys.exit(1)
         model, config = reports[1].model, reports[1].config
         assert model is not None and config is not None
         plugins, problems = discover(robot, model)
         if problems:
-            for d in problems:
-                print_diagnostic(d)
+            print_diagnostics(problems)
             out.print("[bold red]invalid[/]: plugin manifests: nothing written")
             sys.exit(1)
         resolved = resolve(model, config, prefer)
@@ -187,8 +184,7 @@ def configure_command(
             write_if_changed(path.parent, {path.name: _decisions_json(decisions(resolved, prefer))})
     except MotivmlError as exc:
         fail(exc)
-    for d in missing_plugins(model, late_or_dynamic(resolved), plugins):
-        print_diagnostic(d)
+    print_diagnostics(missing_plugins(model, late_or_dynamic(resolved), plugins))
     chosen = resolved.selected()
     by_solver = sum(
         1
@@ -248,8 +244,7 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
         reports = validate(robot.model_path, paths, partial=True, analyse=False)
         problems = [d for r in reports for d in r.errors]
         if problems or len(reports) != 3:
-            for d in problems:
-                print_diagnostic(d)
+            print_diagnostics(problems)
             out.print("[bold red]invalid[/]: nothing to compare (fix the errors above)")
             sys.exit(1)
         model = reports[0].model
@@ -303,8 +298,7 @@ def show_command(target: str, config: str | None, variant: str | None) -> None:
         reports = validate(model_path, chosen, partial=True, analyse=False)
         problems = [d for r in reports for d in r.errors]
         if problems or len(reports) != 1 + len(chosen):
-            for d in problems:
-                print_diagnostic(d)
+            print_diagnostics(problems)
             out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
             sys.exit(1)
         model = reports[0].model
@@ -312,8 +306,7 @@ def show_command(target: str, config: str | None, variant: str | None) -> None:
         configuration = reports[-1].config if chosen else None
         states = binding_states(model, configuration)
         if not states[0]:  # not even the root: the model has no valid variant
-            for d in analyse_model(model):
-                print_diagnostic(d)
+            print_diagnostics(analyse_model(model))
             out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
             sys.exit(1)
     except MotivmlError as exc:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import NoReturn
 
@@ -11,7 +12,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from ..documents.robot_folder import MODEL_FILE, VARIANTS_FOLDER, RobotFolder
-from ..errors import Diagnostic, MotivmlError, Severity
+from ..errors import Diagnostic, MotivmlError, Severity, repair_text
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
 err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
@@ -24,7 +25,8 @@ def fail(exc: MotivmlError) -> NoReturn:
     sys.exit(exc.exit_code)
 
 
-def print_diagnostic(d: Diagnostic) -> None:
+def print_diagnostic(d: Diagnostic, repairs: bool = True) -> None:
+    """One diagnostic: the located message, its facts, and (with `repairs`) its repairs."""
     colour = "red" if d.severity is Severity.ERROR else "yellow"
     out.print(
         f"[bold]{escape(str(d.location))}[/]: {escape(d.location.path)}: "
@@ -32,6 +34,19 @@ def print_diagnostic(d: Diagnostic) -> None:
     )
     for fact in d.facts:
         out.print(f"    [dim]{escape(str(fact.location))}: {escape(fact.text)}[/]")
+    if repairs and d.repairs:
+        many = len(d.repairs) > 1
+        out.print(f"    [cyan]to repair{', one of' if many else ''}:[/]")
+        for repair in d.repairs:
+            out.print(f"      [cyan]- {escape(repair_text(repair))}[/]")
+
+
+def print_diagnostics(diagnostics: Sequence[Diagnostic]) -> None:
+    """Diagnostics in order. Conflicts of one configuration share its repairs (each repair
+    fixes the whole configuration): they are printed once, under the last of them."""
+    for k, d in enumerate(diagnostics):
+        following = diagnostics[k + 1] if k + 1 < len(diagnostics) else None
+        print_diagnostic(d, repairs=following is None or following.repairs != d.repairs)
 
 
 def targets(target: str, config: str | None, variant: str | None) -> tuple[Path, list[Path], bool]:

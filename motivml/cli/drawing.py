@@ -13,7 +13,7 @@ from rich.markup import escape
 
 from ..documents.robot_folder import ARCHITECTURE_FILE
 from ..errors import MotivmlError
-from .common import out, print_diagnostic
+from .common import out, print_diagnostics
 
 
 @click.command("graph")
@@ -133,8 +133,7 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
         reports = validate(model_path, [], partial=True, analyse=False)
         model = reports[0].model
         if model is None:
-            for d in reports[0].errors:
-                print_diagnostic(d)
+            print_diagnostics(reports[0].errors)
             out.print(f"[bold red]nothing exported[/]: {escape(str(model_path))} has errors")
             sys.exit(1)
         names = {"uvl": "model.uvl", "featureide": "model.xml"}
@@ -217,7 +216,6 @@ def _count(document: dict[str, object]) -> int:
 
 def _nothing(exc: MotivmlError, done: str, what: str) -> NoReturn:
     """An error's diagnostics, then "nothing <done>: <what>", and its exit code."""
-    for d in exc.diagnostics:
-        print_diagnostic(d)
+    print_diagnostics(exc.diagnostics)
     out.print(f"[bold red]nothing {done}[/]: {escape(what)}")
     sys.exit(exc.exit_code)

@@ -21,7 +21,7 @@ from rich.table import Table
 from ..binding import PREFERENCES
 from ..errors import EnvironmentProblem, Location, MotivmlError, error
 from ..runtime.requests import ACTIONS, Request
-from .common import err, fail, out, plural, print_diagnostic, printable, shown
+from .common import err, fail, out, plural, print_diagnostics, printable, shown
 
 if TYPE_CHECKING:
     from ..runtime.loop import RunStats, Runtime, Snapshot
@@ -207,8 +207,7 @@ def run_command(
         if interrupted:  # the Ctrl-C came while a plugin started: it failed because of it
             out.print("interrupted before the run started")
             sys.exit(EXIT_INTERRUPTED)
-        for d in exc.diagnostics:
-            print_diagnostic(d)
+        print_diagnostics(exc.diagnostics)
         out.print(f"[bold red]cannot run[/]: {escape(target)} variant {escape(variant)}")
         sys.exit(exc.exit_code)
     except KeyboardInterrupt:
@@ -217,8 +216,7 @@ def run_command(
     finally:
         if guarding:
             signal.signal(signal.SIGINT, previous)
-    for d in robot.warnings:
-        print_diagnostic(d)
+    print_diagnostics(robot.warnings)
     runtime = robot.runtime
     if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
         out.width = max(out.width, 160)
@@ -284,8 +282,7 @@ def run_command(
     for answer in session.answers():
         verdict = "accepted" if answer.outcome.accepted else "refused, nothing changed"
         out.print(escape(f"request at {answer.time:.3f} s (tick {answer.tick}): {answer.request}: {verdict}"))
-        for d in answer.outcome.diagnostics:
-            print_diagnostic(d)
+        print_diagnostics(answer.outcome.diagnostics)
     _summary(runtime, session.stats)
     if coordinator is not None:
         if coordinator.finished is not None:

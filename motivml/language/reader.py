@@ -325,7 +325,9 @@ _ENTRY = re.compile(r"\$\.properties\[(\d+)\]")
 
 
 def _usable(diagnostics: list[Diagnostic]) -> bool:
-    return not any(d.severity is Severity.ERROR for d in diagnostics)
+    """Whether a configuration can still be checked: an incomplete one can (as a partial one),
+    so that what else is wrong with it is not hidden behind the missing entries."""
+    return not any(d.severity is Severity.ERROR and d.rule != "config.incomplete" for d in diagnostics)
 
 
 def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]:

@@ -1,0 +1,91 @@
+"""Repairs (semantics.md section 6): the smallest changes that make something refused valid.
+
+A repair of an invalid configuration changes the configuration's own entries (deselect F,
+select F, set F's time, set F's mode); the model never changes. The minimal repairs are the
+minimal correction subsets of the configuration's facts: sets of facts whose opposite makes
+the configuration valid, such that no smaller subset does. Each fact is one literal (a
+feature is selected or not, Early or Late, Static or Dynamic), so taking a fact back and
+turning it over are the same here: in every variant without the facts of a minimal
+correction set, each of them is false (were one true, the set without it would be one).
+
+They are enumerated fewest first with MaxSAT (RC2) over the one encoding's recorded clauses:
+the facts are soft units of weight 1, a solution of cost k falsifies a set of k facts, and
+blocking each set found (one of its facts must hold) leaves the next solution a set that
+contains none found before, hence minimal: every smaller correction set would contain a
+minimal one, all of which were found and blocked at lower costs.
+
+A run-time request gets the same over the activity of the features it could also move
+(`request_corrections`): which features would have to be active or inactive besides, or
+not, for the new active set to satisfy section 2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+
+from ..errors import Change, Repair
+from ..language.model import Configuration, FeatureModel, Mode, Time
+from . import encoding as enc
+
+MOST = 5  # repairs shown, fewest changes first ("a handful at most")
+
+
+def corrections(
+    clauses: Iterable[list[int]], hard: Sequence[int], soft: Sequence[int], most: int = MOST
+) -> list[list[int]]:
+    """Minimal correction subsets of the `soft` unit literals under `clauses` and the `hard`
+    units, fewest first, at most `most`: each as indices into `soft`. [] when the hard part
+    alone is unsatisfiable, or when every soft literal can hold."""
+    from pysat.examples.rc2 import RC2
+    from pysat.formula import WCNF
+
+    formula = WCNF()
+    formula.extend(clauses)
+    formula.extend([literal] for literal in hard)
+    formula.extend([[literal] for literal in soft], weights=[1] * len(soft))
+    found: list[list[int]] = []
+    with RC2(formula, solver="g4") as maxsat:
+        for values in maxsat.enumerate(block=-1):
+            truth = set(values)
+            falsified = [k for k, literal in enumerate(soft) if literal not in truth]
+            if not falsified:
+                break
+            found.append(falsified)
+            if len(found) >= most:
+                break
+    return found
+
+
+def configuration_repairs(model: FeatureModel, config: Configuration, most: int = MOST) -> list[Repair]:
+    """The minimal repairs of a configuration that has no valid variant, fewest first.
+
+    [] when the configuration is valid, or when no change to it helps (the model has no
+    valid variant at all)."""
+    with enc.Encoding(model, record=True) as encoding:
+        encoding.set_configuration(config)
+        facts = encoding.facts  # hard build: the configuration's facts only
+        soft = encoding.literals[: len(facts)]
+        recorded = encoding.recorded or []
+        found = corrections(recorded, [], soft, most)
+    return [tuple(_config_change(model, facts[k], soft[k]) for k in _ordered(facts, mcs)) for mcs in found]
+
+
+def _ordered(facts: Sequence[enc.EncodedFact], mcs: list[int]) -> list[int]:
+    """A repair's changes in definition order, a feature's selection before its binding."""
+    rank = {enc.CONFIG_SELECTED: 0, enc.CONFIG_DESELECTED: 0, enc.CONFIG_TIME: 1, enc.CONFIG_MODE: 2}
+    return sorted(mcs, key=lambda k: (facts[k].a, rank[facts[k].kind]))
+
+
+def _config_change(model: FeatureModel, fact: enc.EncodedFact, literal: int) -> Change:
+    """The change that turns a configuration fact (assumed as `literal`) over, in the user's words."""
+    name = model.features[fact.a].id
+    if fact.kind == enc.CONFIG_SELECTED:
+        return Change(name, "select", False, f"deselect {name}")
+    if fact.kind == enc.CONFIG_DESELECTED:
+        return Change(name, "select", True, f"select {name}")
+    # the configuration says one value (a positive literal: Early, Static); the repair, the other
+    if fact.kind == enc.CONFIG_TIME:
+        time = Time.LATE if literal > 0 else Time.EARLY
+        return Change(name, "time", time.value, f"make {name} {time.value}")
+    mode = Mode.DYNAMIC if literal > 0 else Mode.STATIC
+    return Change(name, "mode", mode.value, f"make {name} {mode.value}")
