@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from itertools import combinations
 from typing import Any
 
 import pytest
@@ -13,6 +14,7 @@ from hypothesis import strategies as st
 
 from motivml.binding.resolve import NoVariant, resolve, start_state
 from motivml.documents.loader import parse
+from motivml.errors import repair_text
 from motivml.language.model import FeatureModel
 from motivml.language.reader import read_configuration, read_model
 from motivml.runtime.reconfigure import Plan, Reconfigurer, Refused
@@ -202,10 +204,16 @@ class Reference:
     def apply(self, active: set[str], action: str, features: tuple[str, ...]) -> set[str] | None:
         unloads = features[:1] if action == "swap" else features if action in ("unload", "reload") else ()
         loads = features[1:] if action == "swap" else features if action == "load" else ()
+        return self.apply_set(active, loads, unloads, reload=action == "reload")
+
+    def apply_set(
+        self, active: set[str], loads: tuple[str, ...], unloads: tuple[str, ...], reload: bool = False
+    ) -> set[str] | None:
+        """The active set after unloading `unloads` and loading `loads` in one request."""
         for f in unloads:
             if f not in active or self.selected[f][1]:
                 return None
-        if action == "reload":
+        if reload:
             return set(active)
         gone = set().union(*(self.subtree(f) for f in unloads)) & active if unloads else set()
         rest = active - gone
@@ -304,11 +312,105 @@ def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataO
             expected = reference.apply(active, action, features)
             try:
                 plan: Plan | None = reconfigurer.plan(active, Request(action, features))
-            except Refused:
+            except Refused as refused:
                 plan = None
+                assert_repairs_mend(reference, active, action, features, refused)
             assert (None if plan is None else set(plan.after)) == expected, (action, features, active)
             if plan is not None:
                 assert set(plan.unloads) == plan.before - plan.after | (set(plan.unloads) & plan.after)
                 assert set(plan.loads) == plan.after - (plan.before - set(plan.unloads))
                 active = set(plan.after)
                 assert ref.active_set_satisfies_section_2(raw, active)
+
+
+def assert_repairs_mend(
+    reference: Reference, active: set[str], action: str, features: tuple[str, ...], refused: Refused
+) -> None:
+    """A refused request's repairs (semantics.md section 6), judged by brute force: each,
+    made to the request, gives a request the reference accepts, and no part of it does;
+    every conflict carries the same list, fewest changes first."""
+    repairs = refused.diagnostics[0].repairs
+    assert all(d.repairs == repairs for d in refused.diagnostics)
+    assert [len(r) for r in repairs] == sorted(len(r) for r in repairs)
+    unloads = features[:1] if action == "swap" else features if action in ("unload", "reload") else ()
+    loads = features[1:] if action == "swap" else features if action == "load" else ()
+    for repair in repairs:
+        assert all(c.change in ("load", "unload") and c.value is True for c in repair)  # only additions
+        assert not {c.feature for c in repair} & set(features)  # what the request names stays
+
+        def made(changes: tuple[Any, ...]) -> set[str] | None:
+            more_loads = tuple(c.feature for c in changes if c.change == "load")
+            more_unloads = tuple(c.feature for c in changes if c.change == "unload")
+            return reference.apply_set(active, loads + more_loads, unloads + more_unloads)
+
+        after = made(repair)
+        assert after is not None, (action, features, active, repair)
+        for size in range(len(repair)):
+            for part in combinations(repair, size):
+                assert made(part) is None, (action, features, active, repair, part)
+
+
+def test_a_refused_request_gets_the_changes_that_would_be_accepted(
+    robot: tuple[Reconfigurer, set[str]],
+) -> None:
+    reconfigurer, active = robot
+    cases = {
+        ("load slam hector", "load karto"): ["also unload hector"],
+        ("load slam",): ["also load hector", "also load karto"],
+        ("load sonar",): ["also unload lidar"],
+        ("load gestures",): ["also load camera"],
+        ("load hector",): ["also load slam"],
+    }
+    for requests, expected in cases.items():
+        now = set(active)
+        for text in requests[:-1]:
+            action, *features = text.split()
+            now = set(reconfigurer.plan(now, Request(action, tuple(features))).after)
+        action, *features = requests[-1].split()
+        with pytest.raises(Refused) as refused:
+            reconfigurer.plan(now, Request(action, tuple(features)))
+        assert [repair_text(r) for r in refused.value.diagnostics[0].repairs] == expected, requests
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(run_time_models())
+def test_every_refused_load_and_unload_gets_repairs_that_brute_force_accepts(raw: dict[str, Any]) -> None:
+    """From the start state of a variant selecting everything it may, bound as late and as
+    dynamic as it may: every load and unload of one feature; each refused one's repairs."""
+    model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    everything = {
+        "properties": [{"id": f.id, "props": {"time": "Any", "mode": "Any"}} for f in model.features[1:]]
+    }
+    configuration, _ = read_configuration(parse(json.dumps(everything), "v.json"), model, partial=True)
+    try:
+        variant = resolve(model, configuration, ("late", "dynamic"))
+    except NoVariant:
+        return
+    selected = {d.feature.id: (d.binding.early, d.binding.static) for d in variant.selected()}
+    reference = Reference(raw, model, selected)
+    active = {f.id for f in start_state(variant)}
+    with Reconfigurer(variant) as reconfigurer:
+        for f in model.features[1:]:
+            action = "unload" if f.id in active else "load"
+            try:
+                reconfigurer.plan(active, Request(action, (f.id,)))
+            except Refused as refused:
+                assert_repairs_mend(reference, active, action, (f.id,), refused)
+                mendable = refused.breaks_relations or refused.diagnostics[0].rule == "reconfigure.parent"
+                if mendable:  # repairs exist iff brute force finds other moves that are accepted
+                    assert bool(refused.diagnostics[0].repairs) == any_mend(reference, active, action, f.id)
+
+
+def any_mend(reference: Reference, active: set[str], action: str, named: str) -> bool:
+    """Whether loading and unloading other features besides makes the request accepted."""
+    others = [g for g in reference.selected if g != named and g != reference.model.features[0].id]
+    moves = [(g, g not in active) for g in others if g not in active or not reference.selected[g][1]]
+    for size in range(1, len(moves) + 1):
+        for part in combinations(moves, size):
+            loads = tuple(g for g, load in part if load)
+            unloads = tuple(g for g, load in part if not load)
+            own = (named,) if action == "load" else ()
+            gone = (named,) if action == "unload" else ()
+            if reference.apply_set(active, own + loads, gone + unloads) is not None:
+                return True
+    return False

@@ -26,7 +26,7 @@ This is the only module that imports pysat. Solvers are opened with `with Encodi
 from __future__ import annotations
 
 from array import array
-from collections.abc import Callable, Collection, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from itertools import accumulate, chain
 from types import TracebackType
@@ -502,6 +502,14 @@ class Encoding:
                     smaller = set(self._core(by_literal, trial, solver))
                     current = [k for k in trial if k in smaller]
         return current
+
+    def kept_clauses(self) -> Iterator[list[int]]:
+        """Every clause of the explain build, each under its fact's selector (for MaxSAT)."""
+        if not self.explain:
+            raise ValueError("kept_clauses() needs Encoding(model, explain=True)")
+        literals, starts = self._kept_literals, self._kept_starts
+        for c in range(len(starts) - 1):
+            yield literals[starts[c] : starts[c + 1]].tolist()
 
     def _first_feature(self, k: int) -> int:
         fact = self.facts[k]

@@ -21,7 +21,7 @@ not, for the new active set to satisfy section 2.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 
 from ..errors import Change, Repair
 from ..language.model import Configuration, FeatureModel, Mode, Time
@@ -89,3 +89,36 @@ def _config_change(model: FeatureModel, fact: enc.EncodedFact, literal: int) -> 
         return Change(name, "time", time.value, f"make {name} {time.value}")
     mode = Mode.DYNAMIC if literal > 0 else Mode.STATIC
     return Change(name, "mode", mode.value, f"make {name} {mode.value}")
+
+
+def request_corrections(
+    encoding: enc.Encoding,
+    fixed: Sequence[int],
+    after: Collection[int],
+    movable: Collection[int],
+    most: int = MOST,
+) -> list[list[tuple[int, bool]]]:
+    """The smallest changes to a refused request's active set that section 2 accepts.
+
+    `encoding` is the run time's explain build, `fixed` the variant's literals, `after`
+    (feature indices) the active set the request asked for, and `movable` the features
+    whose activity a request may change besides (selected, and not Static once active).
+    Each answer is a minimal list of (feature, active) that differ from `after`, fewest
+    first; the start-state rule that every Early feature is active is left out, as in
+    `Encoding.active_set_conflicts`."""
+    wanted = set(after)
+    model_facts = [
+        encoding.literals[k] for k in range(encoding.model_facts) if encoding.facts[k].kind != enc.START_EARLY
+    ]
+    hard = [*fixed, *model_facts]
+    soft: list[int] = []
+    moves: list[tuple[int, bool]] = []
+    for i in range(encoding.n):
+        literal = encoding.a(i) if i in wanted else -encoding.a(i)
+        if i in movable:
+            soft.append(literal)
+            moves.append((i, i not in wanted))
+        else:
+            hard.append(literal)
+    found = corrections(encoding.kept_clauses(), hard, soft, most)
+    return [[moves[k] for k in mcs] for mcs in found]

@@ -296,7 +296,7 @@ class Binder:
     def _check_and_prepare(self, request: Request) -> tuple[Plan, Commit] | Outcome:
         """The plan and its prepared commit, or the outcome that says why there is none."""
         try:
-            plan = self.reconfigurer.plan(self.active, request)
+            plan = self.reconfigurer.plan(self.active, request, repairs=not getattr(self._trying, "now", False))
         except Refused as refused:
             return self._refused(
                 Outcome(

@@ -23,13 +23,14 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Collection
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from types import TracebackType
 
 from ..binding import encoding as enc
 from ..binding.explain import Explainer
+from ..binding.repair import request_corrections
 from ..binding.resolve import Variant
-from ..errors import Diagnostic, Location, MotivmlError, error
+from ..errors import Change, Diagnostic, Location, MotivmlError, Repair, error
 from ..language.model import Configuration
 from .requests import ACTIONS, Request
 
@@ -86,8 +87,10 @@ class Reconfigurer:
         return Refused(error(self._where(feature, *keys), message, rule, feature))
 
     # --------------------------------------------------------------------- plan
-    def plan(self, active: Collection[str], request: Request) -> Plan:
-        """The new active set of an accepted request; `Refused` says why not."""
+    def plan(self, active: Collection[str], request: Request, repairs: bool = True) -> Plan:
+        """The new active set of an accepted request; `Refused` says why not, and (with
+        `repairs`) how the request could change to be accepted, where moving other features
+        would help (semantics.md section 6)."""
         root = self.explainer.model_location(0)
         if request.action not in (*ACTIONS, "set"):
             raise Refused(
@@ -157,17 +160,23 @@ class Reconfigurer:
             parent = self.model[feature].parent
             if parent is not None and self.model.features[parent].id not in after:
                 parent_id = self.model.features[parent].id
-                raise self._refuse(
+                refused = self._refuse(
                     feature,
                     f"{feature} is a sub-feature of {parent_id}, which is not active: load {parent_id} in the same "
                     f"request (section 4)",
                     "reconfigure.parent",
                 )
+                if repairs:
+                    refused = Refused(self._with_repairs(refused.diagnostics, before, after, named))
+                raise refused
         conflicts = self.encoding.active_set_conflicts(
             self.fixed, [self.model.index[f] for f in after], limit=5
         )
         if conflicts:
-            raise Refused([self.explainer.diagnostic(mus) for mus in conflicts], breaks_relations=True)
+            diagnostics = [self.explainer.diagnostic(mus) for mus in conflicts]
+            if repairs:
+                diagnostics = self._with_repairs(diagnostics, before, after, named)
+            raise Refused(diagnostics, breaks_relations=True)
         return Plan(
             request,
             before,
@@ -175,6 +184,61 @@ class Reconfigurer:
             self._ordered(to_load - (before - to_unload)),
             self._ordered(to_unload, reverse=True),
         )
+
+    def _with_repairs(
+        self,
+        diagnostics: list[Diagnostic],
+        before: frozenset[str],
+        after: Collection[str],
+        named: Collection[str],
+    ) -> list[Diagnostic]:
+        """The diagnostics, each with the smallest changes to the request that section 2
+        accepts. What the request names stays as asked (dropping it would "repair" any
+        request): the changes load or unload other features besides."""
+        model = self.model
+        movable = []
+        for d in self.variant.decisions[1:]:
+            f = d.feature.id
+            if not d.selected or f in named:
+                continue
+            if f in after:  # can it be left inactive? not once a Static feature is active
+                if not d.binding.static or f not in before:
+                    movable.append(d.feature.index)
+            elif not (d.binding.static and d.binding.early):  # (a Static Early one is always active)
+                movable.append(d.feature.index)
+        found = request_corrections(
+            self.encoding, self.fixed, [model.index[f] for f in after], frozenset(movable)
+        )
+        mended = sorted((self._changes(moves, before) for moves in found), key=len)
+        return [replace(d, repairs=tuple(mended)) for d in diagnostics]
+
+    def _changes(self, moves: list[tuple[int, bool]], before: frozenset[str]) -> Repair:
+        """Moves of features' activity as changes to the request, in definition order. A move
+        that another implies is left out: a feature unloaded (or not loaded) with its parent,
+        a mandatory sub-feature loaded with its parent, one kept with its parent when the
+        parent's unload is taken back."""
+        model = self.model
+        direction = dict(moves)
+        changes = []
+        for i, active in sorted(moves):
+            f = model.features[i]
+            if f.parent is not None and direction.get(f.parent) is active:
+                if not active or f.mandatory or f.id in before:
+                    continue
+            if active:
+                change = (
+                    Change(f.id, "unload", False, f"do not unload {f.id}")
+                    if f.id in before
+                    else Change(f.id, "load", True, f"also load {f.id}")
+                )
+            else:
+                change = (
+                    Change(f.id, "unload", True, f"also unload {f.id}")
+                    if f.id in before
+                    else Change(f.id, "load", False, f"do not load {f.id}")
+                )
+            changes.append(change)
+        return tuple(changes)
 
     def _check_unload(self, feature: str, active: frozenset[str], verb: str) -> None:
         if feature not in active:
