@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import json
 import re
 import sys
@@ -15,7 +16,7 @@ from rich.markup import escape
 from ..binding import PREFERENCES
 from ..documents.robot_folder import RobotFolder
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
-from ..language.model import OFF, Binding, FeatureState, Mode, Time
+from ..language.model import OFF, Binding, FeatureState, Mode, Time, token
 from .common import fail, out, plural, print_diagnostics, printable, targets
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
@@ -23,6 +24,7 @@ EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild o
 if TYPE_CHECKING:
     from rich.tree import Tree
 
+    from ..binding.resolve import Variant
     from ..language.model import Configuration, FeatureModel
     from ..validate import Report
 
@@ -140,7 +142,12 @@ def _verdict(report: Report, checked_variants: bool) -> None:
     help="Also write the smallest decisions file from which configure derives this variant again.",
 )
 def configure_command(
-    target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str, save_decisions: str | None
+    target: str,
+    variant: str,
+    output: str | None,
+    prefer: tuple[str, ...],
+    prefix: str,
+    save_decisions: str | None,
 ) -> None:
     """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml, plugins.json, ros2_params.yaml.
 
@@ -287,8 +294,30 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
 @click.argument("target", default=".", type=click.Path())
 @click.option("--config", "config", type=click.Path(), help="A configuration file.")
 @click.option("--variant", help="A variant of the robot folder: variants/NAME.json.")
-def show_command(target: str, config: str | None, variant: str | None) -> None:
-    """Print the feature tree with groups, allowed, configured and forced bindings."""
+@click.option(
+    "--why", "why_feature", metavar="FEATURE", help="Why FEATURE is selected or not, and bound as it is."
+)
+@click.option(
+    "--prefer",
+    multiple=True,
+    type=click.Choice(PREFERENCES),
+    help="Resolve the variant as configure --prefer does (repeatable).",
+)
+@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+def show_command(
+    target: str,
+    config: str | None,
+    variant: str | None,
+    why_feature: str | None,
+    prefer: tuple[str, ...],
+    fmt: str,
+) -> None:
+    """Print the feature tree with groups, allowed, configured and forced bindings.
+
+    With a variant (--variant or --config), the features active at start are marked. With
+    --why FEATURE, say why the feature is selected or not (configured, forced, impossible or
+    left open) and why it has its time and mode, each answer with the located facts behind it.
+    """
     from ..binding.check import analyse_model, binding_states
     from ..validate import validate
 
@@ -303,28 +332,120 @@ def show_command(target: str, config: str | None, variant: str | None) -> None:
             sys.exit(1)
         model = reports[0].model
         assert model is not None
+        if why_feature is not None and why_feature not in model.index:
+            close = difflib.get_close_matches(why_feature, list(model.index), n=1, cutoff=0.75)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise click.BadParameter(f"no feature {why_feature!r} in the model{hint}", param_hint="'--why'")
         configuration = reports[-1].config if chosen else None
         states = binding_states(model, configuration)
         if not states[0]:  # not even the root: the model has no valid variant
             print_diagnostics(analyse_model(model))
             out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
             sys.exit(1)
+        resolved = _resolved(model, configuration, prefer)
+        reasons = None
+        if why_feature is not None:
+            from ..binding.why import why
+
+            decision = resolved[0].decisions[model.index[why_feature]] if resolved else None
+            reasons = why(
+                model,
+                configuration,
+                why_feature,
+                states,
+                prefer,
+                (decision.selected, decision.binding) if decision else None,
+                why_feature in resolved[1] if resolved else None,
+            )
     except MotivmlError as exc:
         fail(exc)
+    if fmt == "json":
+        payload = _show_json(model, configuration, states, resolved)
+        if reasons is not None:
+            payload["why"] = {"feature": why_feature, "reasons": [r.as_dict() for r in reasons]}
+        click.echo(json.dumps(payload, indent=2))
+        return
+    if reasons is not None:
+        for reason in reasons:
+            out.print(f"[bold]{escape(reason.statement)}[/]: {escape(reason.because)}")
+            for fact in reason.facts:
+                out.print(f"    [dim]{escape(str(fact.location))}: {escape(fact.text)}[/]")
+        return
     # A tree cannot soft-wrap: on a terminal it wraps at its width, into a pipe it stays whole.
     tree_console = (
         out if out.is_terminal else Console(highlight=False, emoji=False, width=max(out.width, 240))
     )
-    tree_console.print(_tree(model, configuration, states))
+    tree_console.print(_tree(model, configuration, states, resolved[1] if resolved else None))
     for formula in model.formulas:  # (rule 2.4: they hold beside the tree)
         out.print(f"formula {formula.position + 1}: {escape(formula.text)}")
+    start = "; start = active at start in the variant configure resolves" if resolved else ""
     out.print(
         "[dim]marks: ! mandatory, ? optional, [OR]/[XOR] group member; allowed = mode/time a feature allows; "
-        "set = what the configuration says; solver = what valid variants leave (one value: forced)[/]"
+        f"set = what the configuration says; solver = what valid variants leave (one value: forced){start}[/]"
     )
 
 
-def _tree(model: FeatureModel, config: Configuration | None, states: list[set[FeatureState]]) -> Tree:
+def _resolved(
+    model: FeatureModel, config: Configuration | None, prefer: tuple[str, ...]
+) -> tuple[Variant, set[str]] | None:
+    """The variant configure makes of the configuration, and its start state; None without one."""
+    if config is None:
+        return None
+    from ..binding.resolve import resolve, start_state
+
+    variant = resolve(model, config, prefer)
+    return variant, {f.id for f in start_state(variant)}
+
+
+def _show_json(
+    model: FeatureModel,
+    config: Configuration | None,
+    states: list[set[FeatureState]],
+    resolved: tuple[Variant, set[str]] | None,
+) -> dict[str, object]:
+    """The tree as data: per feature what the model allows, the configuration says, valid
+    variants leave, and (with a variant) what configure makes of it and whether it starts active."""
+    order: list[FeatureState] = [OFF, *Binding]
+    features = []
+    for f in model.features:
+        entry = config.entries.get(f.id) if config is not None else None
+        item: dict[str, object] = {
+            "id": f.id,
+            "name": f.name,
+            "parent": None if f.parent is None else model.features[f.parent].id,
+            "group": f.group,
+            "mandatory": f.mandatory,
+            "abstract": f.abstract,
+            "allowed": {"time": token(f.time_allowed), "mode": token(f.mode_allowed)},
+            "possible": [str(s) for s in order if s in states[f.index]],
+        }
+        if config is not None:
+            item["configured"] = (
+                None
+                if entry is None
+                else {"selected": entry.selected}
+                if not entry.selected
+                else {"selected": True, "time": token(entry.time), "mode": token(entry.mode)}
+            )
+        if resolved is not None:
+            d = resolved[0].decisions[f.index]
+            item["variant"] = {"selected": d.selected, "binding": str(d.binding) if d.selected else None}
+            item["active_at_start"] = f.id in resolved[1]
+        features.append(item)
+    return {
+        "model": model.source.file if model.source is not None else model.name,
+        "configuration": config.source.file if config is not None and config.source is not None else None,
+        "features": features,
+        "formulas": [formula.text for formula in model.formulas],
+    }
+
+
+def _tree(
+    model: FeatureModel,
+    config: Configuration | None,
+    states: list[set[FeatureState]],
+    active: set[str] | None = None,
+) -> Tree:
     from rich.tree import Tree
 
     order: list[FeatureState] = [OFF, *Binding]
@@ -353,6 +474,7 @@ def _tree(model: FeatureModel, config: Configuration | None, states: list[set[Fe
         label = (
             f"{mark}[bold]{escape(f.id)}[/] [dim]({escape(printable(f.name))})[/]  {allowed}{configured}  "
             f"solver [{colour}]{solver}[/]"
+            + (" [bold green]start[/]" if active is not None and f.id in active else "")
         )
         if f.parent is None:
             root_tree = Tree(label)
