@@ -12,7 +12,8 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 * `analysing`: analyse and sample (what a model allows: section 7's analyses and counts,
   t-wise samples);
 * `running`: run and ctl (the robot at run time);
-* `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL).
+* `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL);
+* `menuconfig`: the terminal configurator (Textual, imported only when it runs).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "configure": ("checking", "configure_command"),
     "diff": ("checking", "diff_command"),
     "show": ("checking", "show_command"),
+    "menuconfig": ("menuconfig", "menuconfig_command"),
     "analyse": ("analysing", "analyse_command"),
     "sample": ("analysing", "sample_command"),
     "run": ("running", "run_command"),

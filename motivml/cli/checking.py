@@ -184,11 +184,12 @@ def configure_command(
         folder = Path(output) if output else Path("build") / robot.name / variant
         written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path))
         if save_decisions is not None:
+            from ..binding.configurator import decisions_text
             from ..binding.resolve import decisions
             from ..documents.writing import write_if_changed
 
             path = Path(save_decisions)
-            write_if_changed(path.parent, {path.name: _decisions_json(decisions(resolved, prefer))})
+            write_if_changed(path.parent, {path.name: decisions_text(decisions(resolved, prefer))})
     except MotivmlError as exc:
         fail(exc)
     print_diagnostics(missing_plugins(model, late_or_dynamic(resolved), plugins))
@@ -206,20 +207,6 @@ def configure_command(
         out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")
     if save_decisions is not None:
         out.print(f"  wrote {escape(save_decisions)} (the decisions it derives from)")
-
-
-def _decisions_json(config: Configuration) -> str:
-    """A decisions file (semantics.md section 1): `"partial": true` and its entries only."""
-    properties: list[dict[str, object]] = []
-    for entry in config.entries.values():
-        item: dict[str, object] = {"id": entry.id}
-        if not entry.selected:
-            item["selected"] = False
-        props = {k: v.value for k, v in (("time", entry.time), ("mode", entry.mode)) if v is not None}
-        if entry.selected and props:
-            item["props"] = props
-        properties.append(item)
-    return json.dumps({"partial": True, "properties": properties}, indent=2) + "\n"
 
 
 @click.command("diff")

@@ -1,0 +1,207 @@
+"""An interactive configuration session: decisions, their consequences, conflicts, repairs.
+
+What `motivml menuconfig` shows and changes, kept apart from any screen so that it can be
+tested and driven headless. A session holds the person's decisions (per feature: selected
+or not, a time, a mode, each possibly left open) and, after every change, what follows
+from them on the one encoding:
+
+* `states`: per feature what valid variants can still make of it (one value: forced);
+* `problems`: when the decisions have no valid variant, the conflicts, each with the
+  configuration's minimal repairs (section 6); `apply` makes one of them;
+* `why(feature)`: the located reasons, as `show --why` gives them.
+
+The decisions are kept as the decisions file they will be saved as (semantics.md section
+1, `"partial": true`): after each change that text is read back by the same reader as a file
+on disk, so a conflict's facts point at the lines the saved file will have.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Collection
+from dataclasses import dataclass
+
+from ..documents.loader import parse
+from ..errors import Diagnostic, Repair, Severity
+from ..language.model import Configuration, Entry, FeatureModel, FeatureState, Mode, Time
+from ..language.reader import read_configuration
+from .check import binding_states, check_variant
+from .why import Reason, why
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What a person decided of one feature; None: left to the configurator."""
+
+    selected: bool | None = None
+    time: Time | None = None
+    mode: Mode | None = None
+
+
+def decisions_text(config: Configuration, extra: dict[str, object] | None = None) -> str:
+    """A configuration as a decisions file (semantics.md section 1): `"partial": true`, its
+    entries only, in their order; `extra` keys (a document's `x-` keys) first."""
+    properties: list[dict[str, object]] = []
+    for entry in config.entries.values():
+        item: dict[str, object] = {"id": entry.id}
+        if not entry.selected:
+            item["selected"] = False
+        props = {k: v.value for k, v in (("time", entry.time), ("mode", entry.mode)) if v is not None}
+        if entry.selected and props:
+            item["props"] = props
+        properties.append(item)
+    return json.dumps({**(extra or {}), "partial": True, "properties": properties}, indent=2) + "\n"
+
+
+class Session:
+    """Decisions about one model's features and what follows from them."""
+
+    def __init__(
+        self,
+        model: FeatureModel,
+        file: str,
+        start: Configuration | None = None,
+        extra: dict[str, object] | None = None,
+        prefer: Collection[str] = (),
+    ) -> None:
+        """`file`: where the decisions will be saved (named in locations); `start`: a
+        configuration to begin from (each of its entries a decision); `extra`: top-level
+        keys to keep (a document's `x-` keys)."""
+        self.model = model
+        self.file = file
+        self.extra = dict(extra or {})
+        self.prefer = tuple(prefer)
+        self.decisions: dict[str, Decision] = {}
+        if start is not None:
+            for entry in sorted(start.entries.values(), key=lambda e: model.index.get(e.id, 0)):
+                if entry.id in model.index and model.index[entry.id] != 0:
+                    self.decisions[entry.id] = Decision(
+                        entry.selected,
+                        entry.time if entry.selected else None,
+                        entry.mode if entry.selected else None,
+                    )
+        self.config: Configuration
+        self.states: list[set[FeatureState]] = []
+        self.problems: list[Diagnostic] = []
+        self.saved_text: str | None = None
+        self.refresh()
+
+    # ------------------------------------------------------------------ reading
+    def text(self) -> str:
+        """The decisions file as it would be saved now."""
+        config = Configuration({}, "")
+        for position, (fid, d) in enumerate(self.decisions.items()):
+            config.entries[fid] = Entry(fid, d.selected is not False, d.time, d.mode, position)
+        return decisions_text(config, self.extra)
+
+    def refresh(self) -> None:
+        """Read the decisions back as a file and work out what follows from them."""
+        # In definition order, so that the file reads as the tree does.
+        self.decisions = dict(sorted(self.decisions.items(), key=lambda item: self.model.index[item[0]]))
+        doc = parse(self.text(), self.file)
+        config, diagnostics = read_configuration(doc, self.model, partial=True)
+        self.config = config
+        errors = [d for d in diagnostics if d.severity is Severity.ERROR]
+        self.problems = errors or check_variant(self.model, config)
+        self.states = binding_states(self.model, config) if not self.problems else []
+
+    @property
+    def valid(self) -> bool:
+        return not self.problems
+
+    @property
+    def repairs(self) -> tuple[Repair, ...]:
+        """The minimal repairs of the current conflicts (each fixes all of them), fewest first."""
+        return self.problems[0].repairs if self.problems else ()
+
+    def forced(self, fid: str) -> FeatureState | None:
+        """The one value valid variants give a feature the decisions leave open; else None."""
+        if not self.states:
+            return None
+        possible = self.states[self.model.index[fid]]
+        return next(iter(possible)) if len(possible) == 1 else None
+
+    def possible(self, fid: str) -> set[FeatureState]:
+        return self.states[self.model.index[fid]] if self.states else set()
+
+    def why(self, fid: str) -> list[Reason]:
+        """Why the feature is what it is (`show --why`); [] while the decisions conflict."""
+        if not self.valid:
+            return []
+        from .resolve import resolve, start_state
+
+        variant = resolve(self.model, self.config, self.prefer)
+        decision = variant.decisions[self.model.index[fid]]
+        active = {f.id for f in start_state(variant)}
+        return why(
+            self.model,
+            self.config,
+            fid,
+            self.states,
+            self.prefer,
+            (decision.selected, decision.binding),
+            fid in active,
+        )
+
+    # ----------------------------------------------------------------- changing
+    def select(self, fid: str, selected: bool | None) -> None:
+        """Decide whether a feature is selected (None: leave it open). Deselecting drops its
+        time and mode (they mean nothing then); leaving it open keeps them only if set."""
+        old = self._old(fid)
+        if selected is False:
+            self._set(fid, Decision(False))
+        elif selected is None and old.time is None and old.mode is None:
+            self._set(fid, Decision())
+        else:
+            self._set(fid, Decision(True, old.time, old.mode))
+
+    def bind(self, fid: str, time: Time | None, mode: Mode | None) -> None:
+        """Decide a feature's time and mode (None: leave it open); a binding is decided of a
+        selected feature, so a feature not yet selected becomes selected."""
+        old = self._old(fid)
+        if time is None and mode is None:
+            self._set(fid, Decision(old.selected) if old.selected else Decision())
+        else:
+            self._set(fid, Decision(True, time, mode))
+
+    def clear(self, fid: str) -> None:
+        """Leave everything about a feature to the configurator again."""
+        self._old(fid)
+        self._set(fid, Decision())
+
+    def decided(self, fid: str) -> Decision:
+        return self.decisions.get(fid, Decision())
+
+    def _old(self, fid: str) -> Decision:
+        if self.model.index[fid] == 0:
+            raise ValueError("the root is always selected, Static and Early (rule 2.1)")
+        return self.decided(fid)
+
+    def _set(self, fid: str, decision: Decision) -> None:
+        if decision == Decision():
+            self.decisions.pop(fid, None)
+        else:
+            self.decisions[fid] = decision
+        self.refresh()
+
+    def apply(self, repair: Repair) -> None:
+        """Make every change of a repair, then refresh once."""
+        for change in repair:
+            old = self.decisions.get(change.feature, Decision())
+            if change.change == "select":
+                new = Decision(True, old.time, old.mode) if change.value else Decision(False)
+            elif change.change == "time":
+                new = Decision(True, Time(str(change.value)), old.mode)
+            elif change.change == "mode":
+                new = Decision(True, old.time, Mode(str(change.value)))
+            else:
+                raise ValueError(f"not a change to a configuration: {change.change}")
+            self.decisions[change.feature] = new
+        self.refresh()
+
+    def saved(self) -> None:
+        self.saved_text = self.text()
+
+    @property
+    def unsaved(self) -> bool:
+        return self.saved_text != self.text()

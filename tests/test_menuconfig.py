@@ -1,0 +1,247 @@
+"""motivml menuconfig: the session behind it, and the application driven headless.
+
+The application runs under Textual's pilot in an 80x24 screen: the keys a person presses
+(arrows to navigate, y/n/u, t, m, ?, a digit, s, q), and what the tree, the detail panel and
+the saved file show afterwards. The saved file is then checked by `validate` as any variant.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import shutil
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+from click.testing import CliRunner
+
+from motivml.binding.configurator import Session
+from motivml.cli import main
+from motivml.cli.menuconfig import MenuConfig, open_session
+from motivml.errors import repair_text
+from motivml.language.model import Mode, Time
+from motivml.language.reader import load_model
+
+ROOT = Path(__file__).resolve().parent.parent
+SIMPLEBOT = ROOT / "feature_models" / "simplebot"
+
+
+@pytest.fixture
+def robot(tmp_path: Path) -> Path:
+    folder = tmp_path / "simplebot"
+    shutil.copytree(SIMPLEBOT, folder)
+    return folder
+
+
+# ------------------------------------------------------------------------------ session
+def test_a_decision_propagates_at_once() -> None:
+    model, _ = load_model(SIMPLEBOT / "model.json")
+    assert model is not None
+    session = Session(model, "new.json")
+    assert session.valid and session.decisions == {}
+    assert "off" in session.possible("slam")
+    session.select("kartoslam", True)
+    assert "off" not in session.possible("slam") and "off" not in session.possible("grid_map")  # forced
+    assert {str(b) for b in session.possible("grid_map")} == {"SE", "SL"}  # slam requires it: Static
+    assert session.possible("amcl") == {"off"}  # amcl excludes slam, and amcl is Static only
+
+
+def test_a_conflict_offers_repairs_and_one_applies() -> None:
+    model, _ = load_model(SIMPLEBOT / "model.json")
+    assert model is not None
+    session = Session(model, "new.json")
+    session.select("kartoslam", True)
+    session.bind("grid_map", None, Mode.DYNAMIC)
+    assert not session.valid
+    assert [repair_text(r) for r in session.repairs] == ["deselect kartoslam", "make grid_map Static"]
+    session.apply(session.repairs[1])
+    assert session.valid
+    assert json.loads(session.text())["properties"] == [
+        {"id": "grid_map", "props": {"mode": "Static"}},
+        {"id": "kartoslam"},
+    ]
+
+
+def test_deselecting_drops_a_binding_and_binding_selects() -> None:
+    model, _ = load_model(SIMPLEBOT / "model.json")
+    assert model is not None
+    session = Session(model, "new.json")
+    session.bind("navigation", Time.LATE, Mode.DYNAMIC)
+    assert json.loads(session.text())["properties"] == [
+        {"id": "navigation", "props": {"time": "Late", "mode": "Dynamic"}}
+    ]
+    session.select("navigation", False)
+    assert json.loads(session.text())["properties"] == [{"id": "navigation", "selected": False}]
+    session.select("navigation", None)
+    assert session.decisions == {}
+    with pytest.raises(ValueError, match="the root is always selected"):
+        session.select("root_feature", False)
+
+
+def test_an_existing_variant_is_read_with_its_x_keys(robot: Path) -> None:
+    session, path = open_session(str(robot), "warehouse", None)
+    assert path == robot / "variants" / "warehouse.json"
+    assert list(session.decisions)[:2] == ["depth_camera", "teleoperation"]
+    assert "x-description" in json.loads(session.text())
+    assert not session.unsaved
+
+
+# -------------------------------------------------------------------------- application
+def drive(session: Session, path: Path, steps: Callable[[Any, Any], Awaitable[None]]) -> Any:
+    """Run the application headless in an 80x24 screen and play `steps` on it."""
+    app = MenuConfig(session, path)
+
+    async def play() -> None:
+        async with app.run_test(size=(80, 24)) as pilot:
+            await steps(app, pilot)
+
+    asyncio.run(play())
+    return app
+
+
+async def go_to(app: Any, pilot: Any, feature: str) -> None:
+    """Move the cursor down to `feature`, as a person would with the arrow keys."""
+    tree = app.query_one("#features")
+    for _ in range(len(app.nodes) + 1):
+        if tree.cursor_node is not None and tree.cursor_node.data == feature:
+            return
+        await pilot.press("down")
+    raise AssertionError(f"the cursor never reached {feature}")
+
+
+def label(app: Any, feature: str) -> str:
+    return str(app.nodes[feature].label)
+
+
+def detail(app: Any) -> str:
+    return str(app.query_one("#text").render())
+
+
+def test_navigate_change_see_propagation_repair_and_save(robot: Path) -> None:
+    session, path = open_session(str(robot), "sketch", None)
+    seen: dict[str, str] = {}
+
+    async def steps(app: Any, pilot: Any) -> None:
+        seen["slam before"] = label(app, "slam")
+        await go_to(app, pilot, "kartoslam")
+        await pilot.press("y")  # select kartoslam
+        seen["kartoslam"] = label(app, "kartoslam")
+        seen["slam after"] = label(app, "slam")  # forced on, locked
+        seen["grid_map after"] = label(app, "grid_map")  # forced on, forced Static
+        await pilot.press("up", "up", "up")  # back to grid_map
+        assert app.query_one("#features").cursor_node.data == "grid_map"
+        await pilot.press("m", "m")  # Static, then Dynamic: slam requires it Static
+        seen["conflict"] = detail(app)
+        await pilot.press("s")  # refused while the decisions conflict
+        seen["saved while invalid"] = str(path.exists())
+        await pilot.press("2")  # make grid_map Static
+        seen["repaired"] = detail(app)
+        await pilot.press("question_mark")
+        seen["why"] = detail(app)
+        await pilot.press("s")
+        await pilot.press("q")
+
+    app = drive(session, path, steps)
+    assert seen["slam before"] == "( ) ? slam  **"
+    assert seen["kartoslam"] == "[x] [XOR] kartoslam  **"
+    assert seen["slam after"] == "-x- ? slam  **"
+    assert seen["grid_map after"] == "-x- ? grid_map  S*"
+    assert seen["conflict"].startswith(
+        "no valid variant: kartoslam is a sub-feature of slam; slam requires grid_map"
+    )
+    assert "repairs (press the digit):\n1 deselect kartoslam\n2 make grid_map Static" in seen["conflict"]
+    assert seen["saved while invalid"] == "False"
+    assert seen["repaired"].startswith("valid: 2 decisions")
+    assert seen["why"].startswith("grid_map is selected: the configuration says so")
+    assert "grid_map is Static: the configuration says so" in seen["why"]
+    assert app.return_code in (None, 0)
+    assert json.loads(path.read_text()) == {
+        "partial": True,
+        "properties": [{"id": "grid_map", "props": {"mode": "Static"}}, {"id": "kartoslam"}],
+    }
+    result = CliRunner().invoke(main, ["validate", str(robot / "model.json"), "--config", str(path)])
+    assert result.exit_code == 0, result.output
+    assert f"valid: {path} (2 bindings left to the configurator)" in result.output
+
+
+def test_quitting_with_unsaved_decisions_asks_again(robot: Path) -> None:
+    session, path = open_session(str(robot), "warehouse", None)
+    before = path.read_bytes()
+    states: list[bool] = []
+
+    async def steps(app: Any, pilot: Any) -> None:
+        await go_to(app, pilot, "navigation")
+        await pilot.press("n")
+        await pilot.press("q")
+        states.append(app.is_running)
+        await pilot.press("q")
+
+    app = drive(session, path, steps)
+    assert states == [True] and not app.is_running
+    assert path.read_bytes() == before  # quit without saving: the file is as it was
+
+
+def test_the_root_cannot_be_changed(robot: Path) -> None:
+    session, path = open_session(str(robot), "fresh", None)
+
+    async def steps(app: Any, pilot: Any) -> None:
+        await pilot.press("n", "t", "m")
+        await pilot.press("q")
+
+    drive(session, path, steps)
+    assert session.decisions == {} and not path.exists()
+
+
+def test_menuconfig_needs_a_terminal_and_a_file(robot: Path) -> None:
+    runner = CliRunner()
+    no_file = runner.invoke(main, ["menuconfig", str(robot)])
+    assert no_file.exit_code == 2 and "give --variant NAME or --config FILE" in no_file.output
+    bad_name = runner.invoke(main, ["menuconfig", str(robot), "--variant", "../elsewhere"])
+    assert bad_name.exit_code == 2 and "a variant's name is letters" in bad_name.output
+    no_tty = runner.invoke(main, ["menuconfig", str(robot), "--variant", "lab"])
+    assert no_tty.exit_code == 2 and "menuconfig needs a terminal" in no_tty.output
+    broken = robot / "variants" / "broken.json"
+    broken.write_text("{")
+    unreadable = runner.invoke(main, ["menuconfig", str(robot), "--variant", "broken"])
+    assert unreadable.exit_code == 1 and "broken.json:1:2" in unreadable.output
+
+
+def test_time_mode_undecide_and_refusals_in_the_application(tmp_path: Path) -> None:
+    """t and m cycle open -> Early/Static -> Late/Dynamic -> open; u undecides; a digit with
+    no repair, ? while the decisions conflict and a save that cannot be written are said,
+    and change nothing."""
+    blocked = tmp_path / "not-a-folder"
+    blocked.write_text("a file where the variant's folder would be\n")
+    session, path = open_session(str(SIMPLEBOT / "model.json"), None, str(blocked / "v.json"))
+    seen: list[str] = []
+
+    async def steps(app: Any, pilot: Any) -> None:
+        await go_to(app, pilot, "navigation")
+        for key in ("t", "t", "t", "m", "u"):
+            await pilot.press(key)
+            seen.append(label(app, "navigation"))
+        await pilot.press("5")  # no repair 5: the decisions are valid
+        await go_to(app, pilot, "hands")
+        await pilot.press("y", "m")  # hands Static: it allows only Dynamic
+        seen.append(detail(app).splitlines()[0])
+        await pilot.press("question_mark")  # refused: repair first
+        seen.append(detail(app).splitlines()[0])
+        await pilot.press("1", "s")
+        await pilot.pause()
+        seen.append(str([n.message for n in app._notifications]))
+        await pilot.press("q", "q")
+
+    drive(session, path, steps)
+    assert seen[:5] == [
+        "[x] ? navigation  *E",
+        "[x] ? navigation  *L",
+        "[x] ? navigation  **",  # still selected: only the time is open again
+        "[x] ? navigation  S*",
+        "( ) ? navigation  **",
+    ]
+    assert seen[5].startswith("no valid variant: hands allows only Dynamic binding")
+    assert seen[6] == seen[5]  # ? did not replace the conflict
+    assert "there is no repair 5" in seen[7] and "repair them first" in seen[7]
+    assert "cannot write" in seen[7] and not path.exists()
