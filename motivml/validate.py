@@ -37,6 +37,7 @@ class Report:
     config: Configuration | None = None
     analysed: bool = False  # model analyses (dead features, bindings) ran
     open_bindings: int = 0  # selected features whose binding the configuration leaves open
+    open_features: int = 0  # features without an entry (a partial configuration, a decisions file)
 
     @property
     def errors(self) -> list[Diagnostic]:
@@ -71,6 +72,7 @@ def validate_configuration(model: FeatureModel, config_path: str | Path, partial
     report.config = config
     if config is not None:
         report.diagnostics += check_variant(model, config)
+        report.open_features = sum(1 for f in model.features[1:] if f.id not in config.entries)
         report.open_bindings = sum(
             1
             for e in config.entries.values()

@@ -90,7 +90,7 @@ def test_partial_configuration(tmp_path: Path) -> None:
     assert code == 1 and "the configuration is incomplete" in output
     code, output = run("validate", str(SIMPLEBOT / "model.json"), "--config", str(config), "--partial")
     assert code == 0, output
-    assert "(1 binding left to the configurator)" in output
+    assert "(17 features and 1 binding left to the configurator)" in output
 
 
 def test_unknown_variant_is_a_usage_error() -> None:

@@ -101,6 +101,6 @@ def test_a_decisions_file_validates_as_partial_wherever_it_is(tmp_path: Path) ->
     assert result.exit_code == 1  # plain.json is incomplete; decided.json is not
     lines = result.output.splitlines()
     assert [line for line in lines if "decided.json" in line] == [
-        f"valid: {robot / 'variants' / 'decided.json'} (1 binding left to the configurator), 0 errors, 0 warnings"
+        f"valid: {robot / 'variants' / 'decided.json'} (4 features and 1 binding left to the configurator), 0 errors, 0 warnings"
     ]
     assert "plain.json" in result.output and "the configuration is incomplete" in result.output

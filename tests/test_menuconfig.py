@@ -163,7 +163,7 @@ def test_navigate_change_see_propagation_repair_and_save(robot: Path) -> None:
     }
     result = CliRunner().invoke(main, ["validate", str(robot / "model.json"), "--config", str(path)])
     assert result.exit_code == 0, result.output
-    assert f"valid: {path} (2 bindings left to the configurator)" in result.output
+    assert f"valid: {path} (16 features and 2 bindings left to the configurator)" in result.output
 
 
 def test_quitting_with_unsaved_decisions_asks_again(robot: Path) -> None:

@@ -115,8 +115,10 @@ def _verdict(report: Report, checked_variants: bool) -> None:
         extra = ""
         if report.kind == "model" and report.model is not None and report.analysed:
             extra = f" ({len(report.model.features)} features)"
-        elif report.open_bindings:
-            extra = f" ({plural(report.open_bindings, 'binding')} left to the configurator)"
+        elif report.open_bindings or report.open_features:
+            left = [plural(report.open_features, "feature")] if report.open_features else []
+            left += [plural(report.open_bindings, "binding")] if report.open_bindings else []
+            extra = f" ({' and '.join(left)} left to the configurator)"
         out.print(f"[bold green]valid[/]: {escape(report.file)}{escape(extra)}, {counts}")
     else:
         unchecked = (
