@@ -40,6 +40,17 @@ class LocatedFact:
     location: Location
     rule: str
 
+    def as_dict(self) -> dict[str, object]:
+        where = self.location
+        return {
+            "file": where.file,
+            "line": where.line,
+            "column": where.column,
+            "path": where.path,
+            "rule": self.rule,
+            "text": self.text,
+        }
+
 
 @dataclass(frozen=True)
 class Change:
@@ -83,17 +94,7 @@ class Diagnostic:
             "feature": self.feature,
             "rule": self.rule,
             "message": self.message,
-            "facts": [
-                {
-                    "file": f.location.file,
-                    "line": f.location.line,
-                    "column": f.location.column,
-                    "path": f.location.path,
-                    "rule": f.rule,
-                    "text": f.text,
-                }
-                for f in self.facts
-            ],
+            "facts": [f.as_dict() for f in self.facts],
             "repairs": [
                 {"text": repair_text(r), "changes": [c.as_dict() for c in r]} for r in self.repairs
             ],

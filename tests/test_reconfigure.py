@@ -66,16 +66,21 @@ def robot() -> tuple[Reconfigurer, set[str]]:
     return Reconfigurer(variant, configuration), {f.id for f in start_state(variant)}
 
 
-def refusal(robot: tuple[Reconfigurer, set[str]], *requests: str) -> str:
-    """Apply requests in turn; the last must be refused: its first message."""
+def refused(robot: tuple[Reconfigurer, set[str]], *requests: str) -> Refused:
+    """Apply requests in turn; the last must be refused: its refusal."""
     reconfigurer, active = robot
     for text in requests[:-1]:
         action, *features = text.split()
         active = set(reconfigurer.plan(active, Request(action, tuple(features))).after)
     action, *features = requests[-1].split()
-    with pytest.raises(Refused) as refused:
+    with pytest.raises(Refused) as refusal:
         reconfigurer.plan(active, Request(action, tuple(features)))
-    d = refused.value.diagnostics[0]
+    return refusal.value
+
+
+def refusal(robot: tuple[Reconfigurer, set[str]], *requests: str) -> str:
+    """Apply requests in turn; the last must be refused: its first message."""
+    d = refused(robot, *requests).diagnostics[0]
     return f"{d.location.path}: {d.message}"
 
 
@@ -262,29 +267,42 @@ def run_time_models(draw: st.DrawFn, n_max: int = 9) -> dict[str, Any]:
     return nodes[0]
 
 
+def started(
+    raw: dict[str, Any], document: dict[str, Any] | None
+) -> tuple[FeatureModel, Any, Reference, set[str]] | None:
+    """The model, its variant resolved as late and dynamic as it may be (from `document`, or
+    selecting every feature with open bindings), the brute-force reference of its run time
+    and its start state; None when there is no such variant."""
+    model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    if document is None:
+        document = {
+            "properties": [{"id": f.id, "props": {"time": "Any", "mode": "Any"}} for f in model.features[1:]]
+        }
+    configuration, _ = read_configuration(parse(json.dumps(document), "v.json"), model, partial=True)
+    try:
+        variant = resolve(model, configuration, ("late", "dynamic"))
+    except NoVariant:
+        return None
+    selected = {d.feature.id: (d.binding.early, d.binding.static) for d in variant.selected()}
+    return model, variant, Reference(raw, model, selected), {f.id for f in start_state(variant)}
+
+
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.data())
 def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataObject) -> None:
     raw: dict[str, Any] = data.draw(
         models(max_features=8) if data.draw(st.integers(0, 3)) == 0 else run_time_models()
     )
-    model, _ = read_model(parse(json.dumps(raw), "model.json"))
     # Half the time every feature selected with open bindings: the solver then binds all it
     # may Late and Dynamic, which gives the run time the most to do.
-    everything = {
-        "properties": [{"id": f.id, "props": {"time": "Any", "mode": "Any"}} for f in model.features[1:]]
-    }
-    document = everything if data.draw(st.booleans()) else data.draw(configurations(raw))
-    configuration, _ = read_configuration(parse(json.dumps(document), "v.json"), model, partial=True)
-    try:
-        variant = resolve(model, configuration, ("late", "dynamic"))
-    except NoVariant:
+    document = None if data.draw(st.booleans()) else data.draw(configurations(raw))
+    running = started(raw, document)
+    if running is None:
         return
-    selected = {d.feature.id: (d.binding.early, d.binding.static) for d in variant.selected()}
+    model, variant, reference, active = running
+    selected = reference.selected
     if len(selected) == 1:
         return  # only the root: nothing can change
-    reference = Reference(raw, model, selected)
-    active = {f.id for f in start_state(variant)}
     ids = [f.id for f in model.features]
     with Reconfigurer(variant) as reconfigurer:
         for _ in range(8):
@@ -353,7 +371,6 @@ def assert_repairs_mend(
 def test_a_refused_request_gets_the_changes_that_would_be_accepted(
     robot: tuple[Reconfigurer, set[str]],
 ) -> None:
-    reconfigurer, active = robot
     cases = {
         ("load slam hector", "load karto"): ["also unload hector"],
         ("load slam",): ["also load hector", "also load karto"],
@@ -362,14 +379,8 @@ def test_a_refused_request_gets_the_changes_that_would_be_accepted(
         ("load hector",): ["also load slam"],
     }
     for requests, expected in cases.items():
-        now = set(active)
-        for text in requests[:-1]:
-            action, *features = text.split()
-            now = set(reconfigurer.plan(now, Request(action, tuple(features))).after)
-        action, *features = requests[-1].split()
-        with pytest.raises(Refused) as refused:
-            reconfigurer.plan(now, Request(action, tuple(features)))
-        assert [repair_text(r) for r in refused.value.diagnostics[0].repairs] == expected, requests
+        repairs = refused(robot, *requests).diagnostics[0].repairs
+        assert [repair_text(r) for r in repairs] == expected, requests
 
 
 @settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -377,18 +388,10 @@ def test_a_refused_request_gets_the_changes_that_would_be_accepted(
 def test_every_refused_load_and_unload_gets_repairs_that_brute_force_accepts(raw: dict[str, Any]) -> None:
     """From the start state of a variant selecting everything it may, bound as late and as
     dynamic as it may: every load and unload of one feature; each refused one's repairs."""
-    model, _ = read_model(parse(json.dumps(raw), "model.json"))
-    everything = {
-        "properties": [{"id": f.id, "props": {"time": "Any", "mode": "Any"}} for f in model.features[1:]]
-    }
-    configuration, _ = read_configuration(parse(json.dumps(everything), "v.json"), model, partial=True)
-    try:
-        variant = resolve(model, configuration, ("late", "dynamic"))
-    except NoVariant:
+    running = started(raw, None)
+    if running is None:
         return
-    selected = {d.feature.id: (d.binding.early, d.binding.static) for d in variant.selected()}
-    reference = Reference(raw, model, selected)
-    active = {f.id for f in start_state(variant)}
+    model, variant, reference, active = running
     with Reconfigurer(variant) as reconfigurer:
         for f in model.features[1:]:
             action = "unload" if f.id in active else "load"

@@ -44,17 +44,7 @@ class Reason:
             "statement": self.statement,
             "how": self.how,
             "because": self.because,
-            "facts": [
-                {
-                    "file": f.location.file,
-                    "line": f.location.line,
-                    "column": f.location.column,
-                    "path": f.location.path,
-                    "rule": f.rule,
-                    "text": f.text,
-                }
-                for f in self.facts
-            ],
+            "facts": [f.as_dict() for f in self.facts],
         }
 
 
