@@ -73,3 +73,32 @@ def test_ctest_passes(build: Path) -> None:
     result = subprocess.run(["ctest", "--output-on-failure"], cwd=build, capture_output=True, text=True)
     assert result.returncode == 0, result.stdout + result.stderr
     assert "100% tests passed" in result.stdout
+
+
+def test_a_static_early_feature_without_its_header_fails_the_build(tmp_path: Path) -> None:
+    """Strict static binding: grid_map is Static Early in lab, so compiled in; with its header
+    misnamed, the build stops with an error naming the feature and the header it expected."""
+    if shutil.which("g++") is None:
+        pytest.fail("g++ not installed: .ci/run installs it")
+    features = tmp_path / "features" / "motivml_features"
+    shutil.copytree(ROOT / "cpp_static" / "features" / "motivml_features", features)
+    (features / "grid_map.hpp").rename(features / "gridmap.hpp")  # the typo a new user makes
+    motivml = Path(sys.executable).with_name("motivml")
+    out = tmp_path / "lab"
+    subprocess.run(
+        [str(motivml), "configure", str(ROOT / "feature_models" / "simplebot"), "--variant", "lab", "-o", str(out)],
+        check=True,
+        capture_output=True,
+    )
+    (tmp_path / "main.cpp").write_text('#include "static_loader.hpp"\nint main() { return 0; }\n')
+    # (-iquote: a folder holding features.h must not shadow the C library's <features.h>)
+    command = ["g++", "-std=c++17", "-fsyntax-only", "-iquote", str(out), f"-I{ROOT / 'cpp_static' / 'include'}"]
+    command += [f"-I{tmp_path / 'features'}", str(tmp_path / "main.cpp")]
+    broken = subprocess.run(command, capture_output=True, text=True)
+    assert broken.returncode != 0
+    errors = [line for line in broken.stderr.splitlines() if ": error: " in line]
+    assert len(errors) == 1, broken.stderr  # grid_map, and nothing else
+    assert "grid_map is Static Early in lab, so it is compiled in" in errors[0]
+    assert "<motivml_features/grid_map.hpp> was not found" in errors[0]
+    (features / "gridmap.hpp").rename(features / "grid_map.hpp")
+    assert subprocess.run(command, capture_output=True, text=True).returncode == 0

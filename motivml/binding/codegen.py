@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 from ..documents.robot_folder import Plugin
@@ -125,10 +126,12 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
     """The static feature loader (the paper's Listing 5, generated): for every feature of
     the model, its implementation is included and registered only when features.h compiles
     it in. An implementation is the header <motivml_features/ID.hpp> defining
-    `std::unique_ptr<motivml::StaticFeature> motivml_features::make_ID()`; a compiled-in
-    feature without one (e.g. a ROS node started elsewhere) is listed in
-    `motivml::unimplemented_features` so that a program can report it. Abstract features
-    (they only group others) expect no implementation: the loader does not mention them."""
+    `std::unique_ptr<motivml::StaticFeature> motivml_features::make_ID()`. A Static Early
+    feature is compiled in, so its header is required: without it the build stops with an
+    `#error` naming the feature and the header. Another selected feature's header is
+    included when there is one; those without are listed in `motivml::unimplemented_features`
+    so that a program can report them. Abstract features (they only group others) expect no
+    implementation: the loader does not mention them."""
     guard = f"{prefix}STATIC_LOADER_HPP"
     lines = _opening(variant, guard) + [
         '#include "features.h"',
@@ -136,9 +139,25 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
         "",
     ]
     features = [d.feature for d in variant.decisions if d.feature.parent is not None and not d.feature.abstract]
+    compiled_in = {d.feature.id for d in variant.selected() if d.binding is Binding.SE}
+    name = variant.name if re.fullmatch(r"[\w.-]+", variant.name) else "this variant"  # (inside a C string)
     for f in features:
         macro = f"{prefix}FEATURE_{f.id.upper()}"
         header = f"<motivml_features/{f.id}.hpp>"
+        if f.id in compiled_in:  # strict: a Static Early feature is compiled in, or the build fails
+            lines += [
+                f"#if defined({macro})",
+                f"#if __has_include({header})",
+                f"#include {header}",
+                f"#define {prefix}HAS_{f.id.upper()} 1",
+                "#else",
+                f'#error "motivml: {f.id} is Static Early in {name}, so it is compiled in, but its '
+                f"implementation {header} was not found on the include path (write it, or mark {f.id} "
+                f'abstract in the model if nothing implements it)"',
+                "#endif",
+                "#endif",
+            ]
+            continue
         lines += [
             f"#if defined({macro}) && __has_include({header})",
             f"#include {header}",

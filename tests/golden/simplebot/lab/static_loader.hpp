@@ -6,61 +6,101 @@
 #include "features.h"
 #include <motivml/static_feature.hpp>
 
-#if defined(MOTIVML_FEATURE_COMPONENT_CONTROL) && __has_include(<motivml_features/component_control.hpp>)
+#if defined(MOTIVML_FEATURE_COMPONENT_CONTROL)
+#if __has_include(<motivml_features/component_control.hpp>)
 #include <motivml_features/component_control.hpp>
 #define MOTIVML_HAS_COMPONENT_CONTROL 1
+#else
+#error "motivml: component_control is Static Early in lab, so it is compiled in, but its implementation <motivml_features/component_control.hpp> was not found on the include path (write it, or mark component_control abstract in the model if nothing implements it)"
 #endif
-#if defined(MOTIVML_FEATURE_BASE_CONTROLLER) && __has_include(<motivml_features/base_controller.hpp>)
+#endif
+#if defined(MOTIVML_FEATURE_BASE_CONTROLLER)
+#if __has_include(<motivml_features/base_controller.hpp>)
 #include <motivml_features/base_controller.hpp>
 #define MOTIVML_HAS_BASE_CONTROLLER 1
+#else
+#error "motivml: base_controller is Static Early in lab, so it is compiled in, but its implementation <motivml_features/base_controller.hpp> was not found on the include path (write it, or mark base_controller abstract in the model if nothing implements it)"
 #endif
-#if defined(MOTIVML_FEATURE_LASER_SCANNER) && __has_include(<motivml_features/laser_scanner.hpp>)
+#endif
+#if defined(MOTIVML_FEATURE_LASER_SCANNER)
+#if __has_include(<motivml_features/laser_scanner.hpp>)
 #include <motivml_features/laser_scanner.hpp>
 #define MOTIVML_HAS_LASER_SCANNER 1
+#else
+#error "motivml: laser_scanner is Static Early in lab, so it is compiled in, but its implementation <motivml_features/laser_scanner.hpp> was not found on the include path (write it, or mark laser_scanner abstract in the model if nothing implements it)"
+#endif
 #endif
 #if defined(MOTIVML_FEATURE_DEPTH_CAMERA) && __has_include(<motivml_features/depth_camera.hpp>)
 #include <motivml_features/depth_camera.hpp>
 #define MOTIVML_HAS_DEPTH_CAMERA 1
 #endif
-#if defined(MOTIVML_FEATURE_TELEOPERATION) && __has_include(<motivml_features/teleoperation.hpp>)
+#if defined(MOTIVML_FEATURE_TELEOPERATION)
+#if __has_include(<motivml_features/teleoperation.hpp>)
 #include <motivml_features/teleoperation.hpp>
 #define MOTIVML_HAS_TELEOPERATION 1
+#else
+#error "motivml: teleoperation is Static Early in lab, so it is compiled in, but its implementation <motivml_features/teleoperation.hpp> was not found on the include path (write it, or mark teleoperation abstract in the model if nothing implements it)"
 #endif
-#if defined(MOTIVML_FEATURE_LOCALIZATION) && __has_include(<motivml_features/localization.hpp>)
+#endif
+#if defined(MOTIVML_FEATURE_LOCALIZATION)
+#if __has_include(<motivml_features/localization.hpp>)
 #include <motivml_features/localization.hpp>
 #define MOTIVML_HAS_LOCALIZATION 1
+#else
+#error "motivml: localization is Static Early in lab, so it is compiled in, but its implementation <motivml_features/localization.hpp> was not found on the include path (write it, or mark localization abstract in the model if nothing implements it)"
+#endif
 #endif
 #if defined(MOTIVML_FEATURE_AMCL) && __has_include(<motivml_features/amcl.hpp>)
 #include <motivml_features/amcl.hpp>
 #define MOTIVML_HAS_AMCL 1
 #endif
-#if defined(MOTIVML_FEATURE_GRID_MAP) && __has_include(<motivml_features/grid_map.hpp>)
+#if defined(MOTIVML_FEATURE_GRID_MAP)
+#if __has_include(<motivml_features/grid_map.hpp>)
 #include <motivml_features/grid_map.hpp>
 #define MOTIVML_HAS_GRID_MAP 1
+#else
+#error "motivml: grid_map is Static Early in lab, so it is compiled in, but its implementation <motivml_features/grid_map.hpp> was not found on the include path (write it, or mark grid_map abstract in the model if nothing implements it)"
 #endif
-#if defined(MOTIVML_FEATURE_SLAM) && __has_include(<motivml_features/slam.hpp>)
+#endif
+#if defined(MOTIVML_FEATURE_SLAM)
+#if __has_include(<motivml_features/slam.hpp>)
 #include <motivml_features/slam.hpp>
 #define MOTIVML_HAS_SLAM 1
+#else
+#error "motivml: slam is Static Early in lab, so it is compiled in, but its implementation <motivml_features/slam.hpp> was not found on the include path (write it, or mark slam abstract in the model if nothing implements it)"
+#endif
 #endif
 #if defined(MOTIVML_FEATURE_HECTORSLAM) && __has_include(<motivml_features/hectorslam.hpp>)
 #include <motivml_features/hectorslam.hpp>
 #define MOTIVML_HAS_HECTORSLAM 1
 #endif
-#if defined(MOTIVML_FEATURE_KARTOSLAM) && __has_include(<motivml_features/kartoslam.hpp>)
+#if defined(MOTIVML_FEATURE_KARTOSLAM)
+#if __has_include(<motivml_features/kartoslam.hpp>)
 #include <motivml_features/kartoslam.hpp>
 #define MOTIVML_HAS_KARTOSLAM 1
+#else
+#error "motivml: kartoslam is Static Early in lab, so it is compiled in, but its implementation <motivml_features/kartoslam.hpp> was not found on the include path (write it, or mark kartoslam abstract in the model if nothing implements it)"
+#endif
 #endif
 #if defined(MOTIVML_FEATURE_ORBSLAM) && __has_include(<motivml_features/orbslam.hpp>)
 #include <motivml_features/orbslam.hpp>
 #define MOTIVML_HAS_ORBSLAM 1
 #endif
-#if defined(MOTIVML_FEATURE_MOTION_PLANNING_AND_CONTROL) && __has_include(<motivml_features/motion_planning_and_control.hpp>)
+#if defined(MOTIVML_FEATURE_MOTION_PLANNING_AND_CONTROL)
+#if __has_include(<motivml_features/motion_planning_and_control.hpp>)
 #include <motivml_features/motion_planning_and_control.hpp>
 #define MOTIVML_HAS_MOTION_PLANNING_AND_CONTROL 1
+#else
+#error "motivml: motion_planning_and_control is Static Early in lab, so it is compiled in, but its implementation <motivml_features/motion_planning_and_control.hpp> was not found on the include path (write it, or mark motion_planning_and_control abstract in the model if nothing implements it)"
 #endif
-#if defined(MOTIVML_FEATURE_OBSTACLE_AVOIDANCE) && __has_include(<motivml_features/obstacle_avoidance.hpp>)
+#endif
+#if defined(MOTIVML_FEATURE_OBSTACLE_AVOIDANCE)
+#if __has_include(<motivml_features/obstacle_avoidance.hpp>)
 #include <motivml_features/obstacle_avoidance.hpp>
 #define MOTIVML_HAS_OBSTACLE_AVOIDANCE 1
+#else
+#error "motivml: obstacle_avoidance is Static Early in lab, so it is compiled in, but its implementation <motivml_features/obstacle_avoidance.hpp> was not found on the include path (write it, or mark obstacle_avoidance abstract in the model if nothing implements it)"
+#endif
 #endif
 #if defined(MOTIVML_FEATURE_NAVIGATION) && __has_include(<motivml_features/navigation.hpp>)
 #include <motivml_features/navigation.hpp>
