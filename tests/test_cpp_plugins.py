@@ -148,11 +148,11 @@ TESTING_CPP = r"""
 #include <string>
 #include <vector>
 
-#include "motivml/feature_plugin.hpp"
+#include <motivml/feature.hpp>
 
 namespace testing_plugins {
 
-class Echo : public motivml::FeaturePlugin {  // Out = 2 In, every tick
+class Echo : public motivml::Feature {  // Out = 2 In, every tick
  public:
   void step(double, motivml::Spaces& spaces) override {
     std::vector<double> value = spaces.read("In");
@@ -166,14 +166,14 @@ class Echo : public motivml::FeaturePlugin {  // Out = 2 In, every tick
   long steps_ = 0;
 };
 
-class Broken : public motivml::FeaturePlugin {
+class Broken : public motivml::Feature {
  public:
   void start() override { throw std::runtime_error("no sensor"); }
   void step(double, motivml::Spaces&) override {}
   void stop() override { throw std::runtime_error("stuck"); }
 };
 
-class Stumbling : public motivml::FeaturePlugin {  // throws in its second step
+class Stumbling : public motivml::Feature {  // throws in its second step
  public:
   void step(double, motivml::Spaces&) override {
     if (++steps_ == 2) throw std::out_of_range("lost track");
@@ -185,9 +185,9 @@ class Stumbling : public motivml::FeaturePlugin {  // throws in its second step
 
 }  // namespace testing_plugins
 
-MOTIVML_PLUGIN(testing_plugins::Echo)
-MOTIVML_PLUGIN(testing_plugins::Broken)
-MOTIVML_PLUGIN(testing_plugins::Stumbling)
+MOTIVML_FEATURE(echo, testing_plugins::Echo)
+MOTIVML_FEATURE(broken, testing_plugins::Broken)
+MOTIVML_FEATURE(stumbling, testing_plugins::Stumbling)
 """
 
 
@@ -196,15 +196,20 @@ def testing_library(extension: ModuleType, tmp_path_factory: pytest.TempPathFact
     """Two small C++ plugins, compiled as cpp_plugins/CMakeLists.txt compiles a plugin."""
     folder = tmp_path_factory.mktemp("cpp")
     (folder / "testing.cpp").write_text(TESTING_CPP)
-    includes = [ROOT / "cpp_plugins" / "include"] + [
+    build_plugin(folder / "testing.cpp", folder / "libtesting.so")
+    return folder / "libtesting.so"
+
+
+def build_plugin(source: Path, library: Path) -> None:
+    """Compile a plugin with the flags motivml_add_plugin gives (cpp_static/cmake)."""
+    includes = [ROOT / "cpp_static" / "include"] + [
         Path("/usr/include") / name for name in ("class_loader", "rcpputils", "rcutils")
     ]
     command = ["g++", "-std=c++17", "-shared", "-fPIC", "-fno-gnu-unique", "-fvisibility=hidden"]
-    command += [f"-I{path}" for path in includes]
-    command += [str(folder / "testing.cpp"), "-o", str(folder / "libtesting.so"), "-Wl,-z,defs"]
+    command += ["-DMOTIVML_PLUGIN_BUILD", *(f"-I{path}" for path in includes)]
+    command += [str(source), "-o", str(library), "-Wl,-z,defs"]
     command += ["-lclass_loader", "-lconsole_bridge", "-lrcpputils", "-lrcutils"]
     subprocess.run(command, check=True, capture_output=True)
-    return folder / "libtesting.so"
 
 
 def cpp_robot(folder: Path, library: Path, classes: dict[str, str]) -> Path:
@@ -327,14 +332,7 @@ def test_a_library_whose_static_initialiser_throws_leaves_the_running_process_ab
     source = ROOT / "plugins" / "cpp" / "broken" / "throwing_initialiser"
     broken = tmp_path / "plugins" / "broken_initialiser"
     broken.mkdir(parents=True)
-    includes = [ROOT / "cpp_plugins" / "include"] + [
-        Path("/usr/include") / name for name in ("class_loader", "rcpputils", "rcutils")
-    ]
-    command = ["g++", "-std=c++17", "-shared", "-fPIC", "-fno-gnu-unique", "-fvisibility=hidden"]
-    command += [f"-I{path}" for path in includes]
-    command += [str(source / "broken.cpp"), "-o", str(broken / "libthrowing_initialiser.so"), "-Wl,-z,defs"]
-    command += ["-lclass_loader", "-lconsole_bridge", "-lrcpputils", "-lrcutils"]
-    subprocess.run(command, check=True, capture_output=True)
+    build_plugin(source / "broken.cpp", broken / "libthrowing_initialiser.so")
     entry = {"library": "libthrowing_initialiser.so", "class": "broken::ThrowingInitialiser"}
     (broken / "plugin.json").write_text(
         json.dumps({"feature": "broken_initialiser", "kind": "cpp", "entry": entry})

@@ -4,9 +4,14 @@
 // demand): a load failure throws here, at once. It counts its loads and its live instances,
 // refuses to unload while an instance lives, and unloads for real (dlclose) when asked
 // afterwards. Each Instance keeps its Library alive (pybind11 keep_alive), so a library is
-// never closed under a live object.
+// never closed under a live object. These calls run without the GIL: the live count is an
+// atomic shared by the library and its instances (an instance may be released after its
+// library object is gone), and creating and unloading hold the library's mutex, as
+// class_loader guards its own counts.
 #include <algorithm>
+#include <atomic>
 #include <memory>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -16,7 +21,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include "motivml/feature_plugin.hpp"
+#include <motivml/feature.hpp>
 
 namespace py = pybind11;
 
@@ -36,7 +41,8 @@ class Library;
 
 class Instance {
  public:
-  Instance(std::shared_ptr<motivml::FeaturePlugin> plugin, int* live) : plugin_(std::move(plugin)), live_(live) {
+  Instance(std::shared_ptr<motivml::Feature> plugin, std::shared_ptr<std::atomic<int>> live)
+      : plugin_(std::move(plugin)), live_(std::move(live)) {
     ++*live_;
   }
   Instance(const Instance&) = delete;
@@ -56,12 +62,12 @@ class Instance {
   }
 
  private:
-  motivml::FeaturePlugin& get() {
+  motivml::Feature& get() {
     if (!plugin_) throw std::runtime_error("this plugin instance was released");
     return *plugin_;
   }
-  std::shared_ptr<motivml::FeaturePlugin> plugin_;
-  int* live_;
+  std::shared_ptr<motivml::Feature> plugin_;
+  std::shared_ptr<std::atomic<int>> live_;
 };
 
 class Library {
@@ -71,12 +77,14 @@ class Library {
   Library(const Library&) = delete;
   Library& operator=(const Library&) = delete;
   ~Library() {
-    if (live_ == 0 && loads_ > 0) unload();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (*live_ == 0 && loads_ > 0) unload_locked();
   }
 
-  std::vector<std::string> classes() const { return loader_->getAvailableClasses<motivml::FeaturePlugin>(); }
+  std::vector<std::string> classes() const { return loader_->getAvailableClasses<motivml::Feature>(); }
 
   std::unique_ptr<Instance> create(const std::string& name) {
+    std::lock_guard<std::mutex> lock(mutex_);
     if (loads_ == 0) {
       throw std::runtime_error("library " + path_ + " was unloaded");
     }
@@ -88,15 +96,27 @@ class Library {
       message << (declared.empty() ? "nothing" : "") << ")";
       throw std::runtime_error(message.str());
     }
-    return std::make_unique<Instance>(loader_->createInstance<motivml::FeaturePlugin>(name), &live_);
+    return std::make_unique<Instance>(loader_->createInstance<motivml::Feature>(name), live_);
   }
 
   // Give back this loader's loads; refused while an instance lives. The library is really
   // closed when no other loader in the process holds it (class_loader counts per path).
   // Returns whether it is still mapped because another loader holds it.
   bool unload() {
-    if (live_ > 0) {
-      throw std::runtime_error(std::to_string(live_) + " instance(s) of " + path_ + " still live: not unloading");
+    std::lock_guard<std::mutex> lock(mutex_);
+    return unload_locked();
+  }
+
+  bool loaded() const { return loads_ > 0; }
+  int live() const { return *live_; }
+  int loads() const { return loads_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  bool unload_locked() {
+    const int live = *live_;
+    if (live > 0) {
+      throw std::runtime_error(std::to_string(live) + " instance(s) of " + path_ + " still live: not unloading");
     }
     for (; loads_ > 0; --loads_) {
       loader_->unloadLibrary();
@@ -104,16 +124,11 @@ class Library {
     return loader_->isLibraryLoadedByAnyClassloader();
   }
 
-  bool loaded() const { return loads_ > 0; }
-  int live() const { return live_; }
-  int loads() const { return loads_; }
-  const std::string& path() const { return path_; }
-
- private:
   std::string path_;
   std::unique_ptr<class_loader::ClassLoader> loader_;
+  std::mutex mutex_;
   int loads_ = 0;
-  int live_ = 0;
+  std::shared_ptr<std::atomic<int>> live_ = std::make_shared<std::atomic<int>>(0);
 };
 
 }  // namespace

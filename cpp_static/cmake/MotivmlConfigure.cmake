@@ -8,7 +8,7 @@
 # when the model or the variant changes; an invalid variant stops the configuration with
 # motivml's explanation.
 #
-#   include(MotivmlConfigure)
+#   find_package(motivml CONFIG REQUIRED)   # (it includes this file)
 #   motivml_configure(TARGET robot ROBOT ${CMAKE_SOURCE_DIR}/robot VARIANT lab)
 function(motivml_configure)
   cmake_parse_arguments(ARG "" "TARGET;ROBOT;VARIANT;PREFIX" "" ${ARGN})
@@ -20,7 +20,14 @@ function(motivml_configure)
   if(NOT ARG_PREFIX)
     set(ARG_PREFIX MOTIVML_)
   endif()
-  find_program(MOTIVML_EXECUTABLE motivml REQUIRED)
+  # motivml beside this package when it is installed in a virtual environment (this file is
+  # then <env>/lib/pythonX.Y/site-packages/motivml/cmake/), else on PATH.
+  find_program(MOTIVML_EXECUTABLE motivml HINTS "${CMAKE_CURRENT_FUNCTION_LIST_DIR}/../../../../../bin")
+  if(NOT MOTIVML_EXECUTABLE)
+    message(FATAL_ERROR "motivml_configure: the motivml command was not found. Activate the Python "
+                        "environment motivml is installed in (so that motivml is on PATH), or pass "
+                        "-DMOTIVML_EXECUTABLE=/path/to/motivml to cmake.")
+  endif()
   get_filename_component(robot_dir "${ARG_ROBOT}" ABSOLUTE)
   get_filename_component(robot_name "${robot_dir}" NAME)
   # One folder per target: two targets may bind the same variant with different prefixes.
@@ -37,4 +44,7 @@ function(motivml_configure)
   set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS
                "${robot_dir}/model.json" "${robot_dir}/variants/${ARG_VARIANT}.json")
   target_include_directories(${ARG_TARGET} PRIVATE "${out}")
+  if(TARGET motivml::feature)
+    target_link_libraries(${ARG_TARGET} PRIVATE motivml::feature)
+  endif()
 endfunction()

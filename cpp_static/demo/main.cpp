@@ -9,13 +9,15 @@ int main(int argc, char** argv) {
   motivml::FeatureRegistry registry;
   motivml::register_static_features(registry);
   if (argc > 1 && std::strcmp(argv[1], "--list") == 0) {
-    for (const auto& feature : registry.features()) std::cout << feature->name() << "\n";
+    for (const auto& id : registry.ids()) std::cout << id << "\n";
     return 0;
   }
   for (const char* const* missing = motivml::unimplemented_features; *missing; ++missing)
-    std::cout << "compiled in without a C++ implementation: " << *missing << "\n";
+    std::cout << "selected without a C++ implementation here: " << *missing << "\n";
+  motivml::MapSpaces spaces;
   registry.start_all();
-  for (int tick = 0; tick < 100; ++tick) registry.step_all();
+  for (int tick = 0; tick < 100; ++tick) registry.step_all(tick * 0.001, spaces);
+  for (const auto& id : registry.ids()) std::cout << id << ": " << registry.at(id).status() << "\n";
   registry.stop_all();
   return 0;
 }

@@ -126,7 +126,8 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
     """The static feature loader (the paper's Listing 5, generated): for every feature of
     the model, its implementation is included and registered only when features.h compiles
     it in. An implementation is the header <motivml_features/ID.hpp> defining
-    `std::unique_ptr<motivml::StaticFeature> motivml_features::make_ID()`. A Static Early
+    `motivml_features::make_ID()` (what `MOTIVML_FEATURE(ID, Class)` of <motivml/feature.hpp>
+    defines outside a plugin build). A Static Early
     feature is compiled in, so its header is required: without it the build stops with an
     `#error` naming the feature and the header. Another selected feature's header is
     included when there is one; those without are listed in `motivml::unimplemented_features`
@@ -135,7 +136,7 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
     guard = f"{prefix}STATIC_LOADER_HPP"
     lines = _opening(variant, guard) + [
         '#include "features.h"',
-        "#include <motivml/static_feature.hpp>",
+        "#include <motivml/feature.hpp>",
         "",
     ]
     features = [d.feature for d in variant.decisions if d.feature.parent is not None and not d.feature.abstract]
@@ -169,7 +170,7 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
     for f in features:
         lines += [
             f"#ifdef {prefix}HAS_{f.id.upper()}",
-            f"  registry.add(motivml_features::make_{f.id}());",
+            f'  registry.add("{f.id}", motivml_features::make_{f.id}());',
             "#endif",
         ]
     lines += ["}", "", "/* Compiled-in features without an implementation header. */"]

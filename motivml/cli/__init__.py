@@ -13,7 +13,8 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
   t-wise samples);
 * `running`: run and ctl (the robot at run time);
 * `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL);
-* `menuconfig`: the terminal configurator (Textual, imported only when it runs).
+* `menuconfig`: the terminal configurator (Textual, imported only when it runs);
+* `building`: cmake-dir (the CMake package for C++ projects).
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "diff": ("checking", "diff_command"),
     "show": ("checking", "show_command"),
     "menuconfig": ("menuconfig", "menuconfig_command"),
+    "cmake-dir": ("building", "cmake_dir_command"),
     "analyse": ("analysing", "analyse_command"),
     "sample": ("analysing", "sample_command"),
     "run": ("running", "run_command"),

@@ -5,20 +5,19 @@
 #define MOTIVML_FEATURES_SIMPLE_FEATURE_HPP
 
 #include <iostream>
-#include <memory>
 #include <string>
 
-#include <motivml/static_feature.hpp>
+#include <motivml/feature.hpp>
 
 namespace motivml_features {
 
-class SimpleFeature : public motivml::StaticFeature {
+class SimpleFeature : public motivml::Feature {
  public:
   SimpleFeature(const char* id, const char* marker) : id_(id), marker_(marker) {}
-  std::string name() const override { return id_; }
   void start() override { std::cout << "start " << id_ << "\n"; }
-  void step() override { ++steps_; }
+  void step(double, motivml::Spaces&) override { ++steps_; }
   void stop() override { std::cout << "stop " << id_ << " after " << steps_ << " steps\n"; }
+  std::string status() const override { return std::to_string(steps_) + " steps"; }
   const char* marker() const { return marker_; }
 
  private:
@@ -29,12 +28,13 @@ class SimpleFeature : public motivml::StaticFeature {
 
 }  // namespace motivml_features
 
-// Defines motivml_features::make_ID() for a feature with no behaviour of its own.
-#define MOTIVML_SIMPLE_FEATURE(ID)                                                    \
-  namespace motivml_features {                                                        \
-  inline std::unique_ptr<motivml::StaticFeature> make_##ID() {                        \
-    return std::make_unique<SimpleFeature>(#ID, "motivml-feature:" #ID);              \
-  }                                                                                   \
-  }
+// A feature with no behaviour of its own: a class ID_feature, and MOTIVML_FEATURE for it.
+#define MOTIVML_SIMPLE_FEATURE(ID)                                                      \
+  namespace motivml_features {                                                          \
+  struct ID##_feature : SimpleFeature {                                                 \
+    ID##_feature() : SimpleFeature(#ID, "motivml-feature:" #ID) {}                       \
+  };                                                                                    \
+  }                                                                                     \
+  MOTIVML_FEATURE(ID, motivml_features::ID##_feature)
 
 #endif  // MOTIVML_FEATURES_SIMPLE_FEATURE_HPP

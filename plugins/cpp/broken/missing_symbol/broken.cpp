@@ -2,17 +2,17 @@
 // (dlopen: undefined symbol), and the runtime must say so with the manifest's location.
 #include <string>
 
-#include "motivml/feature_plugin.hpp"
+#include <motivml/feature.hpp>
 
 extern int motivml_calibration_table_that_nobody_defines;
 
 namespace broken {
 
-class MissingSymbol : public motivml::FeaturePlugin {
+class MissingSymbol : public motivml::Feature {
  public:
   void step(double, motivml::Spaces&) override { ++motivml_calibration_table_that_nobody_defines; }
 };
 
 }  // namespace broken
 
-MOTIVML_PLUGIN(broken::MissingSymbol)
+MOTIVML_FEATURE(missing_symbol, broken::MissingSymbol)

@@ -4,7 +4,7 @@
 // and refuse it with the manifest's location.
 #include <stdexcept>
 
-#include "motivml/feature_plugin.hpp"
+#include <motivml/feature.hpp>
 
 namespace broken {
 
@@ -14,11 +14,11 @@ struct Calibration {
 
 const Calibration calibration;  // constructed when the library is loaded
 
-class ThrowingInitialiser : public motivml::FeaturePlugin {
+class ThrowingInitialiser : public motivml::Feature {
  public:
   void step(double, motivml::Spaces&) override {}
 };
 
 }  // namespace broken
 
-MOTIVML_PLUGIN(broken::ThrowingInitialiser)
+MOTIVML_FEATURE(throwing_initialiser, broken::ThrowingInitialiser)

@@ -4,7 +4,7 @@
 #define MOTIVML_STATIC_LOADER_HPP
 
 #include "features.h"
-#include <motivml/static_feature.hpp>
+#include <motivml/feature.hpp>
 
 #if defined(MOTIVML_FEATURE_COMPONENT_CONTROL)
 #if __has_include(<motivml_features/component_control.hpp>)
@@ -120,55 +120,55 @@ namespace motivml {
 /* Register every compiled-in feature, in definition order. */
 inline void register_static_features(FeatureRegistry& registry) {
 #ifdef MOTIVML_HAS_COMPONENT_CONTROL
-  registry.add(motivml_features::make_component_control());
+  registry.add("component_control", motivml_features::make_component_control());
 #endif
 #ifdef MOTIVML_HAS_BASE_CONTROLLER
-  registry.add(motivml_features::make_base_controller());
+  registry.add("base_controller", motivml_features::make_base_controller());
 #endif
 #ifdef MOTIVML_HAS_LASER_SCANNER
-  registry.add(motivml_features::make_laser_scanner());
+  registry.add("laser_scanner", motivml_features::make_laser_scanner());
 #endif
 #ifdef MOTIVML_HAS_DEPTH_CAMERA
-  registry.add(motivml_features::make_depth_camera());
+  registry.add("depth_camera", motivml_features::make_depth_camera());
 #endif
 #ifdef MOTIVML_HAS_TELEOPERATION
-  registry.add(motivml_features::make_teleoperation());
+  registry.add("teleoperation", motivml_features::make_teleoperation());
 #endif
 #ifdef MOTIVML_HAS_LOCALIZATION
-  registry.add(motivml_features::make_localization());
+  registry.add("localization", motivml_features::make_localization());
 #endif
 #ifdef MOTIVML_HAS_AMCL
-  registry.add(motivml_features::make_amcl());
+  registry.add("amcl", motivml_features::make_amcl());
 #endif
 #ifdef MOTIVML_HAS_GRID_MAP
-  registry.add(motivml_features::make_grid_map());
+  registry.add("grid_map", motivml_features::make_grid_map());
 #endif
 #ifdef MOTIVML_HAS_SLAM
-  registry.add(motivml_features::make_slam());
+  registry.add("slam", motivml_features::make_slam());
 #endif
 #ifdef MOTIVML_HAS_HECTORSLAM
-  registry.add(motivml_features::make_hectorslam());
+  registry.add("hectorslam", motivml_features::make_hectorslam());
 #endif
 #ifdef MOTIVML_HAS_KARTOSLAM
-  registry.add(motivml_features::make_kartoslam());
+  registry.add("kartoslam", motivml_features::make_kartoslam());
 #endif
 #ifdef MOTIVML_HAS_ORBSLAM
-  registry.add(motivml_features::make_orbslam());
+  registry.add("orbslam", motivml_features::make_orbslam());
 #endif
 #ifdef MOTIVML_HAS_MOTION_PLANNING_AND_CONTROL
-  registry.add(motivml_features::make_motion_planning_and_control());
+  registry.add("motion_planning_and_control", motivml_features::make_motion_planning_and_control());
 #endif
 #ifdef MOTIVML_HAS_OBSTACLE_AVOIDANCE
-  registry.add(motivml_features::make_obstacle_avoidance());
+  registry.add("obstacle_avoidance", motivml_features::make_obstacle_avoidance());
 #endif
 #ifdef MOTIVML_HAS_NAVIGATION
-  registry.add(motivml_features::make_navigation());
+  registry.add("navigation", motivml_features::make_navigation());
 #endif
 #ifdef MOTIVML_HAS_HANDS
-  registry.add(motivml_features::make_hands());
+  registry.add("hands", motivml_features::make_hands());
 #endif
 #ifdef MOTIVML_HAS_POINTSCLOUD
-  registry.add(motivml_features::make_pointscloud());
+  registry.add("pointscloud", motivml_features::make_pointscloud());
 #endif
 }
 

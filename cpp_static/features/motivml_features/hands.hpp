@@ -1,4 +1,0 @@
-// SimpleBot's hands feature, compiled in when the variant binds it Static Early.
-#pragma once
-#include <motivml_features/simple_feature.hpp>
-MOTIVML_SIMPLE_FEATURE(hands)
