@@ -317,7 +317,8 @@ def test_set_up_errors_name_the_manifest_entry(
     with pytest.raises(PluginError) as missing:
         cppplugins.create(plugin, context())
     assert missing.value.diagnostics[0].message == (
-        "C++ plugin support is not built: run make cpp-plugins (needs cmake, g++, libclass-loader-dev)"
+        "C++ plugin support is not built into this installation: in a checkout, run make cpp-plugins; "
+        "else reinstall motivml (pip install) where cmake, g++, python3-dev and libclass-loader-dev are installed"
     )
     assert missing.value.diagnostics[0].location.path == "$.entry.library"
 

@@ -128,7 +128,8 @@ def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
         raise plugin_error(
             plugin,
             "library",
-            "C++ plugin support is not built: run make cpp-plugins (needs cmake, g++, libclass-loader-dev)",
+            "C++ plugin support is not built into this installation: in a checkout, run make cpp-plugins; "
+            "else reinstall motivml (pip install) where cmake, g++, python3-dev and libclass-loader-dev are installed",
         )
     path = Path(plugin.folder) / plugin.entry["library"]
     if not path.resolve().is_relative_to(Path(plugin.folder).resolve()):
