@@ -14,9 +14,10 @@ from rich.markup import escape
 
 from ..binding import PREFERENCES
 from ..documents.robot_folder import RobotFolder
-from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from ..errors import EnvironmentProblem, Location, MotivmlError, error
 from ..language.model import OFF, Binding, FeatureState, Mode, Time
-from .common import fail, out, plural, print_diagnostic, printable, targets
+from .common import environment_problem, fail, out, plural, print_diagnostic, printable, targets
+from .reports import FORMATS, checked, unchecked
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
 
@@ -34,7 +35,14 @@ if TYPE_CHECKING:
 )
 @click.option("--variant", help="A variant of the robot folder: variants/NAME.json.")
 @click.option("--partial", is_flag=True, help="Accept features without an entry (left to the configurator).")
-@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["text", *FORMATS]),
+    default="text",
+    show_default=True,
+    help="json: the result as data; sarif: SARIF 2.1.0 for code scanning; junit: JUnit XML, a test case per document.",
+)
 def validate_command(target: str, config: str | None, variant: str | None, partial: bool, fmt: str) -> None:
     """Check a feature model, or a configuration (variant) of it.
 
@@ -50,31 +58,18 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
         coordination = _optional(folder.coordination_path) if folder else None
         robot = folder if folder and _optional(folder.settings_path) else None
         reports = validate(model_path, configs, partial, analyse, architecture, coordination, robot)
-    except MotivmlError as exc:
-        if fmt == "json":
-            _print_json(False, exc.diagnostics, [], [])
-            sys.exit(exc.exit_code)
-        fail(exc)
+    except (MotivmlError, OSError) as exc:  # nothing checked: the problem alone, in the format asked for
+        problem = exc if isinstance(exc, MotivmlError) else environment_problem(exc)
+        if fmt == "text":
+            fail(problem)
+        click.echo(unchecked(fmt, target, problem))
+        sys.exit(problem.exit_code)
     expected = (
         1 + len(configs) + (architecture is not None) + (coordination is not None) + (robot is not None)
     )
     valid = all(r.valid for r in reports) and len(reports) == expected
-    if fmt == "json":
-        _print_json(
-            valid,
-            [d for r in reports for d in r.errors],
-            [d for r in reports for d in r.warnings],
-            [
-                {
-                    "file": r.file,
-                    "kind": r.kind,
-                    "valid": r.valid,
-                    "errors": len(r.errors),
-                    "warnings": len(r.warnings),
-                }
-                for r in reports
-            ],
-        )
+    if fmt != "text":
+        click.echo(checked(fmt, reports, valid))
     else:
         for report in reports:
             for d in report.errors + report.warnings:
@@ -94,18 +89,6 @@ def _optional(path: Path) -> Path | None:
             error(Location(str(path)), f"is {what}: a robot folder's {path.name} is a file", "io")
         )
     return path
-
-
-def _print_json(
-    valid: bool, errors: list[Diagnostic], warnings: list[Diagnostic], documents: list[object]
-) -> None:
-    payload = {
-        "valid": valid,
-        "errors": [d.as_dict() for d in errors],
-        "warnings": [d.as_dict() for d in warnings],
-        "documents": documents,
-    }
-    click.echo(json.dumps(payload, indent=2))
 
 
 def _verdict(report: Report, checked_variants: bool) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 from typing import NoReturn
@@ -11,7 +12,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from ..documents.robot_folder import MODEL_FILE, VARIANTS_FOLDER, RobotFolder
-from ..errors import Diagnostic, MotivmlError, Severity
+from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, Severity, error
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
 err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
@@ -22,6 +23,12 @@ def fail(exc: MotivmlError) -> NoReturn:
     for diagnostic in exc.diagnostics:
         err.print(f"[bold red]{escape(str(diagnostic.location))}[/]: {escape(diagnostic.message)}")
     sys.exit(exc.exit_code)
+
+
+def environment_problem(exc: OSError) -> EnvironmentProblem:
+    """An OSError no stage turned into a located error (a permission, a name too long): exit 3."""
+    place = os.fsdecode(exc.filename) if exc.filename is not None else "motivml"
+    return EnvironmentProblem(error(Location(place), f"cannot read: {exc.strerror or exc}", "io"))
 
 
 def print_diagnostic(d: Diagnostic) -> None:
