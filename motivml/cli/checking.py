@@ -16,7 +16,7 @@ from ..binding import PREFERENCES
 from ..documents.robot_folder import RobotFolder
 from ..errors import EnvironmentProblem, Location, MotivmlError, error
 from ..language.model import OFF, Binding, FeatureState, Mode, Time
-from .common import environment_problem, fail, out, plural, print_diagnostic, printable, targets
+from .common import environment_problem, fail, one_variant, out, plural, print_diagnostic, printable, targets
 from .reports import FORMATS, checked, unchecked
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
@@ -109,7 +109,10 @@ def _verdict(report: Report, checked_variants: bool) -> None:
 
 @click.command("configure")
 @click.argument("target", default=".", type=click.Path())
-@click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
+@click.option("--variant", help="The variant of the robot folder: variants/NAME.json.")
+@click.option(
+    "--config", "config", type=click.Path(), help="A configuration file, instead of --variant (named by its stem)."
+)
 @click.option("-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant>/).")
 @click.option(
     "--prefer",
@@ -124,11 +127,19 @@ def _verdict(report: Report, checked_variants: bool) -> None:
     help="Also write the smallest decisions file from which configure derives this variant again.",
 )
 def configure_command(
-    target: str, variant: str, output: str | None, prefer: tuple[str, ...], prefix: str, save_decisions: str | None
+    target: str,
+    variant: str | None,
+    config: str | None,
+    output: str | None,
+    prefer: tuple[str, ...],
+    prefix: str,
+    save_decisions: str | None,
 ) -> None:
     """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml, plugins.json, ros2_params.yaml.
 
-    TARGET is a robot folder (default: the current folder). ros2_params.yaml holds the ROS 2
+    TARGET is a robot folder (default: the current folder); the variant is --variant NAME
+    (variants/NAME.json) or --config FILE, a configuration document anywhere, which goes by
+    its file name's stem (FILE variants/NAME.json is the same as --variant NAME). ros2_params.yaml holds the ROS 2
     parameters of the motivml node (features.<id>.active at start) and of each
     ros2_lifecycle plugin's node, for --ros-args --params-file. Files are rewritten only
     when their content changes; nothing is written when the variant is invalid.
@@ -142,25 +153,27 @@ def configure_command(
 
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
         raise click.UsageError(f"--prefix {prefix!r} cannot start a C++ macro name (letters, digits, _)")
+    name = one_variant(config, variant)
     try:
         robot = RobotFolder.open(target)
-        reports = validate(robot.model_path, [robot.variant_path(variant)], partial=True, analyse=False)
+        _, configs, _ = targets(target, config, variant)
+        reports = validate(robot.model_path, configs, partial=True, analyse=False)
         problems = [d for r in reports for d in r.errors]
         if problems or len(reports) != 2:
             for d in problems:
                 print_diagnostic(d)
             out.print(f"[bold red]invalid[/]: {escape(reports[-1].file)}: nothing written")
             sys.exit(1)
-        model, config = reports[1].model, reports[1].config
-        assert model is not None and config is not None
+        model, configuration = reports[1].model, reports[1].config
+        assert model is not None and configuration is not None
         plugins, problems = discover(robot, model)
         if problems:
             for d in problems:
                 print_diagnostic(d)
             out.print("[bold red]invalid[/]: plugin manifests: nothing written")
             sys.exit(1)
-        resolved = resolve(model, config, prefer)
-        folder = Path(output) if output else Path("build") / robot.name / variant
+        resolved = resolve(model, configuration, prefer)
+        folder = Path(output) if output else Path("build") / robot.name / name
         written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path))
         if save_decisions is not None:
             from ..binding.resolve import decisions
@@ -180,7 +193,7 @@ def configure_command(
     )
     counts = ", ".join(f"{sum(1 for d in chosen if d.binding is b)} {b.words}" for b in Binding)
     out.print(
-        f"variant {escape(variant)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
+        f"variant {escape(name)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
     )
     for name, changed in written.items():
         out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")

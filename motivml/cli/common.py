@@ -47,8 +47,7 @@ def targets(target: str, config: str | None, variant: str | None) -> tuple[Path,
     The model is analysed (dead features, bindings never possible) when it is checked on
     its own or with every variant of its folder, not when one variant is asked about.
     """
-    if config is not None and variant is not None:
-        raise click.UsageError("give --config FILE or --variant NAME, not both")
+    _not_both(config, variant)
     path = Path(target)
     if path.is_dir():
         robot = RobotFolder.open(path)
@@ -62,6 +61,24 @@ def targets(target: str, config: str | None, variant: str | None) -> tuple[Path,
             f"--variant needs a robot folder ({MODEL_FILE}, {VARIANTS_FOLDER}/NAME.json), not a file"
         )
     return path, [Path(config)] if config else [], config is None
+
+
+def one_variant(config: str | None, variant: str | None) -> str:
+    """For a command about one variant (configure, run): exactly one of --config FILE and
+    --variant NAME, and the name the variant goes by, NAME or FILE's stem (as the lock file,
+    the output folder and the run's registration name it)."""
+    _not_both(config, variant)
+    if variant is not None:
+        return variant
+    if config is None:
+        raise click.UsageError("give --variant NAME (variants/NAME.json of the robot folder) or --config FILE")
+    return Path(config).stem
+
+
+def _not_both(config: str | None, variant: str | None) -> None:
+    """--config FILE and --variant NAME both name the configuration: one at most."""
+    if config is not None and variant is not None:
+        raise click.UsageError("give --config FILE or --variant NAME, not both")
 
 
 def printable(text: str) -> str:
