@@ -13,6 +13,9 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
   t-wise samples);
 * `running`: run and ctl (the robot at run time);
 * `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL).
+
+`common` holds what the commands share (printing diagnostics, --variant and --config),
+`reports` validate's machine formats (JSON, SARIF, JUnit XML).
 """
 
 from __future__ import annotations
