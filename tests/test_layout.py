@@ -39,6 +39,8 @@ def _heavy_modules_after(*args: str) -> list[str]:
         ("validate", "feature_models/simplebot"),
         ("validate", "feature_models/simplebot", "--variant", "lab"),
         ("validate", "feature_models/coordinated_arm"),  # with a coordination statechart
+        ("validate", "feature_models/simplebot", "--format", "sarif"),
+        ("validate", "feature_models/simplebot", "--format", "junit"),
         ("configure", "feature_models/simplebot", "--variant", "lab", "-o", "/dev/null/never"),
         ("show", "feature_models/simplebot", "--variant", "lab"),
     ],

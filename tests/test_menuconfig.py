@@ -197,7 +197,7 @@ def test_the_root_cannot_be_changed(robot: Path) -> None:
 def test_menuconfig_needs_a_terminal_and_a_file(robot: Path) -> None:
     runner = CliRunner()
     no_file = runner.invoke(main, ["menuconfig", str(robot)])
-    assert no_file.exit_code == 2 and "give --variant NAME or --config FILE" in no_file.output
+    assert no_file.exit_code == 2 and "give --variant NAME (variants/NAME.json of the robot folder) or --config FILE" in no_file.output
     bad_name = runner.invoke(main, ["menuconfig", str(robot), "--variant", "../elsewhere"])
     assert bad_name.exit_code == 2 and "a variant's name is letters" in bad_name.output
     no_tty = runner.invoke(main, ["menuconfig", str(robot), "--variant", "lab"])

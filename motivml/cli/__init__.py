@@ -15,17 +15,18 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 * `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL);
 * `menuconfig`: the terminal configurator (Textual, imported only when it runs);
 * `building`: cmake-dir (the CMake package for C++ projects).
+
+`common` holds what the commands share (printing diagnostics, --variant and --config),
+`reports` validate's machine formats (JSON, SARIF, JUnit XML).
 """
 
 from __future__ import annotations
 
 import importlib
-import os
 
 import click
 
 from .. import __version__
-from ..errors import EnvironmentProblem, Location, error
 
 INTERRUPTED = 130  # the exit code of a command ended by Ctrl-C, as a shell reports SIGINT
 
@@ -67,10 +68,9 @@ class LazyGroup(click.Group):
             click.echo("interrupted", err=True)
             raise click.exceptions.Exit(INTERRUPTED) from None
         except OSError as exc:  # the environment (permissions, a name too long): exit 3, located
-            from .common import fail
+            from .common import environment_problem, fail
 
-            place = os.fsdecode(exc.filename) if exc.filename is not None else "motivml"
-            fail(EnvironmentProblem(error(Location(place), f"cannot read: {exc.strerror or exc}", "io")))
+            fail(environment_problem(exc))
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -15,9 +15,10 @@ from rich.markup import escape
 
 from ..binding import PREFERENCES
 from ..documents.robot_folder import RobotFolder
-from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from ..errors import EnvironmentProblem, Location, MotivmlError, error
 from ..language.model import OFF, Binding, FeatureState, Mode, Time, token
-from .common import fail, out, plural, print_diagnostics, printable, targets
+from .common import environment_problem, fail, one_variant, out, plural, print_diagnostics, printable, targets
+from .reports import FORMATS, checked, unchecked
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
 
@@ -36,7 +37,14 @@ if TYPE_CHECKING:
 )
 @click.option("--variant", help="A variant of the robot folder: variants/NAME.json.")
 @click.option("--partial", is_flag=True, help="Accept features without an entry (left to the configurator).")
-@click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["text", *FORMATS]),
+    default="text",
+    show_default=True,
+    help="json: the result as data; sarif: SARIF 2.1.0 for code scanning; junit: JUnit XML, a test case per document.",
+)
 def validate_command(target: str, config: str | None, variant: str | None, partial: bool, fmt: str) -> None:
     """Check a feature model, or a configuration (variant) of it.
 
@@ -52,31 +60,18 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
         coordination = _optional(folder.coordination_path) if folder else None
         robot = folder if folder and _optional(folder.settings_path) else None
         reports = validate(model_path, configs, partial, analyse, architecture, coordination, robot)
-    except MotivmlError as exc:
-        if fmt == "json":
-            _print_json(False, exc.diagnostics, [], [])
-            sys.exit(exc.exit_code)
-        fail(exc)
+    except (MotivmlError, OSError) as exc:  # nothing checked: the problem alone, in the format asked for
+        problem = exc if isinstance(exc, MotivmlError) else environment_problem(exc)
+        if fmt == "text":
+            fail(problem)
+        click.echo(unchecked(fmt, target, problem))
+        sys.exit(problem.exit_code)
     expected = (
         1 + len(configs) + (architecture is not None) + (coordination is not None) + (robot is not None)
     )
     valid = all(r.valid for r in reports) and len(reports) == expected
-    if fmt == "json":
-        _print_json(
-            valid,
-            [d for r in reports for d in r.errors],
-            [d for r in reports for d in r.warnings],
-            [
-                {
-                    "file": r.file,
-                    "kind": r.kind,
-                    "valid": r.valid,
-                    "errors": len(r.errors),
-                    "warnings": len(r.warnings),
-                }
-                for r in reports
-            ],
-        )
+    if fmt != "text":
+        click.echo(checked(fmt, reports, valid))
     else:
         for report in reports:
             print_diagnostics(report.errors + report.warnings)
@@ -95,18 +90,6 @@ def _optional(path: Path) -> Path | None:
             error(Location(str(path)), f"is {what}: a robot folder's {path.name} is a file", "io")
         )
     return path
-
-
-def _print_json(
-    valid: bool, errors: list[Diagnostic], warnings: list[Diagnostic], documents: list[object]
-) -> None:
-    payload = {
-        "valid": valid,
-        "errors": [d.as_dict() for d in errors],
-        "warnings": [d.as_dict() for d in warnings],
-        "documents": documents,
-    }
-    click.echo(json.dumps(payload, indent=2))
 
 
 def _verdict(report: Report, checked_variants: bool) -> None:
@@ -129,7 +112,10 @@ def _verdict(report: Report, checked_variants: bool) -> None:
 
 @click.command("configure")
 @click.argument("target", default=".", type=click.Path())
-@click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
+@click.option("--variant", help="The variant of the robot folder: variants/NAME.json.")
+@click.option(
+    "--config", "config", type=click.Path(), help="A configuration file, instead of --variant (named by its stem)."
+)
 @click.option("-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant>/).")
 @click.option(
     "--prefer",
@@ -145,7 +131,8 @@ def _verdict(report: Report, checked_variants: bool) -> None:
 )
 def configure_command(
     target: str,
-    variant: str,
+    variant: str | None,
+    config: str | None,
     output: str | None,
     prefer: tuple[str, ...],
     prefix: str,
@@ -153,7 +140,9 @@ def configure_command(
 ) -> None:
     """Resolve a variant; write variant.lock.json, features.h, static_loader.hpp, bindings.yaml, plugins.json, ros2_params.yaml.
 
-    TARGET is a robot folder (default: the current folder). ros2_params.yaml holds the ROS 2
+    TARGET is a robot folder (default: the current folder); the variant is --variant NAME
+    (variants/NAME.json) or --config FILE, a configuration document anywhere, which goes by
+    its file name's stem (FILE variants/NAME.json is the same as --variant NAME). ros2_params.yaml holds the ROS 2
     parameters of the motivml node (features.<id>.active at start) and of each
     ros2_lifecycle plugin's node, for --ros-args --params-file. Files are rewritten only
     when their content changes; nothing is written when the variant is invalid.
@@ -167,23 +156,25 @@ def configure_command(
 
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
         raise click.UsageError(f"--prefix {prefix!r} cannot start a C++ macro name (letters, digits, _)")
+    name = one_variant(config, variant)
     try:
         robot = RobotFolder.open(target)
-        reports = validate(robot.model_path, [robot.variant_path(variant)], partial=True, analyse=False)
+        _, configs, _ = targets(target, config, variant)
+        reports = validate(robot.model_path, configs, partial=True, analyse=False)
         problems = [d for r in reports for d in r.errors]
         if problems or len(reports) != 2:
             print_diagnostics(problems)
             out.print(f"[bold red]invalid[/]: {escape(reports[-1].file)}: nothing written")
             sys.exit(1)
-        model, config = reports[1].model, reports[1].config
-        assert model is not None and config is not None
+        model, configuration = reports[1].model, reports[1].config
+        assert model is not None and configuration is not None
         plugins, problems = discover(robot, model)
         if problems:
             print_diagnostics(problems)
             out.print("[bold red]invalid[/]: plugin manifests: nothing written")
             sys.exit(1)
-        resolved = resolve(model, config, prefer)
-        folder = Path(output) if output else Path("build") / robot.name / variant
+        resolved = resolve(model, configuration, prefer)
+        folder = Path(output) if output else Path("build") / robot.name / name
         written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path))
         if save_decisions is not None:
             from ..binding.configurator import decisions_text
@@ -203,7 +194,7 @@ def configure_command(
     )
     counts = ", ".join(f"{sum(1 for d in chosen if d.binding is b)} {b.words}" for b in Binding)
     out.print(
-        f"variant {escape(variant)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
+        f"variant {escape(name)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
     )
     for name, changed in written.items():
         out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -12,7 +13,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from ..documents.robot_folder import MODEL_FILE, VARIANTS_FOLDER, RobotFolder
-from ..errors import Diagnostic, MotivmlError, Severity, repair_text
+from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, Severity, error, repair_text
 
 out = Console(highlight=False, soft_wrap=True, emoji=False)
 err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
@@ -23,6 +24,12 @@ def fail(exc: MotivmlError) -> NoReturn:
     for diagnostic in exc.diagnostics:
         err.print(f"[bold red]{escape(str(diagnostic.location))}[/]: {escape(diagnostic.message)}")
     sys.exit(exc.exit_code)
+
+
+def environment_problem(exc: OSError) -> EnvironmentProblem:
+    """An OSError no stage turned into a located error (a permission, a name too long): exit 3."""
+    place = os.fsdecode(exc.filename) if exc.filename is not None else "motivml"
+    return EnvironmentProblem(error(Location(place), f"cannot read: {exc.strerror or exc}", "io"))
 
 
 def print_diagnostic(d: Diagnostic, repairs: bool = True) -> None:
@@ -55,8 +62,7 @@ def targets(target: str, config: str | None, variant: str | None) -> tuple[Path,
     The model is analysed (dead features, bindings never possible) when it is checked on
     its own or with every variant of its folder, not when one variant is asked about.
     """
-    if config is not None and variant is not None:
-        raise click.UsageError("give --config FILE or --variant NAME, not both")
+    _not_both(config, variant)
     path = Path(target)
     if path.is_dir():
         robot = RobotFolder.open(path)
@@ -70,6 +76,24 @@ def targets(target: str, config: str | None, variant: str | None) -> tuple[Path,
             f"--variant needs a robot folder ({MODEL_FILE}, {VARIANTS_FOLDER}/NAME.json), not a file"
         )
     return path, [Path(config)] if config else [], config is None
+
+
+def one_variant(config: str | None, variant: str | None) -> str:
+    """For a command about one variant (configure, run): exactly one of --config FILE and
+    --variant NAME, and the name the variant goes by, NAME or FILE's stem (as the lock file,
+    the output folder and the run's registration name it)."""
+    _not_both(config, variant)
+    if variant is not None:
+        return variant
+    if config is None:
+        raise click.UsageError("give --variant NAME (variants/NAME.json of the robot folder) or --config FILE")
+    return Path(config).stem
+
+
+def _not_both(config: str | None, variant: str | None) -> None:
+    """--config FILE and --variant NAME both name the configuration: one at most."""
+    if config is not None and variant is not None:
+        raise click.UsageError("give --config FILE or --variant NAME, not both")
 
 
 def printable(text: str) -> str:

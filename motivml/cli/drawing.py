@@ -13,7 +13,7 @@ from rich.markup import escape
 
 from ..documents.robot_folder import ARCHITECTURE_FILE
 from ..errors import MotivmlError
-from .common import out, print_diagnostics
+from .common import one_variant, out, print_diagnostics
 
 
 @click.command("graph")
@@ -21,25 +21,29 @@ from .common import out, print_diagnostics
 @click.option(
     "--variant", help="Draw this variant: its selection and bindings, and the architecture it starts with."
 )
+@click.option(
+    "--config", "config", type=click.Path(), help="Draw this configuration file, as --variant draws a variant."
+)
 @click.option("--format", "fmt", type=click.Choice(["dot", "graphml"]), default="dot", show_default=True)
 @click.option(
     "-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant or model>/)."
 )
-def graph_command(target: str, variant: str | None, fmt: str, output: str | None) -> None:
+def graph_command(target: str, variant: str | None, config: str | None, fmt: str, output: str | None) -> None:
     """Draw the feature model and the motion architecture of a robot folder.
 
     Writes feature-model.FORMAT and, when the robot has an architecture.json,
     architecture.FORMAT. With --format dot, SVG pictures are rendered beside them when
-    Graphviz's `dot` is installed. With --variant, unselected features are greyed out and
-    the architecture shows the elements of the variant's active set at start (what
-    `motivml run` builds).
+    Graphviz's `dot` is installed. With --variant (or --config FILE, named by its stem),
+    unselected features are greyed out and the architecture shows the elements of the
+    variant's active set at start (what `motivml run` builds).
     """
     from .. import graph
     from ..documents.writing import write_if_changed
     from ..runtime.launch import load
 
+    drawn = "model" if config is None and variant is None else one_variant(config, variant)
     try:
-        loaded = load(target, variant)
+        loaded = load(target, variant, config_path=config)
         robot = loaded.folder
         draw = graph.feature_model_dot if fmt == "dot" else graph.feature_model_graphml
         files = {f"feature-model.{fmt}": draw(loaded.model, loaded.variant)}
@@ -54,7 +58,7 @@ def graph_command(target: str, variant: str | None, fmt: str, output: str | None
                 if svg is not None:
                     files[name.removesuffix(".dot") + ".svg"] = svg.decode("utf-8")
                     rendered = True
-        folder = Path(output) if output else Path("build") / robot.name / (variant or "model")
+        folder = Path(output) if output else Path("build") / robot.name / drawn
         written = write_if_changed(folder, files)
     except MotivmlError as exc:
         _nothing(exc, "drawn", target)

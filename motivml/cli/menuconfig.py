@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import click
 
 from ..errors import MotivmlError, repair_text
-from .common import fail, plural, targets
+from .common import fail, one_variant, plural, targets
 
 if TYPE_CHECKING:
     from ..binding.configurator import Session
@@ -43,8 +43,7 @@ def menuconfig_command(target: str, variant: str | None, config: str | None, pre
     """
     import sys
 
-    if variant is None and config is None:
-        raise click.UsageError("give --variant NAME or --config FILE: the file the decisions are saved to")
+    one_variant(config, variant)  # exactly one: the file the decisions are saved to
     try:
         session, path = open_session(target, variant, config, prefer)
     except MotivmlError as exc:
@@ -63,8 +62,7 @@ def open_session(
     from ..errors import DocumentError
     from ..language.reader import load_configuration, load_model
 
-    if config is not None and variant is not None:
-        raise click.UsageError("give --config FILE or --variant NAME, not both")
+    one_variant(config, variant)
     if variant is not None:
         if not Path(target).is_dir():
             raise click.UsageError(

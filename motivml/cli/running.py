@@ -21,7 +21,7 @@ from rich.table import Table
 from ..binding import PREFERENCES
 from ..errors import EnvironmentProblem, Location, MotivmlError, error
 from ..runtime.requests import ACTIONS, Request
-from .common import err, fail, out, plural, print_diagnostics, printable, shown
+from .common import err, fail, one_variant, out, plural, print_diagnostics, printable, shown
 
 if TYPE_CHECKING:
     from ..runtime.loop import RunStats, Runtime, Snapshot
@@ -44,7 +44,13 @@ class Number(click.FloatRange):
 
 @click.command("run")
 @click.argument("target", type=click.Path())
-@click.option("--variant", required=True, help="The variant of the robot folder: variants/NAME.json.")
+@click.option("--variant", help="The variant of the robot folder: variants/NAME.json.")
+@click.option(
+    "--config",
+    "config",
+    type=click.Path(),
+    help="A configuration file, instead of --variant (the run goes by its stem, for ctl --variant).",
+)
 @click.option(
     "--duration",
     type=Number(min=0, min_open=True, allow_inf=True),
@@ -119,7 +125,8 @@ class Number(click.FloatRange):
 )
 def run_command(
     target: str,
-    variant: str,
+    variant: str | None,
+    config: str | None,
     duration: float,
     rate: float,
     clock: str,
@@ -143,9 +150,13 @@ def run_command(
 
     With --ros2 the run is also a ROS 2 node (guidelines/running-with-ros2.md): its features
     are parameters that any ROS 2 client may set, every change checked against the model.
+
+    The variant is --variant NAME (variants/NAME.json) or --config FILE, a configuration
+    document anywhere; a run of FILE goes by FILE's stem (its run folder, ctl --variant).
     """
     from ..plugins.ros2 import namespace, ros2_missing
 
+    name = one_variant(config, variant)
     try:
         ros_namespace = namespace(ros_namespace)
     except ValueError as exc:
@@ -202,13 +213,13 @@ def run_command(
     guarding = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGINT, interrupt) if guarding else None
     try:
-        robot = launch(target, variant, rate, prefer, strict, ros_namespace)
+        robot = launch(target, variant, rate, prefer, strict, ros_namespace, config_path=config)
     except MotivmlError as exc:
         if interrupted:  # the Ctrl-C came while a plugin started: it failed because of it
             out.print("interrupted before the run started")
             sys.exit(EXIT_INTERRUPTED)
         print_diagnostics(exc.diagnostics)
-        out.print(f"[bold red]cannot run[/]: {escape(target)} variant {escape(variant)}")
+        out.print(f"[bold red]cannot run[/]: {escape(target)} variant {escape(name)}")
         sys.exit(exc.exit_code)
     except KeyboardInterrupt:
         out.print("interrupted before the run started")
@@ -221,7 +232,7 @@ def run_command(
     if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
         out.width = max(out.width, 160)
     out.print(
-        f"running {escape(robot.folder.name)} variant {escape(variant)}: "
+        f"running {escape(robot.folder.name)} variant {escape(name)}: "
         f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
         f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, "
         + (f"real-time priority {priority}, " if priority is not None else "")
@@ -235,11 +246,11 @@ def run_command(
         os._exit(EXIT_INTERRUPTED)
 
     folder = (
-        (Path(run_dir) if run_dir else Path("build") / robot.folder.name / variant / "run")
+        (Path(run_dir) if run_dir else Path("build") / robot.folder.name / name / "run")
         if control
         else None
     )
-    session = Session(robot, duration, clock, plan, folder, on_stuck=stuck, variant=variant, priority=priority)
+    session = Session(robot, duration, clock, plan, folder, on_stuck=stuck, variant=name, priority=priority)
     try:
         session.open()
     except MotivmlError as exc:

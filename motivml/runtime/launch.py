@@ -101,15 +101,25 @@ def load(
     variant_name: str | None,
     prefer: tuple[str, ...] = (),
     need_architecture: bool = False,
+    config_path: str | Path | None = None,
 ) -> Loaded:
-    """Read a robot folder: the model, the variant resolved with its start state, the architecture."""
+    """Read a robot folder: the model, the variant resolved with its start state, the architecture.
+
+    The variant is `variants/<variant_name>.json`, or the configuration document at
+    `config_path` (one of them, or neither for the model alone).
+    """
+    if variant_name is not None and config_path is not None:
+        raise ValueError("a variant name or a configuration path, not both")
     folder = RobotFolder.open(target)
     model, diagnostics = load_model(folder.model_path)
     if model is None:
         raise DocumentError(_errors(diagnostics))
     variant, active, config = None, None, None
+    path = Path(config_path) if config_path is not None else None
     if variant_name is not None:
-        config, diagnostics = load_configuration(folder.variant_path(variant_name), model, partial=True)
+        path = folder.variant_path(variant_name)
+    if path is not None:
+        config, diagnostics = load_configuration(path, model, partial=True)
         if config is None:
             raise DocumentError(_errors(diagnostics))
         variant = resolve(model, config, prefer)
@@ -120,22 +130,26 @@ def load(
 
 def launch(
     target: str | Path,
-    variant_name: str,
+    variant_name: str | None,
     rate: float = 1000.0,
     prefer: tuple[str, ...] = (),
     strict: bool = False,
     ros_namespace: str = "/",
+    config_path: str | Path | None = None,
 ) -> Robot:
     """Build a variant's start state into a runtime at `rate` Hz, its plugins started.
 
-    The robot folder needs an architecture.json, plugins (robot.json), or both; the
+    The variant is `variants/<variant_name>.json` or the configuration document at
+    `config_path`, one of them. The robot folder needs an architecture.json, plugins (robot.json), or both; the
     start state's architecture elements are built and its features' plugins started (all
     or none: a plugin that fails to start stops the others and raises PluginError).
     An active Dynamic feature that nothing implements (no plugin, no architecture element,
     not abstract) is warned about, or with `strict` refused (DocumentError). Relative node
     names of ros2_lifecycle plugins are resolved against `ros_namespace`.
     """
-    loaded = load(target, variant_name, prefer)
+    if variant_name is None and config_path is None:
+        raise ValueError("a variant name or a configuration path")
+    loaded = load(target, variant_name, prefer, config_path=config_path)
     assert loaded.variant is not None and loaded.active is not None
     plugins, problems = discover(loaded.folder, loaded.model)
     if _errors(problems):
