@@ -53,7 +53,7 @@ def test_a_command_takes_both_or_neither(name: str) -> None:
 
 def test_the_commands_about_a_variant_are_those_expected() -> None:
     about = {name for name in COMMANDS if "--variant" in options(name)}
-    assert about == {"validate", "show", "configure", "graph", "run", "ctl"}
+    assert about == {"validate", "show", "configure", "menuconfig", "graph", "run", "ctl"}
 
 
 def files(folder: Path) -> dict[str, bytes]:

@@ -123,7 +123,11 @@ def test_sarif_of_a_conflict_locates_the_fact_to_change_and_lists_the_others() -
     assert result["ruleId"] == "3.1" and result["level"] == "error"
     assert result["message"]["text"].startswith("slam requires grid_map, but grid_map is configured Dynamic")
     assert region(result["locations"][0]) == (variant, 57, 17)
-    assert result["properties"] == {"jsonPath": "$.properties[7].props.mode", "feature": "grid_map"}
+    assert result["properties"] == {
+        "jsonPath": "$.properties[7].props.mode",
+        "feature": "grid_map",
+        "repairs": ["make grid_map Static", "deselect slam and kartoslam"],  # (section 6)
+    }
     assert [(*region(r), r["message"]["text"]) for r in result["relatedLocations"]] == [
         (f"{SIMPLEBOT}/model.json", 127, 15, "slam requires grid_map"),
         (variant, 52, 5, "grid_map is selected"),

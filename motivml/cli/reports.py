@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 from urllib.parse import quote
 
 from .. import __version__
-from ..errors import Diagnostic, Location, MotivmlError, Severity
+from ..errors import Diagnostic, Location, MotivmlError, Severity, repair_text
 
 if TYPE_CHECKING:
     from xml.etree.ElementTree import Element
@@ -144,7 +144,8 @@ def sarif(diagnostics: Sequence[Diagnostic], exit_code: int) -> str:
             "message": {"text": d.message},
             "locations": [{"physicalLocation": _physical(d.location)}],
             "properties": {"jsonPath": d.location.path}
-            | ({"feature": d.feature} if d.feature is not None else {}),
+            | ({"feature": d.feature} if d.feature is not None else {})
+            | ({"repairs": [repair_text(r) for r in d.repairs]} if d.repairs else {}),
         }
         if d.facts:
             result["relatedLocations"] = [
