@@ -198,3 +198,13 @@ def test_a_missing_motivml_says_how_to_point_cmake_at_it(project: Path, tmp_path
     assert (
         "the motivml command was not found" in message and "-DMOTIVML_EXECUTABLE=/path/to/motivml" in message
     )
+
+
+def test_an_installation_without_the_package_says_so(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A motivml whose files lost the CMake package (neither a wheel's nor a checkout's): exit 3."""
+    from motivml.cli import building
+
+    monkeypatch.setattr(building, "__file__", str(tmp_path / "motivml" / "cli" / "building.py"))
+    result = CliRunner().invoke(main, ["cmake-dir"])
+    assert result.exit_code == 3
+    assert "no motivmlConfig.cmake in this installation of motivml" in result.output
