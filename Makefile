@@ -46,8 +46,10 @@ test: setup cpp-plugins ros2
 	$(BIN)/mypy
 	$(BIN)/lint-imports
 	rm -f build/.coverage*
-	COVERAGE_FILE=build/.coverage $(BIN)/pytest -q --cov=motivml --cov-report=
-	COVERAGE_FILE=$(CURDIR)/build/.coverage COVERAGE_PROCESS_START=$(CURDIR)/pyproject.toml \
+	# PYTHONFAULTHANDLER: a crash, even while the interpreter shuts down after the tests,
+	# prints where every thread was (pytest's own handler is gone by then).
+	PYTHONFAULTHANDLER=1 COVERAGE_FILE=build/.coverage $(BIN)/pytest -q --cov=motivml --cov-report=
+	PYTHONFAULTHANDLER=1 COVERAGE_FILE=$(CURDIR)/build/.coverage COVERAGE_PROCESS_START=$(CURDIR)/pyproject.toml \
 	  MOTIVML_REQUIRE_ROS2=1 $(ROS_BIN)/pytest -q -m ros2 \
 	  --cov=motivml --cov-append --cov-report=json:build/coverage.json
 	$(BIN)/python tools/coverage_floor.py build/coverage.json 90
