@@ -14,8 +14,7 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 * `running`: run and ctl (the robot at run time);
 * `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL);
 * `menuconfig`: the terminal configurator (Textual, imported only when it runs);
-* `building`: cmake-dir (the CMake package for C++ projects);
-* `plotting`: plot (a run's record, with matplotlib, imported only when it runs).
+* `building`: cmake-dir (the CMake package for C++ projects).
 
 `common` holds what the commands share (printing diagnostics, --variant and --config),
 `reports` validate's machine formats (JSON, SARIF, JUnit XML).
@@ -38,7 +37,6 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "show": ("checking", "show_command"),
     "menuconfig": ("menuconfig", "menuconfig_command"),
     "cmake-dir": ("building", "cmake_dir_command"),
-    "plot": ("plotting", "plot_command"),
     "analyse": ("analysing", "analyse_command"),
     "sample": ("analysing", "sample_command"),
     "run": ("running", "run_command"),

@@ -116,13 +116,6 @@ class Number(click.FloatRange):
     help="The ROS namespace of the motivml node and of relative ros2_lifecycle node names.",
 )
 @click.option(
-    "--record",
-    "record_path",
-    type=click.Path(),
-    metavar="FILE.csv",
-    help="Write the spaces' values at every tick and every event to FILE.csv (see motivml plot).",
-)
-@click.option(
     "--at",
     "scheduled",
     type=(click.FloatRange(min=0), str),
@@ -146,7 +139,6 @@ def run_command(
     priority: int | None,
     ros2: bool,
     ros_namespace: str,
-    record_path: str | None,
     scheduled: tuple[tuple[float, str], ...],
 ) -> None:
     """Build the motion architecture of a variant's active features and run it at a fixed rate.
@@ -165,9 +157,6 @@ def run_command(
     from ..plugins.ros2 import namespace, ros2_missing
 
     name = one_variant(config, variant)
-    if record_path is not None and Path(record_path).suffix.lower() != ".csv":
-        what = "Parquet is not supported" if Path(record_path).suffix.lower() == ".parquet" else "a record is CSV"
-        raise click.BadParameter(f"{record_path!r}: {what}: give a FILE.csv", param_hint="'--record'")
     try:
         ros_namespace = namespace(ros_namespace)
     except ValueError as exc:
@@ -240,17 +229,6 @@ def run_command(
             signal.signal(signal.SIGINT, previous)
     print_diagnostics(robot.warnings)
     runtime = robot.runtime
-    recorder = None
-    if record_path is not None:
-        from ..runtime.record import Recorder
-
-        spaces = list(robot.architecture.spaces.values()) if robot.architecture is not None else []
-        try:
-            recorder = Recorder(record_path, runtime, spaces)
-        except MotivmlError as exc:
-            robot.close()
-            fail(exc)
-        runtime.hooks.append(recorder.after_tick)
     if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
         out.width = max(out.width, 160)
     out.print(
@@ -276,8 +254,6 @@ def run_command(
     try:
         session.open()
     except MotivmlError as exc:
-        if recorder is not None:
-            recorder.discard()
         fail(exc)
     if session.server is not None:
         out.print(f"control: {escape(str(session.server.path))} (motivml ctl)")
@@ -288,16 +264,12 @@ def run_command(
             door = start(robot, ros_namespace)
         except MotivmlError as exc:
             session.close()
-            if recorder is not None:
-                recorder.discard()
             fail(exc)
         session.doors.append(door.close)
         out.print(f"ROS 2: node {escape(door.name)} (features.<id>.active parameters)")
     coordinator = session.coordinator
     if coordinator is None and any(request.action == "event" for _, request in plan):
         session.close()
-        if recorder is not None:
-            recorder.discard()
         raise click.BadParameter(
             "events go to a coordination statechart, and this robot has none", param_hint="--at"
         )
@@ -315,17 +287,6 @@ def run_command(
         _report_notes(session, out)  # all of the run's log, before the summary (same place every run)
     finally:
         session.stop_watching()
-        if recorder is not None and not session.finished.is_set():
-            recorder.discard()  # the loop did not end (an error here): no half record
-            recorder = None
-    record_failed = False
-    if recorder is not None:
-        try:
-            recorder.close()
-            out.print(f"recorded {plural(recorder.rows, 'tick')} in {escape(record_path or '')}")
-        except MotivmlError as exc:
-            print_diagnostics(exc.diagnostics)
-            record_failed = True
     if session.stats is None:
         out.print("[bold red]the run ended without a result[/]")
         sys.exit(3)
@@ -364,8 +325,6 @@ def run_command(
         if session.stopped_by == signal.SIGINT
         else 1
         if diverged or runtime.failure is not None or session.unsettled or failed_stops
-        else 3
-        if record_failed  # the run went well, its record could not be written (exit 3: environment)
         else 0  # a run stopped by SIGTERM (a service manager's stop) ended normally
     )
 

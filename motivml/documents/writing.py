@@ -10,7 +10,7 @@ from pathlib import Path
 from ..errors import EnvironmentProblem, Location, error
 
 
-def write_if_changed(folder: Path, files: dict[str, str] | dict[str, bytes]) -> dict[str, bool]:
+def write_if_changed(folder: Path, files: dict[str, str]) -> dict[str, bool]:
     """Write the files whose content differs; {name: written}.
 
     Every changed file is first written to a temporary file beside its target, and only
@@ -27,7 +27,7 @@ def write_if_changed(folder: Path, files: dict[str, str] | dict[str, bytes]) -> 
         folder.mkdir(parents=True, exist_ok=True)
         for name, content in files.items():
             current = folder / name
-            data = content if isinstance(content, bytes) else content.encode("utf-8", "backslashreplace")
+            data = content.encode("utf-8", "backslashreplace")
             if current.is_file() and current.read_bytes() == data:
                 written[name] = False
                 continue
