@@ -1,5 +1,5 @@
-"""run --record: one row per tick, every event at its tick, a complete file however the run
-ends, and every path that cannot be written refused before the run, never half a file."""
+"""run --record and plot: one row per tick, every event at its tick, a picture per record,
+and every bad record or path refused with its place, never a traceback or half a file."""
 
 from __future__ import annotations
 
@@ -8,8 +8,10 @@ import re
 import signal
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner, Result
 from hypothesis import given
@@ -18,10 +20,11 @@ from hypothesis import strategies as st
 from motivml.cli import main
 from motivml.runtime import record
 from motivml.runtime.launch import launch
-from motivml.runtime.record import SEPARATOR, Recorder, columns, escape, split_events
+from motivml.runtime.record import SEPARATOR, Recorder, columns, escape, read_record, split_events
 
 ROOT = Path(__file__).resolve().parent.parent
 ARM = ROOT / "feature_models" / "reaching_arm"
+SVG = "{http://www.w3.org/2000/svg}"
 
 
 def invoke(*args: str) -> Result:
@@ -98,6 +101,36 @@ def test_a_recorded_run_has_one_row_per_tick_and_its_events_at_their_ticks(tmp_p
         recorded = [float(table[-1][f"{space}[{i}]"]) for i in range(size)]
         assert [f"{v:.3f}" for v in recorded] == printed.group(1).split(", ")
     assert [p.name for p in tmp_path.iterdir()] == ["swap.csv"]  # no hidden file left behind
+
+
+def test_the_recorded_run_plots_one_panel_per_space_with_its_events(tmp_path: Path) -> None:
+    ran = record_swap(tmp_path)
+    assert ran.exit_code == 0, ran.output
+    fired = re.search(r"AttractorReacher .* converged .* ([0-9.]+) s", ran.output)
+    assert fired is not None
+    picture = tmp_path / "plots" / "swap.svg"
+    result = invoke("plot", str(tmp_path / "swap.csv"), "-o", str(picture))
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines() == [
+        f"{picture}: 3 spaces, 750 ticks (0.002 to 1.5 s), 2 events marked",
+        "  0.600 s (tick 300): swap dmp_reach attractor_reach",
+        f"  {fired.group(1)} s (tick {round(float(fired.group(1)) * 500)}): AttractorReacher converged",
+    ]
+    svg = ET.parse(picture).getroot()
+    axes = [g for g in svg.iter(f"{SVG}g") if re.fullmatch(r"axes_\d+", g.get("id", ""))]
+    assert len(axes) == len(arm_spaces())
+    texts = ["".join(t.itertext()).strip() for t in svg.iter(f"{SVG}text")]
+    for expected in ("ArmGoal", "ArmCommand", "HandPosition", "time [s]", "swap dmp_reach attractor_reach"):
+        assert expected in texts
+    assert "reconfiguration" in texts and "criterion" in texts  # the legend of event kinds
+    lines = [g for g in svg.iter(f"{SVG}g") if g.get("id", "").startswith("line2d_")]
+    assert len(lines) >= sum(n for _, n in arm_spaces())  # a line per number (and the legends' samples)
+    assert [p.name for p in picture.parent.iterdir()] == ["swap.svg"]
+    again = invoke("plot", str(tmp_path / "swap.csv"), "-o", str(tmp_path / "swap.png"))
+    assert again.exit_code == 0, again.output
+    assert (tmp_path / "swap.png").read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+    default = invoke("plot", str(tmp_path / "swap.csv"))  # beside the record, .svg
+    assert default.exit_code == 0 and (tmp_path / "swap.svg").read_bytes() == picture.read_bytes()
 
 
 # ------------------------------------------------------------------ how a run ends
@@ -255,6 +288,56 @@ def test_a_run_that_cannot_start_leaves_no_record(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []  # neither the record nor its hidden file
 
 
+# ------------------------------------------------------------------ bad records
+BAD = {
+    "empty": ("", 1, "empty: not a record of motivml run"),
+    "not a record": ("name,value\nx,1\n", 1, "not a record of motivml run: its first line names the columns"),
+    "a column not a space": ("tick,time,Arm,events\n", 1, "column 'Arm' is not a space's number, SPACE[i]"),
+    "numbers out of order": (
+        "tick,time,A[0],A[2],events\n",
+        1,
+        "column 'A[2]' where A[1] should be: a space's numbers come in order, together",
+    ),
+    "no ticks": ("tick,time,A[0],events\n", 2, "the record has no ticks: the run ended before its first"),
+    "a short row": ("tick,time,A[0],events\n1,0.001,0.5,\n2,0.002\n", 3, "2 fields, where the first line names 4"),
+    "a tick skipped": ("tick,time,A[0],events\n1,0.001,0.5,\n3,0.003,0.5,\n", 3, "tick 3 follows tick 1"),
+    "a tick not a number": ("tick,time,A[0],events\nx,0.001,0.5,\n", 2, "tick 'x' is not a whole number"),
+    "a time not a number": ("tick,time,A[0],events\n1,soon,0.5,\n", 2, "time 'soon' is not a number of seconds"),
+    "a value not a number": ("tick,time,A[0],events\n1,0.001,0.5,\n2,0.002,high,\n", 3, "A[0]: 'high' is not a number"),
+    "an event without its kind": ("tick,time,A[0],events\n1,0.001,0.5,swap a b\n", 2, "event 'swap a b' is not 'kind: text'"),
+    "not text": (b"\x89PNG\r\n\x1a\n\x00\xff", 1, "not UTF-8 text: not a record of motivml run"),
+    "a NUL byte": ("tick,time,A[0],events\n1,0.001,0.5\x00,\n", 2, "A[0]: '0.5\\x00' is not a number"),
+    "an open quote": ('tick,time,A[0],events\n1,0.001,0.5,"change: x\n', 2, "not CSV: unexpected end of data"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", BAD, ids=list(BAD))
+def test_a_bad_record_is_refused_with_its_line(tmp_path: Path, case: str) -> None:
+    text, line, message = BAD[case]
+    bad = tmp_path / "bad.csv"
+    bad.write_bytes(text if isinstance(text, bytes) else text.encode())
+    result = invoke("plot", str(bad), "-o", str(tmp_path / "bad.svg"))
+    assert result.exit_code == 1, result.output
+    assert isinstance(result.exception, SystemExit)  # said, not a traceback
+    (said,) = result.output.splitlines()
+    assert said.startswith(f"{bad}:{line}:") and message in said, said
+    assert [p.name for p in tmp_path.iterdir()] == ["bad.csv"]  # no picture, not half of one
+
+
+def test_plot_refuses_a_missing_record_and_a_picture_format_it_does_not_draw(tmp_path: Path) -> None:
+    missing = invoke("plot", str(tmp_path / "nothing.csv"))
+    assert missing.exit_code == 3 and missing.output.startswith(f"{tmp_path / 'nothing.csv'}: cannot read: ")
+    (tmp_path / "r.csv").write_text("tick,time,events\n1,0.001,\n")
+    pdf = invoke("plot", str(tmp_path / "r.csv"), "-o", str(tmp_path / "r.pdf"))
+    assert pdf.exit_code == 2 and "a picture is .svg or .png" in pdf.output
+    (tmp_path / "r.svg").write_text("tick,time,events\n1,0.001,\n")  # a record by another name
+    itself = invoke("plot", str(tmp_path / "r.svg"))
+    assert itself.exit_code == 2 and "would replace the record" in itself.output
+    nothing = invoke("plot", str(tmp_path / "r.csv"))  # a robot with plugins only: events, no spaces
+    assert nothing.exit_code == 0, nothing.output
+    assert nothing.output.startswith(f"{tmp_path / 'r.svg'}: 0 spaces, 1 tick")
+
+
 # ------------------------------------------------------------------ the recorder itself
 PRINTABLE = st.characters(
     exclude_categories=["Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp", "Zs"], include_characters=" "
@@ -295,3 +378,22 @@ def test_events_made_after_their_row_was_written_go_in_the_first_open_row(
         8: ["refused: load x: too late (at tick 3)"],
         16: ["end: done"],
     }
+
+
+def test_a_long_record_is_thinned_without_losing_a_peak(tmp_path: Path) -> None:
+    ticks = 5000
+    values = np.sin(np.arange(1, ticks + 1) / 300)
+    values[2345] = 7.5  # one tick's peak
+    lines = ["tick,time,A[0],B[0],events"]
+    for tick, value in enumerate(values, 1):
+        absent = "" if 1000 <= tick < 2000 else "1.0"  # B's feature inactive for a while
+        lines.append(f"{tick},{tick / 1000!r},{float(value)!r},{absent},")
+    (tmp_path / "long.csv").write_text("\n".join(lines) + "\n")
+    read = read_record(tmp_path / "long.csv", points=100)
+    assert read.ticks == ticks and read.bucket > 1 and len(read.time) <= 200
+    assert np.all(np.diff(read.time) > 0) and read.time[0] == 0.001
+    assert np.nanmax(read.high[:, 0]) == 7.5 and np.nanmin(read.low[:, 0]) == values.min()
+    inactive = (read.time >= 1.0 + read.bucket / 1000) & (read.time < 1.999 - read.bucket / 1000)
+    assert inactive.any() and np.isnan(read.low[inactive, 1]).all()
+    exact = read_record(tmp_path / "long.csv", points=ticks)  # few enough rows: every one is a point
+    assert exact.bucket == 1 and len(exact.time) == ticks

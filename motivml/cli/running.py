@@ -123,7 +123,7 @@ class Number(click.FloatRange):
     type=click.Path(dir_okay=False),
     metavar="FILE.csv",
     help="Record the spaces' values at every tick and what happened at it (reconfigurations, coordination "
-    "states, faults) in FILE.csv.",
+    "states, faults) in FILE.csv; draw it with motivml plot.",
 )
 def run_command(
     target: str,

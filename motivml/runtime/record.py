@@ -1,6 +1,6 @@
 """The record of a run: the spaces' values at every tick and what happened at it, as one CSV file.
 
-`motivml run --record FILE` writes it while the loop runs.
+`motivml run --record FILE` writes it while the loop runs; `motivml plot FILE` reads it back.
 One row per tick, columns in this order::
 
     tick,time,ArmGoal[0],ArmGoal[1],ArmGoal[2],ArmCommand[0],...,events
@@ -47,8 +47,10 @@ from __future__ import annotations
 
 import collections
 import csv
+import math
 import os
 import queue
+import re
 import tempfile
 import threading
 from collections.abc import Iterator, Sequence
@@ -58,7 +60,7 @@ from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import EnvironmentProblem, Location, error
+from ..errors import DocumentError, EnvironmentProblem, Location, error
 
 if TYPE_CHECKING:
     from ..architecture.document import Architecture
@@ -70,6 +72,8 @@ KINDS = ("run", "change", "refused", "status", "state", "fault", "missed", "end"
 SEPARATOR = " | "
 CHUNK = 1024  # rows per block handed to the writer: about a second at 1 kHz
 QUEUED = 16  # blocks the simulated clock lets the writer fall behind
+COLUMN = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)\[([0-9]+)\]")
+EVENT = re.compile(r"([a-z]+): ")
 
 
 def columns(architecture: Architecture | None, selected: set[str]) -> list[tuple[str, int]]:
@@ -385,3 +389,287 @@ class Recorder:
 
 def _reason(exc: BaseException) -> str:
     return (exc.strerror or str(exc)) if isinstance(exc, OSError) else f"{type(exc).__name__}: {exc}"
+
+
+# ---------------------------------------------------------------------- reading
+POINTS = 1500  # a record read for a picture keeps between this and twice as many points per number
+MAX_EVENTS = 10_000  # events kept for a picture; more are counted
+
+
+@dataclass(frozen=True)
+class RecordedEvent:
+    tick: int
+    time: float
+    kind: str
+    text: str
+
+
+@dataclass
+class Record:
+    """A record read back, thinned for a picture.
+
+    `time` and `low`/`high` hold one point per row while the record has at most twice
+    `points` rows; a longer one is cut into buckets of `bucket` rows (a power of two), each shown by
+    its first row's time and the lowest and highest value of every number in it, so that a
+    peak of one tick is never lost. NaN where a space was not active (or diverged)."""
+
+    path: Path
+    spaces: list[tuple[str, int]]
+    ticks: int  # rows
+    start: float  # time of the first row, s
+    end: float  # time of the last row, s
+    time: np.ndarray
+    low: np.ndarray  # points x numbers
+    high: np.ndarray
+    bucket: int
+    events: list[RecordedEvent]
+    more_events: int  # not kept (past MAX_EVENTS)
+
+    @property
+    def description(self) -> str | None:
+        """What the run was (its `run` event), if the record says."""
+        return next((e.text for e in self.events if e.kind == "run"), None)
+
+
+class _Lines:
+    """The file's lines for csv.reader, remembering the last one and counting them."""
+
+    def __init__(self, handle: IO[str]) -> None:
+        self.handle = handle
+        self.number = 0
+        self.last = ""
+
+    def __iter__(self) -> Iterator[str]:
+        for line in self.handle:
+            self.number += 1
+            self.last = line
+            yield line
+
+
+def read_record(path: Path, points: int = POINTS) -> Record:
+    """Read a record of `motivml run --record`, streaming (DocumentError, located, if it is not one)."""
+    try:
+        handle = open(path, encoding="utf-8", newline="")
+    except OSError as exc:
+        raise EnvironmentProblem(
+            error(Location(str(path)), f"cannot read: {exc.strerror or exc}", "io")
+        ) from None
+    with handle:
+        lines = _Lines(handle)
+        try:
+            return _Reader(path, lines, points).read()
+        except UnicodeDecodeError:
+            raise _bad(path, lines.number + 1, 1, "not UTF-8 text: not a record of motivml run") from None
+        except csv.Error as exc:
+            raise _bad(path, max(lines.number, 1), 1, f"not CSV: {exc}") from None
+        except OSError as exc:
+            raise EnvironmentProblem(
+                error(Location(str(path)), f"cannot read: {exc.strerror or exc}", "io")
+            ) from None
+
+
+def _bad(path: Path, line: int, column: int, message: str) -> DocumentError:
+    return DocumentError(error(Location(str(path), line, column), message, "record"))
+
+
+class _Reader:
+    BLOCK = 8192  # rows parsed before they are thinned
+
+    def __init__(self, path: Path, lines: _Lines, points: int) -> None:
+        self.path = path
+        self.lines = lines
+        self.points = max(points, 2)
+        self.bucket = 1
+        self.ids = np.zeros(0, dtype=np.int64)  # each kept point's bucket: row index // bucket
+        self.time = np.zeros(0)
+        self.low = np.zeros((0, 0))
+        self.high = np.zeros((0, 0))
+        self.events: list[RecordedEvent] = []
+        self.more_events = 0
+
+    def column(self, fields: list[str], index: int) -> int:
+        """The character column of a field on the current line (1 if quoting makes it unsure)."""
+        if '"' in self.lines.last:
+            return 1
+        return sum(len(f) + 1 for f in fields[:index]) + 1
+
+    def read(self) -> Record:
+        reader = csv.reader(self.lines, strict=True)
+        names = next(reader, None)
+        expected = "its first line names the columns tick,time,SPACE[i]...,events"
+        if names is None:
+            raise _bad(self.path, 1, 1, f"empty: not a record of motivml run ({expected})")
+        if len(names) < 3 or names[:2] != ["tick", "time"] or names[-1] != "events":
+            raise _bad(self.path, 1, 1, f"not a record of motivml run: {expected}")
+        spaces = self.spaces(names)
+        width = len(names) - 3
+        self.low = self.high = np.zeros((0, width))
+        rows: list[list[float]] = []
+        times: list[float] = []
+        previous: int | None = None
+        first_time = last_time = 0.0
+        count = 0
+        for fields in reader:
+            line = self.lines.number
+            if len(fields) != len(names):
+                raise _bad(
+                    self.path,
+                    line,
+                    1,
+                    f"{len(fields)} fields, where the first line names {len(names)} columns",
+                )
+            try:
+                tick = int(fields[0])
+            except ValueError:
+                raise _bad(self.path, line, 1, f"tick {fields[0]!r} is not a whole number") from None
+            if previous is not None and tick != previous + 1:
+                raise _bad(
+                    self.path,
+                    line,
+                    1,
+                    f"tick {tick} follows tick {previous}: a record has one row per tick, in order",
+                )
+            previous = tick
+            try:
+                time = float(fields[1])
+            except ValueError:
+                time = math.nan
+            if not math.isfinite(time):
+                raise _bad(
+                    self.path, line, self.column(fields, 1), f"time {fields[1]!r} is not a number of seconds"
+                )
+            try:
+                rows.append([float(v) if v else math.nan for v in fields[2:-1]])
+            except ValueError:
+                index = next(i for i, v in enumerate(fields[2:-1], 2) if v and not _is_number(v))
+                raise _bad(
+                    self.path,
+                    line,
+                    self.column(fields, index),
+                    f"{names[index]}: {fields[index]!r} is not a number",
+                ) from None
+            times.append(time)
+            if fields[-1]:
+                self.read_events(fields, tick, time)
+            if count == 0:
+                first_time = time
+            last_time = time
+            count += 1
+            if len(rows) == self.BLOCK:
+                self.thin(count - len(rows), rows, times, width)
+                rows, times = [], []
+        if count == 0:
+            raise _bad(
+                self.path,
+                max(self.lines.number, 1) + 1,
+                1,
+                "the record has no ticks: the run ended before its first",
+            )
+        if rows:
+            self.thin(count - len(rows), rows, times, width)
+        return Record(
+            self.path,
+            spaces,
+            count,
+            first_time,
+            last_time,
+            self.time,
+            self.low,
+            self.high,
+            self.bucket,
+            self.events,
+            self.more_events,
+        )
+
+    def spaces(self, names: list[str]) -> list[tuple[str, int]]:
+        spaces: list[tuple[str, int]] = []
+        for index, name in enumerate(names[2:-1], 2):
+            match = COLUMN.fullmatch(name)
+            column = self.column(names, index)
+            if match is None:
+                raise _bad(self.path, 1, column, f"column {name!r} is not a space's number, SPACE[i]")
+            space, number = match.group(1), int(match.group(2))
+            if spaces and spaces[-1][0] == space and number == spaces[-1][1]:
+                spaces[-1] = (space, number + 1)
+            elif number == 0 and all(s != space for s, _ in spaces):
+                spaces.append((space, 1))
+            else:
+                wanted = (
+                    f"{spaces[-1][0]}[{spaces[-1][1]}]"
+                    if spaces and spaces[-1][0] == space
+                    else f"{space}[0]"
+                )
+                raise _bad(
+                    self.path,
+                    1,
+                    column,
+                    f"column {name!r} where {wanted} should be: a space's numbers come in order, together",
+                )
+        return spaces
+
+    def read_events(self, fields: list[str], tick: int, time: float) -> None:
+        for said in split_events(fields[-1]):
+            match = EVENT.match(said)
+            if match is None:
+                raise _bad(
+                    self.path,
+                    self.lines.number,
+                    self.column(fields, len(fields) - 1),
+                    f"event {said!r} is not 'kind: text' (kinds: {', '.join(KINDS)})",
+                )
+            if len(self.events) < MAX_EVENTS:
+                self.events.append(RecordedEvent(tick, time, match.group(1), said[match.end() :]))
+            else:
+                self.more_events += 1
+
+    def thin(self, offset: int, rows: list[list[float]], times: list[float], width: int) -> None:
+        """Add parsed rows (the first is row `offset` of the record) as points; merge the
+        points two buckets at a time while there are more than twice `points`."""
+        values = np.array(rows, dtype=float).reshape(len(rows), width)
+        values[np.isinf(values)] = np.nan  # a diverged number shows as a gap, as an inactive space does
+        ids = (offset + np.arange(len(rows))) // self.bucket
+        self.add(ids, np.array(times), values, values)
+        while len(self.ids) > 2 * self.points:
+            self.bucket *= 2
+            self.ids, self.time, self.low, self.high = _regroup(self.ids // 2, self.time, self.low, self.high)
+
+    def add(self, ids: np.ndarray, time: np.ndarray, low: np.ndarray, high: np.ndarray) -> None:
+        ids, time, low, high = _regroup(ids, time, low, high)
+        if len(self.ids) and ids[0] == self.ids[-1]:  # a bucket that began in the block before
+            low[0] = np.fmin(low[0], self.low[-1])
+            high[0] = np.fmax(high[0], self.high[-1])
+            time[0] = self.time[-1]
+            self.ids, self.time, self.low, self.high = (
+                self.ids[:-1],
+                self.time[:-1],
+                self.low[:-1],
+                self.high[:-1],
+            )
+        self.ids = np.concatenate([self.ids, ids])
+        self.time = np.concatenate([self.time, time])
+        self.low = np.concatenate([self.low, low])
+        self.high = np.concatenate([self.high, high])
+
+
+def _regroup(
+    ids: np.ndarray, time: np.ndarray, low: np.ndarray, high: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One point per run of equal ids: its first time, the lowest low and highest high (NaN-blind)."""
+    starts = np.flatnonzero(np.concatenate([[True], ids[1:] != ids[:-1]]))
+    if low.shape[1] == 0:
+        empty = np.zeros((len(starts), 0))
+        return ids[starts], time[starts], empty, empty
+    return (
+        ids[starts],
+        time[starts],
+        np.fmin.reduceat(low, starts, axis=0),
+        np.fmax.reduceat(high, starts, axis=0),
+    )
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
