@@ -133,6 +133,19 @@ def test_the_recorded_run_plots_one_panel_per_space_with_its_events(tmp_path: Pa
     assert default.exit_code == 0 and (tmp_path / "swap.svg").read_bytes() == picture.read_bytes()
 
 
+def test_the_guides_picture_is_the_plot_of_the_guides_record() -> None:
+    """guidelines/images/reaching_arm/hot-swap.svg is what the guide's commands draw (its
+    bytes follow matplotlib's version; what it shows is checked here)."""
+    guide = (ROOT / "guidelines" / "the-motion-architecture.md").read_text()
+    assert "![" in guide and "(images/reaching_arm/hot-swap.svg)" in guide
+    svg = ET.parse(ROOT / "guidelines" / "images" / "reaching_arm" / "hot-swap.svg").getroot()
+    axes = [g for g in svg.iter(f"{SVG}g") if re.fullmatch(r"axes_\d+", g.get("id", ""))]
+    assert len(axes) == 3
+    texts = {"".join(t.itertext()).strip() for t in svg.iter(f"{SVG}text")}
+    assert {"ArmGoal", "ArmCommand", "HandPosition", "swap dmp_reach attractor_reach"} <= texts
+    assert "reaching_arm variant swappable at 1000 Hz on the simulated clock for 3 s: 3,000 ticks" in texts
+
+
 # ------------------------------------------------------------------ how a run ends
 def test_a_failing_static_plugin_ends_the_record_with_its_fault(tmp_path: Path) -> None:
     from test_transactions import make_robot
