@@ -410,3 +410,25 @@ def test_a_long_record_is_thinned_without_losing_a_peak(tmp_path: Path) -> None:
     assert inactive.any() and np.isnan(read.low[inactive, 1]).all()
     exact = read_record(tmp_path / "long.csv", points=ticks)  # few enough rows: every one is a point
     assert exact.bucket == 1 and len(exact.time) == ticks
+
+
+def test_a_disk_that_fills_up_leaves_no_half_record_and_exits_3(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The writer's thread fails (a full disk): the run goes on and says so, and the record
+    is removed rather than left half-written."""
+    import errno
+
+    def full(self: Recorder, block: object) -> object:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(Recorder, "_rows", full)
+    result = record_swap(tmp_path)
+    assert result.exit_code == 3, result.output
+    lines = result.output.splitlines()
+    assert any(
+        line.endswith("swap.csv: cannot write: No space left on device: recording stopped") for line in lines
+    )
+    assert lines[-1] == f"{tmp_path / 'swap.csv'}: cannot write the record: No space left on device"
+    assert "750 ticks, 1.500 s of control time" in lines  # the run itself went on to its end
+    assert list(tmp_path.iterdir()) == []
