@@ -9,7 +9,16 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
-HEAVY = ("numpy", "sismic", "rich.live", "pluginbase", "motivml._cpp_plugins", "rclpy", "motivml.ros2")
+HEAVY = (
+    "numpy",
+    "sismic",
+    "rich.live",
+    "pluginbase",
+    "motivml._cpp_plugins",
+    "rclpy",
+    "motivml.ros2",
+    "matplotlib",
+)
 
 PROBE = """
 import sys
@@ -57,6 +66,15 @@ def test_the_probe_sees_heavy_imports_where_they_are_used() -> None:
     assert "numpy" in _heavy_modules_after(
         "graph", "feature_models/quadruped", "--variant", "trot", "-o", "/dev/null/x"
     )
+
+
+def test_matplotlib_is_imported_only_to_draw_a_picture(tmp_path: Path) -> None:
+    record = tmp_path / "run.csv"
+    record.write_text("tick,time,A[0],events\n1,0.001,0.5,\n")
+    assert _heavy_modules_after("plot", "--help") == []
+    assert "matplotlib" not in _heavy_modules_after("run", "--help")
+    assert "matplotlib" in _heavy_modules_after("plot", str(record), "-o", str(tmp_path / "run.svg"))
+    assert (tmp_path / "run.svg").is_file()
 
 
 def test_the_import_contract_holds() -> None:

@@ -137,3 +137,12 @@ def test_concurrent_writers_take_turns_and_a_reader_never_sees_a_mix(tmp_path: P
     assert verdict["mixed"] == 0
     final = set(contents(out).values())
     assert final in ({"lab 29\n"}, {"field 29\n"})  # the last writer's generation, whole
+
+
+def test_bytes_are_written_as_they_are_and_rewritten_only_when_they_change(tmp_path: Path) -> None:
+    """A picture (plot's PNG) goes through the same atomic writing as generated text."""
+    png = b"\x89PNG\r\n\x1a\n\x00\xff"
+    assert writing.write_if_changed(tmp_path, {"a.png": png, "a.txt": "é"}) == {"a.png": True, "a.txt": True}
+    assert (tmp_path / "a.png").read_bytes() == png and (tmp_path / "a.txt").read_bytes() == "é".encode()
+    assert writing.write_if_changed(tmp_path, {"a.png": png}) == {"a.png": False}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "a.txt"]  # no temporary left

@@ -12,7 +12,8 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 * `analysing`: analyse and sample (what a model allows: section 7's analyses and counts,
   t-wise samples);
 * `running`: run and ctl (the robot at run time);
-* `drawing`: graph, export and import (pictures, SCXML, DIMACS and UVL);
+* `drawing`: graph, plot, export and import (pictures of the model, the architecture and a
+  run's record; SCXML, DIMACS and UVL);
 * `menuconfig`: the terminal configurator (Textual, imported only when it runs);
 * `building`: cmake-dir (the CMake package for C++ projects).
 
@@ -42,6 +43,7 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "run": ("running", "run_command"),
     "ctl": ("running", "ctl_command"),
     "graph": ("drawing", "graph_command"),
+    "plot": ("drawing", "plot_command"),
     "export": ("drawing", "export_command"),
     "import": ("drawing", "import_command"),
 }

@@ -1,5 +1,5 @@
-"""graph, export and import: pictures of the model and architecture, SCXML of the coordination,
-the model in other tools' formats (DIMACS, UVL) and from UVL."""
+"""graph, plot, export and import: pictures of the model and architecture and of a run's record,
+SCXML of the coordination, the model in other tools' formats (DIMACS, UVL) and from UVL."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from rich.markup import escape
 
 from ..documents.robot_folder import ARCHITECTURE_FILE
 from ..errors import MotivmlError
-from .common import one_variant, out, print_diagnostics
+from .common import fail, one_variant, out, plural, print_diagnostics, shown
 
 
 @click.command("graph")
@@ -70,6 +70,51 @@ def graph_command(target: str, variant: str | None, config: str | None, fmt: str
         out.print(
             "Graphviz's dot is not installed: no SVG (install graphviz, or render the .dot files elsewhere)"
         )
+
+
+@click.command("plot")
+@click.argument("record", type=click.Path(dir_okay=False), metavar="RECORD.csv")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(dir_okay=False),
+    metavar="PICTURE",
+    help="The picture: .svg or .png (default: RECORD with .svg for .csv).",
+)
+def plot_command(record: str, output: str | None) -> None:
+    """Draw a run's record (motivml run --record RECORD.csv): one panel per space, its
+    numbers over time, and the run's events as vertical lines: reconfigurations, refusals,
+    faults, coordination states and criteria, each kind in its own colour and dash, the
+    most telling ones labelled.
+
+    A long run is thinned to a few thousand points per number, each showing the lowest and
+    highest value of its stretch of ticks. A file that is not a record is refused with its
+    line (exit 1). The picture is replaced in one rename: never half-written.
+    """
+    path = Path(record)
+    target = Path(output) if output else path.with_suffix(".svg")
+    fmt = target.suffix.lower().removeprefix(".")
+    if fmt not in ("svg", "png"):
+        raise click.BadParameter(f"{shown(str(target))}: a picture is .svg or .png", param_hint="-o/--output")
+    if target.resolve() == path.resolve():
+        raise click.BadParameter("the picture would replace the record", param_hint="-o/--output")
+    from .. import plot
+    from ..documents.writing import write_if_changed
+    from ..runtime.record import read_record
+
+    try:
+        read = read_record(path)
+        picture = plot.draw(read, fmt)
+        write_if_changed(target.parent, {target.name: picture})
+    except MotivmlError as exc:
+        fail(exc)
+    events = plot.marked(read)
+    out.print(
+        f"{escape(str(target))}: {plural(len(read.spaces), 'space')}, {plural(read.ticks, 'tick')} "
+        f"({read.start:g} to {read.end:g} s), {plural(len(events) + read.more_events, 'event')} marked"
+    )
+    for event, text in plot.labelled(read):
+        out.print(shown(f"  {event.time:.3f} s (tick {event.tick}): {text}"))
 
 
 @click.command("export")

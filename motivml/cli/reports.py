@@ -51,6 +51,7 @@ FAMILIES = {
     "limits": "A document within motivml's limits (size, nesting)",
     "schema": "The document follows its JSON Schema",
     "io": "A file or folder that cannot be read",
+    "record": "A run record (motivml run --record) that motivml plot can read",
     "usage": "The command line names something that is not there",
     "model": "The feature model",
     "config": "A configuration (variant) of the model",

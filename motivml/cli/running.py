@@ -25,6 +25,7 @@ from .common import err, fail, one_variant, out, plural, print_diagnostics, prin
 
 if TYPE_CHECKING:
     from ..runtime.loop import RunStats, Runtime, Snapshot
+    from ..runtime.record import Recorder
     from ..runtime.session import Feed, Session
 
 
@@ -123,6 +124,13 @@ class Number(click.FloatRange):
     metavar="SECONDS REQUEST",
     help='Make a request at a control time, e.g. --at 2 "swap hectorslam kartoslam" (repeatable).',
 )
+@click.option(
+    "--record",
+    type=click.Path(dir_okay=False),
+    metavar="FILE.csv",
+    help="Record the spaces' values at every tick and what happened at it (reconfigurations, coordination "
+    "states, faults) in FILE.csv; draw it with motivml plot.",
+)
 def run_command(
     target: str,
     variant: str | None,
@@ -140,6 +148,7 @@ def run_command(
     ros2: bool,
     ros_namespace: str,
     scheduled: tuple[tuple[float, str], ...],
+    record: str | None,
 ) -> None:
     """Build the motion architecture of a variant's active features and run it at a fixed rate.
 
@@ -153,6 +162,10 @@ def run_command(
 
     The variant is --variant NAME (variants/NAME.json) or --config FILE, a configuration
     document anywhere; a run of FILE goes by FILE's stem (its run folder, ctl --variant).
+
+    With --record FILE.csv, one row per tick: tick, time, every number of every space the
+    variant may run, and the tick's events; the file appears complete when the run ends,
+    however it ends.
     """
     from ..plugins.ros2 import namespace, ros2_missing
 
@@ -199,6 +212,7 @@ def run_command(
                 param_hint="--at",
             )
     plan.sort(key=lambda item: item[0])
+    recorder = _recorder(record)
     from rich.live import Live
 
     from ..runtime.launch import launch
@@ -250,7 +264,17 @@ def run_command(
         if control
         else None
     )
-    session = Session(robot, duration, clock, plan, folder, on_stuck=stuck, variant=name, priority=priority)
+    session = Session(
+        robot,
+        duration,
+        clock,
+        plan,
+        folder,
+        on_stuck=stuck,
+        variant=name,
+        priority=priority,
+        record=recorder,
+    )
     try:
         session.open()
     except MotivmlError as exc:
@@ -289,6 +313,7 @@ def run_command(
         session.stop_watching()
     if session.stats is None:
         out.print("[bold red]the run ended without a result[/]")
+        session.close()  # the plugins stopped, and the record (if any) completed
         sys.exit(3)
     for answer in session.answers():
         verdict = "accepted" if answer.outcome.accepted else "refused, nothing changed"
@@ -320,13 +345,46 @@ def run_command(
         out.print(
             f"[bold red]the run did not end cleanly[/]: stop() of {escape(', '.join(failed_stops))} raised"
         )
+    if session.record_problem is not None:
+        for d in session.record_problem.diagnostics:
+            err.print(f"[bold red]{escape(str(d.location))}[/]: {escape(d.message)}")
+    elif recorder is not None and session.recorded is not None:
+        out.print(f"recorded {plural(session.recorded, 'tick')} in {escape(str(recorder.path))}")
     sys.exit(
         EXIT_INTERRUPTED
         if session.stopped_by == signal.SIGINT
         else 1
         if diverged or runtime.failure is not None or session.unsettled or failed_stops
+        else 3
+        if session.record_problem is not None
         else 0  # a run stopped by SIGTERM (a service manager's stop) ended normally
     )
+
+
+def _recorder(record: str | None) -> Recorder | None:
+    """The run's recorder: its file made now, before anything starts, and removed if the
+    command ends before the run does (an invalid variant, a plugin that cannot start)."""
+    if record is None:
+        return None
+    path = Path(record)
+    suffix = path.suffix.lower()
+    if suffix in (".parquet", ".pq"):
+        raise click.BadParameter(
+            f"{record!r}: Parquet is not supported: a record is CSV (give a FILE ending in .csv)",
+            param_hint="--record",
+        )
+    if suffix != ".csv":
+        raise click.BadParameter(
+            f"{record!r}: a record is CSV: give a FILE ending in .csv", param_hint="--record"
+        )
+    from ..runtime.record import Recorder
+
+    try:
+        recorder = Recorder.create(path)
+    except MotivmlError as exc:
+        fail(exc)
+    click.get_current_context().call_on_close(recorder.discard)
+    return recorder
 
 
 def _report(session: Session, console: Console) -> None:

@@ -5,13 +5,14 @@ from __future__ import annotations
 import errno
 import os
 import tempfile
+from collections.abc import Mapping
 from pathlib import Path
 
 from ..errors import EnvironmentProblem, Location, error
 
 
-def write_if_changed(folder: Path, files: dict[str, str]) -> dict[str, bool]:
-    """Write the files whose content differs; {name: written}.
+def write_if_changed(folder: Path, files: Mapping[str, str | bytes]) -> dict[str, bool]:
+    """Write the files whose content differs (text as UTF-8, or bytes as they are); {name: written}.
 
     Every changed file is first written to a temporary file beside its target, and only
     when all of them are written are they renamed over the targets, so a failure (a full
@@ -27,7 +28,7 @@ def write_if_changed(folder: Path, files: dict[str, str]) -> dict[str, bool]:
         folder.mkdir(parents=True, exist_ok=True)
         for name, content in files.items():
             current = folder / name
-            data = content.encode("utf-8", "backslashreplace")
+            data = content if isinstance(content, bytes) else content.encode("utf-8", "backslashreplace")
             if current.is_file() and current.read_bytes() == data:
                 written[name] = False
                 continue

@@ -15,6 +15,9 @@ the exit code from the session's verdict. Everything with threads or signals is 
   process exits with 130 at once);
 * the control socket is registered in the per-user runs directory (`runs.py`), so that
   `motivml ctl` finds the run from anywhere, and unregistered when the socket closes;
+* with a `Recorder` (`run --record FILE`), the run is recorded from its first tick, and
+  `close()` completes the record (or removes it, for a run that never started); a loop
+  stuck in a plugin and interrupted twice still has its record completed before `on_stuck`;
 * `close()` closes the control socket and stops the plugins and the binder's thread.
 """
 
@@ -30,11 +33,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
 
+from ..errors import MotivmlError
 from .binder import Outcome
 from .control import ControlServer
 from .coordinator import Coordinator
 from .launch import Robot
 from .loop import AppliedReconfiguration, RealClock, RunStats, Runtime, SimulatedClock, Snapshot
+from .record import Recorder, columns
 from .requests import Request
 from .runs import Run, register, unregister
 
@@ -106,6 +111,7 @@ class Session:
         on_stuck: Callable[[], None] = _exit_now,
         variant: str | None = None,
         priority: int | None = None,
+        record: Recorder | None = None,
     ) -> None:
         self.robot = robot
         self.priority = priority  # the loop thread's real-time priority (real clock), if any
@@ -132,6 +138,9 @@ class Session:
         self._on_main = False
         self._worker: threading.Thread | None = None
         self.doors: list[Callable[[], None]] = []  # closers of other front doors (the ROS 2 node)
+        self.record = record
+        self.recorded: int | None = None  # ticks in the completed record
+        self.record_problem: MotivmlError | None = None  # why the record could not be completed
 
     def open(self) -> None:
         """Take over Ctrl-C and SIGTERM, open the control socket, start the coordination.
@@ -167,6 +176,19 @@ class Session:
                 self.finished.set()
 
         self._worker = threading.Thread(target=work, daemon=True, name="motivml-control")
+        if self.record is not None:
+            robot = self.robot
+            selected = {d.feature.id for d in robot.variant.selected()}
+            length = f"for {self.duration:g} s" if self.duration != float("inf") else "until stopped"
+            self.record.start(
+                self.runtime,
+                columns(robot.architecture, selected),
+                f"{robot.folder.name} variant {self.variant} at {self.runtime.rate:g} Hz "
+                f"on the {clock.name} clock {length}",
+                self.coordinator,
+                self.simulated,
+            )
+            robot.binder.watchers.append(self.record.refused)
         self._began = time.perf_counter()
         self._worker.start()
 
@@ -189,12 +211,47 @@ class Session:
             self.doors.pop()()
 
     def close(self) -> None:
-        """Stop the plugins and the binder's thread (after `stop_watching`)."""
+        """Stop the plugins and the binder's thread (after `stop_watching`), then complete the
+        record (`recorded`, or `record_problem`) with what their stop() said."""
         self.stop_watching()
         self.robot.close()
+        failed = [("fault", f"stop() of plugin {f} raised") for f in self.robot.binder.failed_stops]
+        self._finish_record(failed)
+
+    def _finish_record(self, extra: Sequence[tuple[str, str]] = (), end: str | None = None) -> None:
+        if self.record is None:
+            return
+        if self._worker is None:  # the run never started: no record
+            self.record.discard()
+            return
+        try:
+            self.recorded = self.record.finish(end or self._ending(), extra)
+        except MotivmlError as exc:
+            self.record_problem = exc
+
+    def _ending(self) -> str:
+        """Why the run ended, in a few words (the record's last event)."""
+        runtime, coordinator = self.runtime, self.coordinator
+        if self.stopped_by is not None:
+            why = f"stopped by {signal.Signals(self.stopped_by).name}"
+        elif runtime.failure is not None:
+            why = f"{runtime.failure.feature} failed: the run stopped"
+        elif coordinator is not None and coordinator.finished is not None:
+            why = f"the coordination reached its final state {coordinator.finished[2]}"
+        elif coordinator is not None and coordinator.unsettled:
+            why = "the coordination stopped the run"
+        elif self.stats is None:
+            why = "the loop ended without a result"
+        elif runtime.stop_requested.is_set():
+            why = "stopped"
+        else:
+            why = "its duration elapsed"
+        diverged = runtime.diverged()
+        return why + (f"; {', '.join(diverged)} diverged" if diverged else "")
 
     def _interrupt(self, signum: int, frame: FrameType | None) -> None:
         if self.interrupted.is_set():  # a second signal: the loop is stuck (a plugin that never returns)
+            self._finish_record(end="the loop was stuck in a plugin's step: interrupted twice")
             self.on_stuck()
             return
         self.stopped_by = signum
