@@ -52,6 +52,7 @@ FAMILIES = {
     "schema": "The document follows its JSON Schema",
     "io": "A file or folder that cannot be read",
     "record": "A run record (motivml run --record) that motivml plot can read",
+    "plot": "A picture motivml plot can draw from a run record",
     "usage": "The command line names something that is not there",
     "model": "The feature model",
     "config": "A configuration (variant) of the model",
