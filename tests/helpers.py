@@ -105,3 +105,13 @@ def model_of(document: dict[str, Any]) -> Any:
     model, problems = read_model(parse(json.dumps(document, indent=1), "model.json"))
     assert not [p for p in problems if p.severity.value == "error"], problems
     return model
+
+
+def simulated_run(robot: str | Path, variant: str, seconds: float, *requests: tuple[float, str]) -> list[str]:
+    """The arguments of `motivml run` on the simulated clock, without the live view or the
+    control socket, making each (time, request) of `requests`."""
+    args = ["run", str(robot), "--variant", variant, "--duration", f"{seconds:g}", "--clock", "simulated"]
+    args += ["--no-live", "--no-control"]
+    for at, request in requests:
+        args += ["--at", f"{at:g}", request]
+    return args

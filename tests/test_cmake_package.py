@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from helpers import simulated_run
 
 from motivml.cli import main
 
@@ -152,24 +153,7 @@ def test_one_source_behaves_the_same_compiled_in_and_as_a_plugin(project: Path) 
         [str(project / "build" / "robot"), "2"], capture_output=True, text=True, check=True
     )
     compiled_in = dict(line.split(": ", 1) for line in static.stdout.splitlines())
-    result = CliRunner().invoke(
-        main,
-        [
-            "run",
-            str(project / "robot"),
-            "--variant",
-            "plugin",
-            "--duration",
-            "3",
-            "--clock",
-            "simulated",
-            "--no-live",
-            "--no-control",
-            "--at",
-            "1",
-            "load hands",
-        ],
-    )
+    result = CliRunner().invoke(main, simulated_run(project / "robot", "plugin", 3, (1, "load hands")))
     assert result.exit_code == 0, result.output
     assert "request at 1.000 s (tick 1000): load hands: accepted" in result.output
     (status,) = re.findall(r"plugin hands: (.*)", result.output)

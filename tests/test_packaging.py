@@ -22,6 +22,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from helpers import simulated_run
 
 ROOT = Path(__file__).resolve().parent.parent
 CPP_READY = (
@@ -135,22 +136,13 @@ def test_a_fresh_environment_runs_the_installed_wheel(wheel: Path, tmp_path: Pat
     if not (ROOT / "plugins" / "cpp" / "gestures" / "hands" / "build" / "libhands.so").is_file():
         pytest.fail("the example C++ plugins are not built: make cpp-plugins")
     swapped = run(
-        "run",
-        "feature_models/simplebot",
-        "--variant",
-        "field",
-        "--duration",
-        "3",
-        "--clock",
-        "simulated",
-        "--no-live",
-        "--no-control",
-        "--at",
-        "1",
-        "load gesture_recognition hands",
-        "--at",
-        "2",
-        "swap hands pointscloud",
+        *simulated_run(
+            "feature_models/simplebot",
+            "field",
+            3,
+            (1, "load gesture_recognition hands"),
+            (2, "swap hands pointscloud"),
+        )
     )
     assert swapped.returncode == 0, swapped.stdout + swapped.stderr
     assert "swap hands pointscloud: accepted" in swapped.stdout
