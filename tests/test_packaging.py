@@ -147,3 +147,16 @@ def test_a_fresh_environment_runs_the_installed_wheel(wheel: Path, tmp_path: Pat
     assert swapped.returncode == 0, swapped.stdout + swapped.stderr
     assert "swap hands pointscloud: accepted" in swapped.stdout
     assert "plugin pointscloud: 16 depth frames, 2 clusters" in swapped.stdout  # 1 s at 15 Hz, both ends
+
+
+def test_python_dash_m_motivml_is_the_command(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`python -m motivml` runs the command (run here in-process, as -m runs it)."""
+    import runpy
+
+    monkeypatch.setattr(sys, "argv", ["motivml", "--version"])
+    with pytest.raises(SystemExit) as ended:
+        runpy.run_module("motivml", run_name="__main__")
+    assert ended.value.code == 0
+    assert capsys.readouterr().out == "motivml, version 0.1.0\n"

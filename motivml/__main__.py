@@ -1,0 +1,5 @@
+"""python -m motivml: the motivml command (also where no console script is on PATH)."""
+
+from .cli import main
+
+main(prog_name="motivml")
