@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -10,7 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 from motivml.cli import main
-from motivml.runtime.loop import SPIN_REALTIME, RealClock, realtime_problem
+from motivml.runtime import waiting
+from motivml.runtime.loop import RealClock, realtime_problem
+from motivml.runtime.waiting import SLICE_NS, TIMER_SLACK_NS
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 RUN = ["run", str(SIMPLEBOT), "--variant", "field", "--no-live", "--no-control"]
@@ -60,21 +63,69 @@ def test_the_probe_changes_no_thread_of_the_caller() -> None:
     assert os.sched_getscheduler(0) == before
 
 
-def test_the_loop_ticks_under_sched_fifo_and_sleeps_closer_to_each_deadline(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_loop_ticks_under_sched_fifo(monkeypatch: pytest.MonkeyPatch) -> None:
     problem = realtime_problem(10)
     if problem is not None:
         pytest.skip(f"real-time scheduling is not allowed here: {problem}")
-    seen: list[tuple[int, int, float]] = []
+    seen: list[tuple[int, int, int | None]] = []
     enter = RealClock.enter
 
     def watched(self: RealClock) -> None:
         enter(self)
-        seen.append((os.sched_getscheduler(0), os.sched_getparam(0).sched_priority, self.spin))
+        seen.append((os.sched_getscheduler(0), os.sched_getparam(0).sched_priority, waiting.timer_slack()))
 
     monkeypatch.setattr(RealClock, "enter", watched)
     main_thread = os.sched_getscheduler(0)
     code, output = run("--priority", "10", "--duration", "0.05")
     assert code == 0, output
     assert "1000 Hz, real clock, real-time priority 10, 0.05 s" in output
-    assert seen == [(os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 10, SPIN_REALTIME)]  # (children start ordinary)
+    # (children start ordinary; a real-time thread has no timer slack on recent kernels)
+    assert seen in ([(os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 10, slack)] for slack in (0, TIMER_SLACK_NS))
     assert os.sched_getscheduler(0) == main_thread  # (the loop ran on a thread of its own)
+
+
+@pytest.mark.skipif(waiting.timer_slack() is None, reason="timer slack is a Linux thread attribute")
+def test_the_loop_thread_wakes_on_time_while_it_ticks_and_gets_its_own_attributes_back() -> None:
+    """Timer slack 1 us, and the shortest slice where the kernel lets an ordinary thread ask."""
+    clock = RealClock()
+    before = (waiting.timer_slack(), waiting.thread_slice())
+    assert before[0] is not None and before[0] > TIMER_SLACK_NS  # Linux's default is 50 us
+    seen: list[tuple[int | None, int | None]] = []
+
+    def ticking() -> None:
+        clock.enter()
+        try:
+            seen.append((waiting.timer_slack(), waiting.thread_slice()))
+            clock.wait_until(clock.now() + 0.001)
+        finally:
+            clock.leave()
+        seen.append((waiting.timer_slack(), waiting.thread_slice()))
+
+    thread = threading.Thread(target=ticking)
+    thread.start()
+    thread.join()
+    slices = before[1] is not None and _kernel() >= (6, 12)  # custom slices for ordinary threads
+    assert seen == [(TIMER_SLACK_NS, SLICE_NS if slices else before[1]), before]
+    assert (waiting.timer_slack(), waiting.thread_slice()) == before  # (another thread's are its own)
+
+
+def _kernel() -> tuple[int, int]:
+    major, minor = os.uname().release.split(".")[:2]
+    return int(major), int("".join(c for c in minor if c.isdigit()) or 0)
+
+
+@pytest.mark.skipif(waiting.thread_slice() is None, reason="no sched_getattr here")
+def test_a_real_time_thread_keeps_its_scheduling_no_slice_is_asked() -> None:
+    if realtime_problem(10) is not None:
+        pytest.skip("real-time scheduling is not allowed here")
+    seen: list[int | None] = []
+
+    def realtime() -> None:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(10))
+        seen.append(waiting.set_thread_slice(SLICE_NS))
+        seen.append(os.sched_getscheduler(0))
+
+    thread = threading.Thread(target=realtime)
+    thread.start()
+    thread.join()
+    assert seen == [None, os.SCHED_FIFO]

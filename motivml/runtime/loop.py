@@ -10,8 +10,12 @@ Two clocks:
 * `SimulatedClock`: time is `tick / rate`; `run` never sleeps, so tests are deterministic and
   take as long as the computation.
 * `RealClock`: ticks start on a fixed schedule of `1 / rate` seconds (default 1 kHz). It
-  sleeps until shortly before a deadline and spins the rest, with the cyclic garbage
-  collector paused and a short interpreter switch interval for the run. When a tick ends
+  sleeps until SPIN before a deadline, with the loop thread's timer slack cut to 1 us and
+  its scheduler slice to 0.1 ms so that it wakes on time on a busy machine
+  (`motivml.runtime.waiting`), and spins the rest, with the cyclic garbage collector
+  paused and a short interpreter switch interval for the run. (It does not spin longer:
+  on a busy machine a thread that spins looks CPU-bound to the scheduler, which then
+  wakes it late; a thread that sleeps nearly every period is woken at once.) When a tick ends
   after the next deadline, the deadlines it overran are *missed*: no tick starts at them,
   and the loop goes on at the first deadline still ahead (no bunching up). `RunStats` has
   the achieved rate, the jitter (start - deadline) p50/p99/max, the work time per tick and
@@ -36,6 +40,7 @@ import numpy as np
 from ..architecture.builder import Assembly
 from ..errors import describe_exception
 from ..plugins.api import FeatureUnavailable
+from . import waiting
 
 
 @dataclass
@@ -197,7 +202,7 @@ class _SlackCollector:
         self.collections += 1
 
 
-SPIN_REALTIME = 0.00005  # s: a real-time thread's sleep ends within a few microseconds
+SPIN = 0.00002  # s before a deadline the loop's sleep ends; it spins the rest
 
 
 def realtime_problem(priority: int) -> str | None:
@@ -229,26 +234,31 @@ def realtime_problem(priority: int) -> str | None:
 
 
 class RealClock:
-    """Ticks on the wall clock. With a `priority`, the loop's thread runs under SCHED_FIFO at
-    that priority (1-99) while it ticks: it then takes a CPU from any ordinary thread of any
-    process the moment its sleep ends, and, with no timer slack for real-time threads,
-    sleeps to within SPIN_REALTIME of each deadline, leaving the CPU to others meanwhile."""
+    """Ticks on the wall clock: the loop's thread sleeps to within SPIN of each deadline,
+    leaving the CPU to others meanwhile, with a short timer slack and slice while it ticks
+    (`waiting.on_time`, Linux). With a `priority`, the thread runs under SCHED_FIFO at that priority
+    (1-99) while it ticks: it then takes a CPU from any ordinary thread of any process the
+    moment its sleep ends."""
 
     name = "real"
-    spin = 0.0004  # s before a deadline: sleep until then, spin the rest
+    spin = SPIN  # s before a deadline: sleep until then, spin the rest
     priority: int | None = None
 
     def __init__(self, priority: int | None = None) -> None:
         self.priority = priority
-        if priority is not None:
-            self.spin = SPIN_REALTIME
+        self._restore: Callable[[], None] | None = None  # gives back the thread's timer slack and slice
 
     def enter(self) -> None:
-        """On the loop's thread, before the first tick: its scheduling (OSError if refused)."""
+        """On the loop's thread, before the first tick: its scheduling (OSError if refused)
+        and its timer slack."""
         if self.priority is not None:
             os.sched_setscheduler(0, os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, os.sched_param(self.priority))
+        self._restore = waiting.on_time()
 
     def leave(self) -> None:
+        if self._restore is not None:
+            self._restore()
+            self._restore = None
         if self.priority is not None:
             try:
                 os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
