@@ -68,13 +68,16 @@ def analyse(
     step = progress or (lambda _: None)
     features = model.features
     n = len(features)
-    with no_gc(), enc.Encoding(model) as hard:
+    with no_gc(), enc.Encoding(model, record=True) as hard:
         step(STEPS[0])
         if not hard.solve(with_config=False):
             return Analysis(True, selection_count=0 if counts else None, variant_count=0 if counts else None)
         selections: list[bytes] = []  # what each variant found selects, one byte per feature
+        first: list[list[int]] = []  # the first variant found in full (every feature it can select)
 
         def witness(values: list[int]) -> None:
+            if not first:
+                first.append(values)
             selections.append(hard.selection_of(values))
 
         step(STEPS[1])
@@ -91,9 +94,30 @@ def analyse(
         step(STEPS[2])
         # a variant with a parent but not its optional child (one per child, found together
         # under polarity hints): the quickest splitters of atomic-set candidates
-        optional = [f for f in features if f.parent is not None and not f.mandatory and alive[f.index]]
+        # Cuts of the first variant (`cuts.valid_cuts`): each valid one is a variant that
+        # drops a subtree, found without a solve; they split the candidates by where they
+        # sit in the tree, and answer "parent without child" for the children they drop.
+        from .cuts import valid_cuts
+
+        assert hard.recorded is not None
+        base = first[0]
+        cut = valid_cuts(model, hard.recorded, base)
+        key = [0] * n  # per feature: 0 if the first variant leaves it out, else 1 + its lowest cut
+        for f in features:
+            if base[4 * f.index] > 0:
+                key[f.index] = (
+                    f.index + 1 if cut[f.index] else (key[f.parent] if f.parent is not None else 0) or 1
+                )
+        optional = [
+            f
+            for f in features
+            if f.parent is not None
+            and not f.mandatory
+            and alive[f.index]
+            and not (cut[f.index] and base[4 * f.parent] > 0)
+        ]
         hard.cover([[s[f.parent], -s[f.index]] for f in optional], with_config=False, witness=witness)  # type: ignore[index]
-        atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], selections, witness)
+        atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], selections, witness, key)
     # The bindings in a solver of their own: after the questions above, the same solver
     # takes several times as long over them (its learnt clauses and saved phases lead it
     # astray), and the other way round.
@@ -135,7 +159,11 @@ def analyse(
 
 
 def _atomic_sets(
-    hard: enc.Encoding, alive: list[int], selections: list[bytes], witness: Callable[[list[int]], None]
+    hard: enc.Encoding,
+    alive: list[int],
+    selections: list[bytes],
+    witness: Callable[[list[int]], None],
+    key: Sequence[int] | None = None,
 ) -> list[list[int]]:
     """The classes of `alive` features selected together in every valid variant, pre-order.
 
@@ -148,6 +176,11 @@ def _atomic_sets(
 
     s = hard.s
     candidates = [alive]
+    if key is not None:  # a first split, by what valid variants known otherwise select
+        by_key: dict[int, list[int]] = {}
+        for i in alive:
+            by_key.setdefault(key[i], []).append(i)
+        candidates = list(by_key.values())
     final: list[list[int]] = []
     seen = 0  # the variants already used to split
     while candidates and len(selections) > seen:  # (a class that may split has a new variant)
