@@ -129,3 +129,67 @@ def test_a_real_time_thread_keeps_its_scheduling_no_slice_is_asked() -> None:
     thread.start()
     thread.join()
     assert seen == [None, os.SCHED_FIFO]
+
+
+class _RefusingLibc:
+    """A C library whose calls all fail, as on a kernel without the feature or under a
+    seccomp filter that refuses them."""
+
+    def prctl(self, *args: Any) -> int:
+        return -1
+
+    def syscall(self, *args: Any) -> int:
+        return -1
+
+
+def test_where_linux_is_not_there_is_nothing_to_ask_and_on_time_changes_nothing(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(waiting.sys, "platform", "darwin")
+    assert waiting.timer_slack() is None and waiting.thread_slice() is None
+    assert waiting.set_timer_slack(TIMER_SLACK_NS) is None and waiting.set_thread_slice(SLICE_NS) is None
+    waiting.on_time()()  # set and give back: nothing to do, and no error
+
+
+def test_a_c_library_that_cannot_be_opened_is_no_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(*args: Any, **kwargs: Any) -> None:
+        raise OSError("no libc here")
+
+    monkeypatch.setattr(waiting.ctypes, "CDLL", refuse)
+    assert waiting.timer_slack() is None and waiting.thread_slice() is None
+
+
+def test_a_machine_without_known_sched_attr_calls_gets_no_slice(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(waiting.platform, "machine", lambda: "riscv64")
+    assert waiting.thread_slice() is None and waiting.set_thread_slice(SLICE_NS) is None
+
+
+def test_calls_the_kernel_refuses_change_nothing_and_are_not_reported_as_done(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(waiting, "_libc", _RefusingLibc)
+    assert waiting.timer_slack() is None and waiting.set_timer_slack(TIMER_SLACK_NS) is None
+    assert waiting.thread_slice() is None and waiting.set_thread_slice(SLICE_NS) is None
+    waiting.on_time()()
+
+
+@pytest.mark.skipif(waiting.thread_slice() is None, reason="no sched_getattr here")
+def test_a_slice_the_kernel_will_not_set_is_not_reported_as_set(monkeypatch: pytest.MonkeyPatch) -> None:
+    real = waiting._libc()
+    read, write = waiting._SCHED_ATTR_CALLS[waiting.platform.machine()][::-1]
+
+    class Libc:
+        def syscall(self, number: int, *args: Any) -> int:
+            return -1 if number == write else int(real.syscall(number, *args))
+
+    seen: list[int | None] = []
+
+    def probe() -> None:  # on a thread of its own: this one's slice stays as it is
+        before = waiting.thread_slice()
+        monkeypatch.setattr(waiting, "_libc", Libc)
+        seen.extend([waiting.set_thread_slice(SLICE_NS), before, waiting.thread_slice()])
+
+    thread = threading.Thread(target=probe)
+    thread.start()
+    thread.join()
+    assert seen[0] is None and seen[1] == seen[2]
