@@ -244,3 +244,52 @@ def _check_scanned_locations(value: Any, text: str) -> None:
         assert backwards.locate(list(path)) == indexed.locate(list(path)), path
     if "\\u" not in text:  # (a \\uD800-style escape sends a document to the located parser)
         assert scanned._index is None and backwards._index is None  # nothing read it all
+
+
+def test_in_one_command_what_a_paused_collector_built_is_frozen_until_the_command_ends() -> None:
+    import gc
+
+    assert gc.get_freeze_count() == 0
+    with loader.no_gc():
+        kept = [[k] for k in range(1000)]
+    assert gc.get_freeze_count() == 0 and gc.isenabled()  # outside a command: nothing frozen
+    with loader.one_command():
+        with loader.no_gc():
+            kept += [[k] for k in range(1000)]
+        assert gc.get_freeze_count() >= 1000 and gc.isenabled()
+        with loader.one_command():  # nested: the outer command gives them back, not this one
+            pass
+        assert gc.get_freeze_count() >= 1000
+    assert gc.get_freeze_count() == 0 and gc.isenabled()
+    assert len(kept) == 2000
+
+
+def test_the_cli_freezes_for_one_shot_commands_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    import contextlib
+    import gc
+
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    entered: list[bool] = []
+    real = loader.one_command
+
+    @contextlib.contextmanager
+    def watched() -> Iterator[None]:
+        entered.append(True)
+        with real():
+            yield
+
+    monkeypatch.setattr(loader, "one_command", watched)
+    runner = CliRunner()
+    result = runner.invoke(main, ["validate", "feature_models/simplebot", "--variant", "field"])
+    assert result.exit_code == 0, result.output
+    assert entered == [True] and gc.get_freeze_count() == 0  # entered, and given back at the end
+    result = runner.invoke(
+        main,
+        ["run", "feature_models/simplebot", "--variant", "field", "--duration", "0.01"]
+        + ["--clock", "simulated", "--no-live", "--no-control"],
+    )
+    assert result.exit_code == 0, result.output
+    assert entered == [True]  # run keeps its own collection policy

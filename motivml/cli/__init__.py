@@ -48,6 +48,8 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "import": ("drawing", "import_command"),
 }
 
+LONG_RUNNING = frozenset({"run", "ctl", "menuconfig"})  # the others use loader.one_command
+
 
 class LazyGroup(click.Group):
     """A group that imports a command's module when the command is looked up."""
@@ -61,6 +63,18 @@ class LazyGroup(click.Group):
         module, function = COMMANDS[cmd_name]
         command: click.Command = getattr(importlib.import_module(f".{module}", __name__), function)
         return command
+
+    def resolve_command(
+        self, ctx: click.Context, args: list[str]
+    ) -> tuple[str | None, click.Command | None, list[str]]:
+        """The command to run; a command that does one job and ends runs in
+        `loader.one_command` (its collector policy) until the group's context closes."""
+        name, command, rest = super().resolve_command(ctx, args)
+        if command is not None and name not in LONG_RUNNING:
+            from ..documents.loader import one_command
+
+            ctx.with_resource(one_command())
+        return name, command, rest
 
     def invoke(self, ctx: click.Context) -> object:
         """Run the command; Ctrl-C anywhere (a solver, a file read) ends it with one line and 130."""

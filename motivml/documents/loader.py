@@ -550,12 +550,17 @@ def _fast(text: str, max_depth: int) -> tuple[bool, Any]:
     return ok, value
 
 
+_freezing = False  # inside `one_command`: what a pause built is frozen when it ends
+
+
 @contextlib.contextmanager
 def no_gc() -> Iterator[None]:
     """Pause the cyclic garbage collector while building many objects.
 
     JSON values hold no reference cycles, and each full collection walks every object
     alive: with a 100,000-feature model in memory that made parsing several times slower.
+    Inside `one_command`, the objects are frozen when the pause ends, so that the first
+    collection after it does not walk them all either.
     """
     enabled = gc.isenabled()
     gc.disable()
@@ -563,7 +568,32 @@ def no_gc() -> Iterator[None]:
         yield
     finally:
         if enabled:
+            if _freezing:
+                gc.freeze()
             gc.enable()
+
+
+@contextlib.contextmanager
+def one_command() -> Iterator[None]:
+    """The time of one command of a process that does little else (the CLI's validate,
+    configure, analyse ...).
+
+    When a pause of the collector (`no_gc`) ends, the objects alive then (a model, its
+    encoding) are frozen (`gc.freeze`): the collections that follow skip them, instead of
+    the first one walking every object the pause built (0.6 s of a 3 s `validate --config`
+    at 100,000 features). Frozen objects are still freed by reference counting, and are
+    given back to the collector (`gc.unfreeze`) when the command ends. Long-running
+    commands (run, the configurator) do not use this: they keep their own collection policy.
+    """
+    global _freezing
+    before = _freezing
+    _freezing = True
+    try:
+        yield
+    finally:
+        _freezing = before
+        if not before:
+            gc.unfreeze()
 
 
 def _depth(value: Any) -> int:
