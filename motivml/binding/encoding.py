@@ -26,14 +26,12 @@ This is the only module that imports pysat. Solvers are opened with `with Encodi
 from __future__ import annotations
 
 from array import array
+from collections import deque
 from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass
-from itertools import accumulate, chain
+from itertools import accumulate, chain, repeat
 from types import TracebackType
 
-from pysat.card import ITotalizer
-from pysat.examples.rc2 import RC2
-from pysat.formula import WCNF
 from pysat.solvers import Solver
 
 from ..language.formula import AND, IFF, IMPLIES, OR, Formula, Var, fold
@@ -136,6 +134,36 @@ def tseitin(
     return fold(formula.tree, leaf, negate, {op: gate(op) for op in _GATES})
 
 
+def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
+    """`solver.append_formula(clauses)`, without a Python call per clause for Glucose.
+
+    pysat adds a formula one `add_clause` method call at a time; for Glucose this hands each
+    clause straight to the C function that method calls (a sixth of `validate --config` at
+    100,000 features went to those calls). The clauses, their order and the solver's answers
+    are the same; the "formula already unsatisfiable" flag that `add_clause` keeps is not
+    kept, and needs not be: every `solve` sets it anew.
+    """
+    backend = solver.solver
+    handle = getattr(backend, "glucose", None)
+    add = getattr(_glucose_functions(), "glucose41_add_cl", None)
+    if handle is None or add is None or type(backend).__name__ != "Glucose4":
+        solver.append_formula(clauses)
+        return
+    deque(map(add, repeat(handle), clauses), maxlen=0)
+
+
+def _top_variable(clauses: Sequence[list[int]]) -> int:
+    """The highest variable in `clauses` (0 if none), as WCNF counts them."""
+    present = list(filter(None, clauses))
+    return max(max(map(max, present), default=0), -min(map(min, present), default=0), 0)
+
+
+def _glucose_functions() -> object:
+    import pysolvers  # type: ignore[import-not-found]  # pysat's C extension, installed with it
+
+    return pysolvers
+
+
 class Encoding:
     """A feature model (and optionally a configuration) in one incremental SAT solver."""
 
@@ -212,6 +240,8 @@ class Encoding:
                 self._clauses.append([lit for lit in clause if lit] if 0 in clause else clause)
 
     def _flush(self) -> None:
+        """Hand the clauses made since the last flush to the solver (and keep them, in the
+        explain build or when recording)."""
         if self.recorded is not None:
             self.recorded.extend(self._clauses)
         if self.explain:  # each clause of the explain build begins with its selector, negated
@@ -221,22 +251,36 @@ class Encoding:
             self._kept_starts.extend(accumulate(map(len, clauses), initial=end))
             self._kept_starts.pop(len(self._kept_starts) - len(clauses) - 1)  # (`end` twice)
             self._kept_selectors.extend(-clause[0] for clause in clauses)
-        self.solver.append_formula(self._clauses)
+        add_clauses(self.solver, self._clauses)
         self._clauses = []
 
     # ------------------------------------------------------------------ encoding
+    def _guard(self, kind: str, a: int, b: int = -1) -> list[int]:
+        """A new model fact (explain build): `[-selector]`, to begin each of its clauses."""
+        return [-self._fact(kind, a, b)]
+
     def _encode_model(self) -> None:
         s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
         early_time, static_mode = Time.EARLY, Mode.STATIC  # local: an enum member lookup is slow
         features = self.model.features
         start = self._fact(START, 0)
         early = self._fact(START_EARLY, 0)
+        # The clauses of the many per-feature facts are built here directly, as `_add` would
+        # (the same literals in the same order): each begins with the fact's guard (`head`), its
+        # negated selector in the explain build and nothing in the hard build, and a clause
+        # under START has START's guard next. A call per clause cost a fifth of a
+        # configuration check at 100,000 features.
+        explain, guard = self.explain, self._guard
+        always: list[int] = []
+        add = self._clauses.append
+        under_start = [-start] if start else always
+        under_early = [-early] if early else always
         # Section 4: A is a subset of the selection and satisfies section 2 in full (the
         # a-level clauses below, each under START too); at start it holds every selected
         # Early feature (START_EARLY, left out when the run time checks a reconfiguration).
         for i in range(self.n):
-            self._add(start, [-a(i), s(i)])
-            self._add(early, [-s(i), -E(i), a(i)])
+            add([*under_start, -a(i), s(i)])
+            add([*under_early, -s(i), -E(i), a(i)])
         root = self._fact(ROOT, 0)
         self._add(root, [s(0)], [E(0)], [S(0)])
         # The root is active because it is the root (so START cannot stand in for ROOT).
@@ -244,36 +288,41 @@ class Encoding:
 
         for f in features:
             i = f.index
+            si, ei, mi, ai = 4 * i + 1, 4 * i + 2, 4 * i + 3, 4 * i + 4  # s, E, S, a of f
             if f.time_allowed is not None:
-                sel = self._fact(ALLOWED_TIME, i)
-                self._add(sel, [-s(i), E(i) if f.time_allowed is early_time else -E(i)])
+                head = guard(ALLOWED_TIME, i) if explain else always
+                add([*head, -si, ei if f.time_allowed is early_time else -ei])
             if f.mode_allowed is not None:
-                sel = self._fact(ALLOWED_MODE, i)
-                self._add(sel, [-s(i), S(i) if f.mode_allowed is static_mode else -S(i)])
+                head = guard(ALLOWED_MODE, i) if explain else always
+                add([*head, -si, mi if f.mode_allowed is static_mode else -mi])
             p = f.parent
             if p is None:
                 continue
-            sel = self._fact(PARENT, i)
-            self._add(sel, [-s(i), s(p)], [-start, -a(i), a(p)])
-            sel = self._fact(SUB_MODE, i)
-            self._add(sel, [-s(i), S(p), -S(i)])
-            sel = self._fact(SUB_TIME, i)
-            self._add(sel, [-s(i), -E(i), E(p)])
+            sp, ep, mp, ap = 4 * p + 1, 4 * p + 2, 4 * p + 3, 4 * p + 4  # s, E, S, a of the parent
+            head = guard(PARENT, i) if explain else always
+            add([*head, -si, sp])
+            add([*head, *under_start, -ai, ap])
+            head = guard(SUB_MODE, i) if explain else always
+            add([*head, -si, mp, -mi])
+            head = guard(SUB_TIME, i) if explain else always
+            add([*head, -si, -ei, ep])
             if f.mandatory:
-                sel = self._fact(MANDATORY, i)
-                self._add(sel, [-s(p), s(i)], [-start, -a(p), a(i)])
-                sel = self._fact(MANDATORY_STATIC, i)
-                self._add(sel, [-s(p), -s(i), -S(p), S(i)])
-                sel = self._fact(MANDATORY_TIME, i)
-                self._add(sel, [-s(p), -s(i), -S(p), -E(p), E(i)])
+                head = guard(MANDATORY, i) if explain else always
+                add([*head, -sp, si])
+                add([*head, *under_start, -ap, ai])
+                head = guard(MANDATORY_STATIC, i) if explain else always
+                add([*head, -sp, -si, -mp, mi])
+                head = guard(MANDATORY_TIME, i) if explain else always
+                add([*head, -sp, -si, -mp, -ep, ei])
                 # 3.2: with a Dynamic parent, one binding unit: same time and mode. SUB_TIME
                 # and SUB_MODE say half of this of every child; the mandatory statement says
                 # all of it by itself, so that a conflict setting the sub-feature facts
                 # aside does not hide another one that the unit alone makes.
-                sel = self._fact(UNIT_TIME, i)
-                self._add(sel, [-s(p), -s(i), S(p), -E(p), E(i)], [-s(p), -s(i), S(p), E(p), -E(i)])
-                sel = self._fact(UNIT_MODE, i)
-                self._add(sel, [-s(p), -s(i), S(p), -S(i)])
+                head = guard(UNIT_TIME, i) if explain else always
+                add([*head, -sp, -si, mp, -ep, ei])
+                add([*head, -sp, -si, mp, ep, -ei])
+                head = guard(UNIT_MODE, i) if explain else always
+                add([*head, -sp, -si, mp, -mi])
 
         for g, group in enumerate(self.model.groups):
             p, members = group.parent, group.members
@@ -300,12 +349,13 @@ class Encoding:
                 if y is None or y == f.index:
                     continue
                 x = f.index
-                sel = self._fact(INCLUDE, x, y)
-                self._add(sel, [-s(x), s(y)], [-start, -a(x), a(y)])
-                sel = self._fact(INCLUDE_STATIC, x, y)
-                self._add(sel, [-s(x), -s(y), S(y)])
-                sel = self._fact(INCLUDE_TIME, x, y)
-                self._add(sel, [-s(x), -s(y), -E(x), E(y)])
+                head = guard(INCLUDE, x, y) if explain else always
+                add([*head, -s(x), s(y)])
+                add([*head, *under_start, -a(x), a(y)])
+                head = guard(INCLUDE_STATIC, x, y) if explain else always
+                add([*head, -s(x), -s(y), S(y)])
+                head = guard(INCLUDE_TIME, x, y) if explain else always
+                add([*head, -s(x), -s(y), -E(x), E(y)])
             for target in dict.fromkeys(f.excludes):
                 y = index.get(target)
                 if y is None or y == f.index:
@@ -386,7 +436,10 @@ class Encoding:
 
     # ------------------------------------------------------------ configuration
     def set_configuration(self, config: Configuration) -> None:
-        """Add a configuration's facts (once per encoding): literals to assume."""
+        """Put a configuration's facts (literals to assume) in place of the previous
+        configuration's, if any: one encoding answers for several configurations."""
+        del self.facts[self.model_facts :], self.literals[self.model_facts :]
+        self._activity = None  # (the active-set facts came after the configuration's)
         first = len(self.facts)
         index = self.model.index
         early_time, static_mode = Time.EARLY, Mode.STATIC
@@ -597,17 +650,26 @@ class Encoding:
         configuration as hard units and `soft` as (literal, weight) pairs; None when no
         variant exists. RC2 runs its own solver; the result is deterministic for the same
         model, configuration and weights.
+
+        RC2 is given the soft units in a WCNF and the hard clauses straight into its solver,
+        before it solves: the same solver, clauses and numbering as a WCNF built clause by
+        clause would give it (RC2 adds nothing for unit soft clauses), without copying the
+        formula twice in Python (2 s of `configure` at 100,000 features).
         """
         if self.recorded is None:
             raise ValueError("optimise() needs Encoding(model, record=True)")
+        from pysat.examples.rc2 import RC2
+        from pysat.formula import WCNF
+
+        hard, units = self.recorded, [[literal] for literal in self.assumptions(with_config)]
         formula = WCNF()
-        for clause in self.recorded:
-            formula.append(clause)
-        for literal in self.assumptions(with_config):
-            formula.append([literal])
-        for literal, weight in soft:
-            formula.append([literal], weight=weight)
+        formula.soft = [[literal] for literal, _ in soft]
+        formula.wght = [weight for _, weight in soft]
+        formula.topw += sum(formula.wght)
+        formula.nv = max(_top_variable(hard), _top_variable(units), _top_variable(formula.soft))
         with RC2(formula, solver="g4") as maxsat:
+            add_clauses(maxsat.oracle, hard)
+            add_clauses(maxsat.oracle, units)
             model = maxsat.compute()
         return list(model) if model is not None else None
 
@@ -652,10 +714,12 @@ class Encoding:
             return None
         chosen: list[int] = []
         if late:
+            from pysat.card import ITotalizer
+
             literals = [self.a(i) for i in late]
             counter = ITotalizer(lits=literals, ubound=len(literals), top_id=self._top)
             self._top = counter.top_id
-            self.solver.append_formula(counter.cnf.clauses)
+            add_clauses(self.solver, counter.cnf.clauses)
             truth = set(self.assignment())
             bound = sum(1 for literal in literals if literal in truth)
             while bound and self.solver.solve(assumptions=[*base, -counter.rhs[bound - 1]]):

@@ -142,6 +142,8 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
                     feature.id,
                 )
             )
+        if not (feature.includes or feature.excludes):
+            continue
         for key, targets in (("featuresIncluded", feature.includes), ("featuresExcluded", feature.excludes)):
             verb = "includes" if key == "featuresIncluded" else "excludes"
             for position_, target in enumerate(targets):
@@ -180,7 +182,10 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
     _read_formulas(doc, model, diagnostics, suggest)
 
     # Groups (rule 2.2): the label sits on the child; a group needs two members.
+    labelled = {f.parent for f in features if f.declared_group}  # parents with a labelled child
     for owner in features:
+        if owner.index not in labelled:
+            continue
         for kind in ("OR", "XOR"):
             members = [c for c in owner.children if features[c].declared_group == kind]
             if len(members) == 1:
