@@ -16,10 +16,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_property_sat import configurations, models
 
-from motivml.binding.codegen import outputs
-from motivml.binding.resolve import NoVariant, resolve
+from motivml.binding.codegen import lock_document, lock_json, outputs
+from motivml.binding.resolve import Decision, NoVariant, Variant, resolve
 from motivml.cli import main
 from motivml.documents.loader import parse
+from motivml.language.model import Binding, Feature, FeatureModel
 from motivml.language.reader import load_configuration, load_model, read_configuration, read_model
 from motivml.validate import validate
 
@@ -175,6 +176,41 @@ def test_resolution_is_valid_and_optimal(data: st.DataObject, prefer: set[str]) 
     assert ref.completion_cost(model, config, chosen, wishes) == best
 
 
+@settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
+@given(data=st.data(), prefer=st.sets(st.sampled_from(["late", "dynamic"])))
+def test_optimise_gives_the_variant_rc2_gives_for_the_formula_built_clause_by_clause(
+    data: st.DataObject, prefer: set[str]
+) -> None:
+    """Encoding.optimise hands RC2 its hard clauses straight into RC2's solver; the variant
+    (not only its cost: the lock files must not change) is the one RC2 finds for the same
+    formula built as a WCNF clause by clause, as optimise once did."""
+    from pysat.examples.rc2 import RC2
+    from pysat.formula import WCNF
+
+    from motivml.binding import encoding as enc
+    from motivml.binding.resolve import _preferences
+
+    model = data.draw(models(max_features=9))
+    config = data.draw(st.one_of(completable_configurations(model), configurations(model)))
+    feature_model, _ = read_model(parse(json.dumps(model), "model.json"))
+    configuration, _ = read_configuration(parse(json.dumps(config), "c.json"), feature_model, partial=True)
+    with enc.Encoding(feature_model, record=True) as encoding:
+        encoding.set_configuration(configuration)
+        soft = _preferences(encoding, feature_model, configuration, prefer)
+        found = encoding.optimise(soft)
+        assert encoding.recorded is not None
+        formula = WCNF()
+        for clause in encoding.recorded:
+            formula.append(clause)
+        for literal in encoding.assumptions():
+            formula.append([literal])
+        for literal, weight in soft:
+            formula.append([literal], weight=weight)
+        with RC2(formula, solver="g4") as maxsat:
+            expected = maxsat.compute()
+    assert found == (list(expected) if expected is not None else None)
+
+
 def test_fewer_undecided_features_come_before_the_time_wish() -> None:
     """The root's OR group needs w, or u with v. w is Early only and requires p and q, which
     then cannot be Late; u and v leave them free. With --prefer late the wishes are
@@ -324,3 +360,34 @@ def test_ros2_params_quote_ids_and_strings_and_keep_doubles_doubles(tmp_path: Pa
         '    motivml.feature: "lamp"\n'
         '    motivml.binding: "Dynamic Early"\n'
     )
+
+
+_IDS = st.text(min_size=1, max_size=8)  # any text: quotes, backslashes, control and non-ASCII characters
+_BY = st.sampled_from(["configuration", "solver", "model"])
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    root=_IDS,
+    name=st.text(max_size=8),
+    entries=st.lists(
+        st.tuples(_IDS, st.booleans(), st.sampled_from(list(Binding)), _BY, _BY, _BY), max_size=6
+    ),
+)
+def test_the_lock_file_is_json_dumps_of_its_document_with_an_indent_of_2(
+    root: str, name: str, entries: list[tuple[str, bool, Binding, str, str, str]]
+) -> None:
+    """lock_json writes the text itself (json's indenting encoder is pure Python): it must be
+    exactly what json.dumps(indent=2) makes of the same document, escaping included."""
+    features = [_feature(0, root, None)] + [_feature(k, e[0], 0) for k, e in enumerate(entries, 1)]
+    model = FeatureModel(features, {}, [], source=None)
+    decisions = [Decision(features[0], True, Binding.SE, "model", "model", "model")] + [
+        Decision(features[k], selected, binding, by, time_by, mode_by)
+        for k, (_, selected, binding, by, time_by, mode_by) in enumerate(entries, 1)
+    ]
+    variant = Variant(model, name, tuple(decisions))
+    assert lock_json(variant) == json.dumps(lock_document(variant), indent=2) + "\n"
+
+
+def _feature(index: int, feature_id: str, parent: int | None) -> Feature:
+    return Feature(index, feature_id, feature_id, parent, 0, "", "", False, None, None, None, (), ())

@@ -10,7 +10,7 @@ the time preference, then the mode preference), with MaxSAT (RC2) over the one e
 from __future__ import annotations
 
 from collections.abc import Collection
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..documents.loader import no_gc
 from ..errors import MotivmlError
@@ -41,13 +41,21 @@ class Variant:
     model: FeatureModel
     name: str
     decisions: tuple[Decision, ...]  # definition order, root first
+    # the start state's feature indices, when `resolve` found it on its own encoding
+    active_at_start: tuple[int, ...] | None = None
 
     def selected(self) -> list[Decision]:
         return [d for d in self.decisions if d.selected]
 
 
-def resolve(model: FeatureModel, config: Configuration, prefer: Collection[str] = ()) -> Variant:
-    """The variant the configuration and the preferences ask for; NoVariant if none exists."""
+def resolve(
+    model: FeatureModel, config: Configuration, prefer: Collection[str] = (), start: bool = True
+) -> Variant:
+    """The variant the configuration and the preferences ask for; NoVariant if none exists.
+
+    With `start`, its start state too (`start_state` then asks no solver), found on the
+    encoding that resolved it instead of a second one.
+    """
     unknown = set(prefer) - set(PREFERENCES)
     if unknown:
         raise ValueError(f"unknown preference {sorted(unknown)}: choose from {PREFERENCES}")
@@ -57,8 +65,20 @@ def resolve(model: FeatureModel, config: Configuration, prefer: Collection[str] 
             raise NoVariant(check_variant(model, config))
         soft = _preferences(encoding, model, config, set(prefer))
         values = encoding.optimise(soft)
-    if values is None:  # cannot happen after a successful solve; never write half a variant
-        raise NoVariant(check_variant(model, config))
+        if values is None:  # cannot happen after a successful solve; never write half a variant
+            raise NoVariant(check_variant(model, config))
+        variant = _variant(encoding, model, config, values)
+        if start:
+            late = [d.feature.index for d in variant.selected() if not d.binding.early]
+            encoding.set_configuration(as_configuration(variant))
+            active = encoding.start_state(late)
+            if active is not None:  # (None cannot happen: start_state says so if it does)
+                variant = replace(variant, active_at_start=tuple(active))
+    return variant
+
+
+def _variant(encoding: enc.Encoding, model: FeatureModel, config: Configuration, values: list[int]) -> Variant:
+    """The variant of a solution of the encoding: who decided what, feature by feature."""
     truth = {abs(v): v > 0 for v in values}
     decisions = []
     for f in model.features:
@@ -130,6 +150,8 @@ def start_state(variant: Variant) -> list[Feature]:
     the encoding that resolved it); NoVariant says otherwise if that ever fails.
     """
     model = variant.model
+    if variant.active_at_start is not None:
+        return [model.features[i] for i in variant.active_at_start]
     late = [d.feature.index for d in variant.selected() if not d.binding.early]
     with enc.Encoding(model) as encoding:
         encoding.set_configuration(as_configuration(variant))
@@ -165,7 +187,7 @@ def decisions(variant: Variant, prefer: Collection[str] = ()) -> Configuration:
     }
 
     def derives(trial: dict[str, Entry]) -> bool:
-        found = resolve(model, Configuration(trial, variant.name), prefer)
+        found = resolve(model, Configuration(trial, variant.name), prefer, start=False)
         return [(d.selected, d.binding if d.selected else None) for d in found.decisions] == wanted
 
     for d in variant.decisions[1:]:
