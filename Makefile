@@ -54,9 +54,10 @@ test: setup cpp-plugins ros2
 	  --cov=motivml --cov-append --cov-report=json:build/coverage.json
 	$(BIN)/python tools/coverage_floor.py build/coverage.json 90
 
-bench: setup ros2
+bench: setup cpp-plugins ros2
 	$(BIN)/python bench/startup_bench.py
 	$(BIN)/python bench/validate_bench.py
+	$(BIN)/python bench/xor_bench.py
 	$(BIN)/python bench/analyse_bench.py
 	$(BIN)/python bench/configure_bench.py
 	$(BIN)/python bench/run_bench.py

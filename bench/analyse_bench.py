@@ -32,7 +32,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from generate import write  # noqa: E402
-from validate_bench import FLOOR, run_measured, stages  # noqa: E402
+from validate_bench import FLOOR, child_env, compile_motivml, measured_stages, run_measured  # noqa: E402
 
 TARGETS = {10_000: 10.0}  # issue 15: analyse / floor
 
@@ -40,7 +40,9 @@ TARGETS = {10_000: 10.0}  # issue 15: analyse / floor
 def run_limited(args: list[str], timeout: float) -> tuple[float, int, str] | None:
     """Wall seconds, peak RSS in MiB and stdout of a child; None if it ran out of time."""
     start = time.perf_counter()
-    child = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    child = subprocess.Popen(
+        args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=child_env()
+    )
     timer = threading.Timer(timeout, child.kill)
     timer.start()
     assert child.stdout is not None
@@ -67,6 +69,7 @@ def main() -> None:
     from motivml.binding.encoding import SOLVER
 
     motivml = str(Path(sys.executable).with_name("motivml"))
+    compile_motivml()
     print(f"solver {SOLVER}; python {sys.version.split()[0]}; {os.cpu_count()} cores")
     print(
         f"{'features':>9} {'floor s':>8} {'MiB':>5} | {'analyse s':>9} {'ratio':>6} {'MiB':>5} {'target':>6}"
@@ -77,7 +80,7 @@ def main() -> None:
             folder = os.path.join(tmp, f"m{n}")
             model_path, config_path = write(n, args.seed, folder)
             cnf_path, assumptions_path = os.path.join(folder, "f.cnf"), os.path.join(folder, "a.txt")
-            stages(model_path, config_path, cnf_path, assumptions_path)
+            measured_stages(model_path, config_path, cnf_path, assumptions_path)
             floor_wall, floor_peak, _ = run_measured(
                 [sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER]
             )

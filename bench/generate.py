@@ -8,6 +8,12 @@ first (top-down, obeying semantics.md sections 2-4) and the constraints are then
 that it stays valid, so the benchmark measures a realistic *valid* check end to end.
 
     python bench/generate.py 10000 --seed 1 -o /tmp/m10k   # writes model.json, variants/full.json
+
+`open_decisions(config, seed)` (`--open`) turns that configuration into a decisions file with
+many open decisions, as a team writes one for `configure`: a tenth of the entries left out
+(their selection open) and each remaining selected entry's time and mode `Any` with
+probability 1/2 (half the bindings open). The complete configuration is one of its
+completions, so it stays satisfiable.
 """
 
 from __future__ import annotations
@@ -146,8 +152,31 @@ def depth(model: dict[str, Any]) -> int:
     return best
 
 
-def write(n: int, seed: int, out: str) -> tuple[str, str]:
+def open_decisions(
+    config: dict[str, Any], seed: int = 0, selections: float = 0.1, bindings: float = 0.5
+) -> tuple[dict[str, Any], int, int]:
+    """The decisions file of `config` with about `selections` of its entries left out and
+    `bindings` of the selected entries' times and modes `Any`; and how many of each."""
+    rng = random.Random(seed)
+    kept: list[dict[str, Any]] = []
+    left_out = opened = 0
+    for entry in config["properties"]:
+        if rng.random() < selections:
+            left_out += 1
+            continue
+        entry = json.loads(json.dumps(entry))
+        for key in ("time", "mode"):
+            if "props" in entry and rng.random() < bindings:
+                entry["props"][key] = "Any"
+                opened += 1
+        kept.append(entry)
+    return {"partial": True, "properties": kept}, left_out, opened
+
+
+def write(n: int, seed: int, out: str, open_: bool = False) -> tuple[str, str]:
     model, config = generate(n, seed)
+    if open_:
+        config = open_decisions(config, seed)[0]
     os.makedirs(os.path.join(out, "variants"), exist_ok=True)
     model_path = os.path.join(out, "model.json")
     config_path = os.path.join(out, "variants", "full.json")
@@ -167,8 +196,11 @@ def main() -> None:
     parser.add_argument("n", type=int)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("-o", "--out", required=True)
+    parser.add_argument(
+        "--open", action="store_true", help="a decisions file with many open decisions (see open_decisions)"
+    )
     args = parser.parse_args()
-    model_path, _ = write(args.n, args.seed, args.out)
+    model_path, _ = write(args.n, args.seed, args.out, args.open)
     print(f"wrote {model_path} ({os.path.getsize(model_path):,} bytes)")
 
 

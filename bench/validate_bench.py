@@ -23,6 +23,7 @@ memory; validate MODEL within 5x at 10k and 10x at 100k (printed met/MISSED per 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import subprocess
 import sys
@@ -46,10 +47,39 @@ print(time.perf_counter() - t0)
 """
 
 
+def child_env() -> dict[str, str]:
+    """The environment of the measured processes: this one's, but Python keeps the compiled
+    modules it writes, as on a user's machine (a machine-wide PYTHONDONTWRITEBYTECODE would
+    make every run compile motivml anew)."""
+    env = dict(os.environ)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
+def compile_motivml() -> None:
+    """Compile motivml's modules before anything is timed (a first run would otherwise pay
+    for it, as a user's first run does)."""
+    import motivml
+
+    package = str(Path(motivml.__file__).resolve().parent)
+    subprocess.run(
+        [sys.executable, "-m", "compileall", "-q", package],
+        env=child_env(),
+        stdout=subprocess.DEVNULL,
+        check=False,
+    )
+
+
 def run_measured(args: list[str]) -> tuple[float, int, str]:
-    """Wall seconds, peak RSS in MiB and stdout of a child process."""
+    """Wall seconds, peak RSS in MiB and stdout of a child process.
+
+    The bench's own process stays small (the in-process stages run in a child of their own,
+    `measured_stages`): a child's peak RSS counts what it shared with this process when it
+    was forked."""
     start = time.perf_counter()
-    child = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    child = subprocess.Popen(
+        args, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=child_env()
+    )
     assert child.stdout is not None
     output = child.stdout.read()
     _, status, usage = os.wait4(child.pid, 0)
@@ -91,7 +121,7 @@ def stages(
         config, _ = read_configuration(doc, model)
     times.append(("read", time.perf_counter() - t))
     t = time.perf_counter()
-    with enc.Encoding(model, record=True) as encoding:
+    with no_gc(), enc.Encoding(model, record=True) as encoding:  # as check_variant does
         encoding.set_configuration(config)
         times.append(("encode", time.perf_counter() - t))
         t = time.perf_counter()
@@ -107,12 +137,28 @@ def stages(
     return times
 
 
+def measured_stages(
+    model_path: str, config_path: str, cnf_path: str, assumptions_path: str
+) -> list[tuple[str, float]]:
+    """`stages` in a child process (see run_measured)."""
+    _, _, output = run_measured(
+        [sys.executable, __file__, "--stages", model_path, config_path, cnf_path, assumptions_path]
+    )
+    return [(name, seconds) for name, seconds in json.loads(output.splitlines()[-1])]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000])
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--stages", nargs=4, help=argparse.SUPPRESS)  # (measured_stages' child)
     args = parser.parse_args()
+    if args.stages:
+        print(json.dumps(stages(*args.stages)))
+        return
     from motivml.binding.encoding import SOLVER
+
+    compile_motivml()
 
     motivml = str(Path(sys.executable).with_name("motivml"))
     print(f"solver {SOLVER}; python {sys.version.split()[0]}; {os.cpu_count()} cores")
@@ -130,7 +176,7 @@ def main() -> None:
             alone, alone_peak, output = run_measured([motivml, "validate", model_path])
             assert "valid: " in output, output
             cnf_path, assumptions_path = os.path.join(folder, "f.cnf"), os.path.join(folder, "a.txt")
-            parts = stages(model_path, config_path, cnf_path, assumptions_path)
+            parts = measured_stages(model_path, config_path, cnf_path, assumptions_path)
             floor_wall, floor_peak, _ = run_measured(
                 [sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER]
             )
