@@ -64,14 +64,18 @@ def validate_model(model_path: str | Path, analyse: bool = True) -> Report:
     return _sorted(report)
 
 
-def validate_configuration(model: FeatureModel, config_path: str | Path, partial: bool = False) -> Report:
-    """Check a configuration file against a (sound) model."""
+def validate_configuration(
+    model: FeatureModel, config_path: str | Path, partial: bool = False, solve: bool = True
+) -> Report:
+    """Check a configuration file against a (sound) model; without `solve`, only what can be
+    checked without a solver (for a caller that solves it next, as `configure` does)."""
     report = Report(str(config_path), "configuration", model=model)
     config, diagnostics = load_configuration(config_path, model, partial)
     report.diagnostics += diagnostics
     report.config = config
     if config is not None:
-        report.diagnostics += check_variant(model, config)
+        if solve:
+            report.diagnostics += check_variant(model, config)
         report.open_features = sum(1 for f in model.features[1:] if f.id not in config.entries)
         report.open_bindings = sum(
             1
@@ -108,17 +112,19 @@ def validate(
     architecture_path: str | Path | None = None,
     coordination_path: str | Path | None = None,
     robot: RobotFolder | None = None,
+    solve: bool = True,
 ) -> list[Report]:
     """The model's report, one per configuration, the architecture's, the coordination's, and
     with `robot` (a folder with robot.json) the plugin manifests'.
 
     The model is read once; the other documents are checked only against a sound model.
+    Without `solve`, the configurations are read and checked but not solved.
     """
     model_report = validate_model(model_path, analyse)
     reports = [model_report]
     if model_report.model is not None:
         model = model_report.model
-        reports += [validate_configuration(model, c, partial) for c in config_paths]
+        reports += [validate_configuration(model, c, partial, solve) for c in config_paths]
         architecture = None
         if architecture_path is not None:
             reports.append(validate_architecture(model, architecture_path))

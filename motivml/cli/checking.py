@@ -148,7 +148,7 @@ def configure_command(
     when their content changes; nothing is written when the variant is invalid.
     """
     from ..binding.codegen import late_or_dynamic, outputs
-    from ..binding.resolve import resolve
+    from ..binding.resolve import NoVariant, resolve
     from ..documents.writing import write_generation
     from ..plugins.manifests import discover
     from ..plugins.manifests import missing as missing_plugins
@@ -160,20 +160,27 @@ def configure_command(
     try:
         robot = RobotFolder.open(target)
         _, configs, _ = targets(target, config, variant)
-        reports = validate(robot.model_path, configs, partial=True, analyse=False)
+        # resolve solves the configuration on its own encoding, and explains it as validate
+        # would when it has no valid completion: validate only reads and checks it here.
+        reports = validate(robot.model_path, configs, partial=True, analyse=False, solve=False)
         problems = [d for r in reports for d in r.errors]
+        model, configuration = reports[-1].model, reports[-1].config
+        if not problems and len(reports) == 2:
+            assert model is not None and configuration is not None
+            try:
+                resolved = resolve(model, configuration, prefer)
+            except NoVariant as exc:
+                problems = exc.diagnostics
         if problems or len(reports) != 2:
             print_diagnostics(problems)
             out.print(f"[bold red]invalid[/]: {escape(reports[-1].file)}: nothing written")
             sys.exit(1)
-        model, configuration = reports[1].model, reports[1].config
-        assert model is not None and configuration is not None
+        assert model is not None
         plugins, problems = discover(robot, model)
         if problems:
             print_diagnostics(problems)
             out.print("[bold red]invalid[/]: plugin manifests: nothing written")
             sys.exit(1)
-        resolved = resolve(model, configuration, prefer)
         folder = Path(output) if output else Path("build") / robot.name / name
         written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path))
         if save_decisions is not None:
