@@ -377,3 +377,73 @@ def test_the_progress_bar_shows_on_a_terminal_only_once_started(monkeypatch: pyt
     late._show()
     assert late.progress is None
     assert "second" in screen.getvalue()
+
+
+def test_bindings_inherited_from_a_parent_are_impossible_and_no_others() -> None:
+    """impossible_bindings finds most without the solver: a feature is never Early below a
+    feature that never is (Late only, or below one), never Static below one that never is.
+    Only those: a Dynamic parent leaves its sub-feature's time free, a Late one its mode,
+    and beside an inherited impossibility the other value stays possible."""
+    raw = feature(
+        "r",
+        [
+            feature(
+                "late",
+                [
+                    feature(
+                        "l1",
+                        [feature("l2", isMandatory=False, time="Any", mode="Any")],
+                        isMandatory=False,
+                        time="Any",
+                        mode="Any",
+                    )
+                ],
+                isMandatory=False,
+                time="Late",
+                mode="Any",
+            ),
+            feature(
+                "dynamic",
+                [
+                    feature(
+                        "d1",
+                        [feature("d2", isMandatory=False, time="Any", mode="Any")],
+                        isMandatory=False,
+                        time="Any",
+                        mode="Any",
+                    )
+                ],
+                isMandatory=False,
+                time="Any",
+                mode="Dynamic",
+            ),
+        ],
+    )
+    result = analyse(read(raw), counts=False)
+    expected = [
+        ("l1", "time", "Early"),
+        ("l2", "time", "Early"),
+        ("d1", "mode", "Static"),
+        ("d2", "mode", "Static"),
+    ]
+    assert _brute_force_impossible(raw) == expected
+    assert result.impossible == expected
+
+
+def _brute_force_impossible(raw: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """The impossible bindings of `raw` in feature order, by enumeration (the reference)."""
+    variants = list(ref.valid_variants(raw, None))
+    allowed = _allowed(raw)
+    found = []
+    for f in ids_in_order(raw):
+        if not any(f in v for v in variants):
+            continue
+        for aspect, values in (("time", ("Early", "Late")), ("mode", ("Static", "Dynamic"))):
+            if allowed[f][aspect] != "Any":
+                continue
+            for value in values:
+                flag = value in ("Early", "Static")
+                index = 0 if aspect == "time" else 1
+                if not any(f in v and v[f][index] == flag for v in variants):
+                    found.append((f, aspect, value))
+    return found
