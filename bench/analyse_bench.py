@@ -9,13 +9,20 @@ For n = 1,000, 10,000 and 100,000 features (generate.py) it prints, each in a fr
 * `motivml analyse MODEL` with the exact counts, at the sizes given to --count-sizes
   (default 1,000 only: exact counting of these models is exponential in their treewidth;
   at 3,000 features the selection count does not finish in minutes);
-* `motivml sample MODEL --t 2`: its size, time and peak memory, at --sample-sizes (1,000).
+* `motivml sample MODEL --t 2`: its size, time and peak memory, at --sample-sizes (1,000),
+  beside the published t=2 sizes of YASA and IncLing for the real model nearest in size
+  (PUBLISHED), with the ratio to each and issue 15's 1.5x target.
 
 A run that does not finish within --timeout seconds is printed as such.
 
     python bench/analyse_bench.py [--sizes 1000 10000 100000] [--timeout 900]
 
-Target (issue 15): analyse within 10x the floor at 10k (printed met/MISSED).
+Targets (issue 15): analyse within 10x the floor at 10k; t=2 sample sizes within 1.5x of the
+published YASA and IncLing ones (printed met/MISSED). The published models are not these
+generated ones: the sizes compare at a similar feature count, not on the same model. The same
+file gives, for eCos-3-0_i386pc (1,245 features), YASA 77 and IncLing 89: that model is the
+benchmark's feature_models/original/systems_software/eCos/AlHajjaji2019-i386pc.xml
+(SoftVarE-Group/feature-model-benchmark), which `motivml import featureide` reads whole.
 """
 
 from __future__ import annotations
@@ -35,6 +42,17 @@ from generate import write  # noqa: E402
 from validate_bench import FLOOR, child_env, compile_motivml, measured_stages, run_measured  # noqa: E402
 
 TARGETS = {10_000: 10.0}  # issue 15: analyse / floor
+SAMPLE_TARGET = 1.5  # issue 15: our t=2 sample size / the published one
+# Published t=2 sample sizes for the real model nearest to 1,000 features: busybox-1_29_2,
+# 1,018 features, 997 CNF clauses; the median of 5 runs each, from the baseline that the
+# SampLNS evaluation (Krupke, Krieter, Thuem et al.) ran with FeatureIDE's YASA (one
+# iteration, m=1) and IncLing: GitHub tubs-alg/SampLNS, commit 7741515,
+# evaluation/2024-03-05/00_baseline/OUTPUT/baseline_results.json.xz.
+PUBLISHED_MODEL = "busybox-1_29_2 (1,018 features, 997 clauses)"
+PUBLISHED_SOURCE = (
+    "tubs-alg/SampLNS@7741515 evaluation/2024-03-05/00_baseline/OUTPUT/baseline_results.json.xz"
+)
+PUBLISHED = {"YASA (m=1)": 44, "IncLing": 77}
 
 
 def run_limited(args: list[str], timeout: float) -> tuple[float, int, str] | None:
@@ -139,10 +157,20 @@ def main() -> None:
                         f"{'':>9} t=2 sample: {sampled[2].splitlines()[0]}; {sampled[0]:.1f} s, {sampled[1]} MiB",
                         flush=True,
                     )
+                    size = int(sampled[2].split()[0])
+                    for name, published in PUBLISHED.items():
+                        ratio = size / published
+                        verdict = "met" if ratio <= SAMPLE_TARGET else "MISSED"
+                        print(
+                            f"{'':>9}   vs {name} {published} on {PUBLISHED_MODEL}: ratio {ratio:.2f}"
+                            f" (target {SAMPLE_TARGET:g}) {verdict}",
+                            flush=True,
+                        )
+                    print(f"{'':>9}   (published sizes: {PUBLISHED_SOURCE})", flush=True)
     print(
         "target (issue 15): analyse (without counts) at most 10x the floor at 10k; t=2 sample sizes "
-        "within 1.5x of YASA's or IncLing's published ones for models of the same size (not compared "
-        "here: their figures are for real models, eCos or Linux, not these generated ones)"
+        "within 1.5x of YASA's or IncLing's published ones for a model of about the same size (a real "
+        "model, not this generated one: a comparison of size at a similar feature count)"
     )
 
 

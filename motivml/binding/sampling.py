@@ -6,26 +6,37 @@ selected and Early, selected and Late, selected and Static, selected and Dynamic
 team tests the Static and the Dynamic build of a feature). A *combination* is t values of t
 different features; it is *valid* when some valid variant (sections 2-4) has all of them.
 
-Greedy, on one hard build of the encoding, in the manner of IncLing and YASA: take the
-first combination not yet shown; unit propagation refutes most invalid ones at once; else
-add, in order, the next combinations that propagation finds compatible with it, and solve
-under all of them (falling back to the first alone). The variant found shows every
-combination of its values, which are struck off. Every combination ends shown or proven
-invalid, so the coverage of valid combinations is complete by construction.
+Greedy over partial variants, in the manner of YASA (Krieter et al., VaMoS 2020), on one
+hard build of the encoding. Each partial variant is a set of literals with a *witness*: a
+valid variant that has all of them. The combinations are taken in order, streamed, never
+held; each one is
+
+* already shown, when some partial variant has its literals;
+* added to the first partial variant whose witness already shows it (no solve);
+* refuted, when unit propagation of its literals alone fails;
+* else added to the first partial variant that propagation and a solve find compatible with
+  it (the solve's model is the new witness), or to a new partial variant; a combination no
+  valid variant has is refuted by that last solve.
+
+Every valid combination thus ends in some partial variant, whose witness has it: the
+witnesses are the sample and its coverage of valid combinations is complete by construction
+(`Sample.shown` counts it again over the witnesses). Solves prefer, for each free variable,
+the value in most combinations still to come, so that witnesses show much for free.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from itertools import combinations
+from math import comb
 
 from ..documents.loader import no_gc
 from ..language.model import Binding, FeatureModel
 from . import encoding as enc
 
-PACK = 16384  # combinations tried for packing into one variant beside the one it is for
-LIMIT = 20_000_000  # combinations at most (their set is held in memory)
+LIMIT = 20_000_000  # combinations at most (each is looked at a few times in Python)
+REPORT = 1 << 16  # combinations between two progress reports
 
 
 class TooMany(ValueError):
@@ -42,9 +53,12 @@ class Sample:
 
 
 def sample(
-    model: FeatureModel, t: int = 2, bindings: bool = False, progress: Callable[[int, int], None] | None = None
+    model: FeatureModel,
+    t: int = 2,
+    bindings: bool = False,
+    progress: Callable[[int, int], None] | None = None,
 ) -> Sample:
-    """A t-wise sample (t = 1, 2, 3); `progress(shown or refuted, combinations)` now and then."""
+    """A t-wise sample (t = 1, 2, 3); `progress(settled, combinations)` now and then."""
     features = [f.index for f in model.features if f.parent is not None]
     with no_gc(), enc.Encoding(model) as hard:
         if not hard.solve(with_config=False):
@@ -61,68 +75,117 @@ def sample(
             raise TooMany(
                 f"{total:,} {t}-wise combinations over {len(features):,} features: more than {LIMIT:,}"
             )
-        ids = range(len(values))
-        open_ = sorted(
-            combo for combo in combinations(ids, t) if len({values[v][0] for v in combo}) == t
-        )
-        uncovered = set(open_)
-        waiting = [0] * len(values)  # per value: the open combinations it is in
-        for combo in open_:
+        solver = hard.solver
+        # per literal of a value's variable: a bit mask of the partial variants that have it,
+        # and of those whose witness has it
+        held: dict[int, int] = {}
+        for _, literals in values:
+            for lit in literals:
+                held[lit] = held[-lit] = 0
+        witnessed = dict(held)
+        partial: list[list[int]] = []  # per partial variant: its literals
+        partial_sets: list[set[int]] = []
+        witnesses: list[list[int]] = []  # per partial variant: its witness, a solver model
+        everyone = 0  # the mask of all partial variants
+        # per value: the combinations still to come that have it (all of them, at first)
+        waiting = [comb(len(features) - 1, t - 1) * per_feature ** (t - 1)] * len(values)
+
+        def hold(k: int, literals: list[int]) -> None:
+            bit = 1 << k
+            for lit in literals:
+                if lit not in partial_sets[k]:
+                    partial_sets[k].add(lit)
+                    partial[k].append(lit)
+                    if lit in held:
+                        held[lit] |= bit
+
+        def witness(k: int) -> None:
+            bit = 1 << k
+            if k < len(witnesses):
+                for lit in witnesses[k]:
+                    if lit in witnessed:
+                        witnessed[lit] &= ~bit
+                witnesses[k] = hard.assignment()
+            else:
+                witnesses.append(hard.assignment())
+            for lit in witnesses[k]:
+                if lit in witnessed:
+                    witnessed[lit] |= bit
+
+        def solve(assumptions: list[int]) -> bool:
+            solver.set_phases(_phases(values, waiting))
+            return bool(solver.solve(assumptions=assumptions))
+
+        invalid = 0
+        for done, combo in enumerate(_combinations(values, t), 1):
+            if progress is not None and done % REPORT == 0:
+                progress(done, total)
             for v in combo:
-                waiting[v] += 1
-        invalid = shown_count = 0
-        variants: list[dict[int, Binding | None]] = []
-        position = 0
-
-        def literals(combo: tuple[int, ...]) -> list[int]:
-            return [lit for v in combo for lit in values[v][1]]
-
-        while position < len(open_):
-            first = open_[position]
-            position += 1
-            if first not in uncovered:
+                waiting[v] -= 1
+            wanted = [lit for v in combo for lit in values[v][1]]
+            mask = -1
+            for lit in wanted:
+                mask &= held[lit]
+            if mask:
                 continue
-            wanted = literals(first)
-            if not hard.solver.propagate(assumptions=wanted)[0] or not hard.solver.solve(assumptions=wanted):
-                uncovered.discard(first)
-                for v in first:
-                    waiting[v] -= 1
+            mask = -1
+            for lit in wanted:
+                mask &= witnessed[lit]
+            if mask:
+                hold((mask & -mask).bit_length() - 1, wanted)
+                continue
+            consistent, implied = solver.propagate(assumptions=wanted)
+            if not consistent:
                 invalid += 1
                 continue
-            # pack: the next open combinations that propagation finds compatible
-            packed = list(wanted)
-            tried = 0
-            stride = max(1, (len(open_) - position) // PACK)  # spread over what is open, not its next few
-            for combo in open_[position::stride]:
-                if tried >= PACK:
+            clashing = 0  # partial variants with a literal that contradicts one implied
+            for lit in implied:
+                clashing |= held.get(-lit, 0)
+            candidates = everyone & ~clashing
+            while candidates:
+                k = (candidates & -candidates).bit_length() - 1
+                candidates &= candidates - 1
+                consistent, implied_there = solver.propagate(assumptions=partial[k] + wanted)
+                if consistent and solve(partial[k] + wanted):
+                    witness(k)
+                    hold(k, wanted + implied_there)
                     break
-                if combo not in uncovered:
+            else:
+                if not solve(wanted):
+                    invalid += 1
                     continue
-                tried += 1
-                more = literals(combo)
-                if hard.solver.propagate(assumptions=packed + more)[0]:
-                    packed += more
-            # the rest decided the way that shows most of what is still open
-            hard.solver.set_phases(_phases(values, waiting))
-            if not hard.solver.solve(assumptions=packed):
-                hard.solver.solve(assumptions=wanted)
-            truth = set(hard.assignment())
-            shown = [v for v in ids if all(lit in truth for lit in values[v][1])]
-            for combo in combinations(shown, t):
-                if combo in uncovered:
-                    uncovered.remove(combo)
-                    shown_count += 1
-                    for v in combo:
-                        waiting[v] -= 1
+                k = len(partial)
+                partial.append([])
+                partial_sets.append(set())
+                everyone |= 1 << k
+                witness(k)
+                hold(k, wanted + implied)
+        shown = 0  # counted again over the witnesses, the variants the sample is made of
+        for combo in _combinations(values, t):
+            mask = -1
+            for v in combo:
+                for lit in values[v][1]:
+                    mask &= witnessed[lit]
+            shown += mask != 0
+        if progress is not None:
+            progress(total, total)
+        variants: list[dict[int, Binding | None]] = []
+        for truth_list in witnesses:
+            truth = set(truth_list)
             variants.append(
                 {
                     i: Binding.from_flags(E(i) in truth, S(i) in truth) if s(i) in truth else None
                     for i in range(len(model.features))
                 }
             )
-            if progress is not None:
-                progress(len(open_) - len(uncovered), len(open_))
-    return Sample(variants, len(open_), len(open_) - invalid, shown_count)
+    return Sample(variants, total, total - invalid, shown)
+
+
+def _combinations(values: list[tuple[int, tuple[int, ...]]], t: int) -> Iterator[tuple[int, ...]]:
+    """The combinations, in order: t values (by index) of t different features."""
+    for combo in combinations(range(len(values)), t):
+        if len({values[v][0] for v in combo}) == t:
+            yield combo
 
 
 def _phases(values: list[tuple[int, tuple[int, ...]]], waiting: list[int]) -> list[int]:
@@ -137,7 +200,4 @@ def _phases(values: list[tuple[int, tuple[int, ...]]], waiting: list[int]) -> li
 
 def _count(features: int, per_feature: int, t: int) -> int:
     """C(features, t) * per_feature**t: the combinations of t values of distinct features."""
-    from math import comb
-
     return int(comb(features, t) * per_feature**t)
-
