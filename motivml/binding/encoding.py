@@ -185,6 +185,8 @@ class Encoding:
         self._kept_literals = array("i")  # the clauses one after the other
         self._kept_starts = array("q", [0])  # where each clause begins (and, last, the end)
         self._kept_selectors = array("i")  # each clause's selector
+        self._clauses_of: tuple[int, dict[int, list[int]]] | None = None  # (clauses seen, index)
+        self._model_by_literal: dict[int, int] | None = None  # (see _by_literal)
         self._encode_model()
         self.model_facts = len(self.facts)
         self._config_fact_range = (len(self.facts), len(self.facts))
@@ -503,13 +505,16 @@ class Encoding:
         # Queries and configuration facts first: the solver's core tends to use the earliest.
         if order is None:
             order = [*queries, *range(self.model_facts, last), *range(self.model_facts)]
+            by_literal = self._by_literal([*queries, *range(self.model_facts, last)])
+        else:
+            by_literal = {}
+            for k in order:
+                by_literal.setdefault(self.literals[k], k)
         remaining = dict.fromkeys(order)  # ordered set
         found: list[list[int]] = []
-        by_literal: dict[int, int] = {}
-        for k in order:
-            by_literal.setdefault(self.literals[k], k)
+        literal_of = self.literals.__getitem__
         while len(found) < limit:
-            assumptions = [*fixed, *(self.literals[k] for k in remaining)]
+            assumptions = [*fixed, *map(literal_of, remaining)]
             if self.solver.solve(assumptions=assumptions):
                 break
             core = self._core(by_literal, remaining)
@@ -519,6 +524,18 @@ class Encoding:
                 remaining.pop(k, None)
         found.sort(key=lambda mus: (len(mus), min(self._first_feature(k) for k in mus)))
         return found
+
+    def _by_literal(self, first: Sequence[int]) -> dict[int, int]:
+        """literal -> fact for the facts `first` and then every model fact, the first fact
+        of each literal winning; the model facts' part is made once per encoding."""
+        if self._model_by_literal is None:
+            self._model_by_literal = {}
+            for k in range(self.model_facts):
+                self._model_by_literal.setdefault(self.literals[k], k)
+        ahead: dict[int, int] = {}
+        for k in first:
+            ahead.setdefault(self.literals[k], k)
+        return {**self._model_by_literal, **ahead}
 
     def _core(self, by_literal: dict[int, int], allowed: Iterable[int], solver: Solver | None = None) -> list[int]:
         allowed_set = set(allowed)
@@ -537,10 +554,14 @@ class Encoding:
         # (the facts' selectors, and any in `fixed`; other literals have no clauses)
         wanted = {*fixed, *(self.literals[k] for k in core)}
         literals, starts = self._kept_literals, self._kept_starts
-        clauses = [
+        if self._clauses_of is None or self._clauses_of[0] != len(self._kept_selectors):
+            self._clauses_of = (len(self._kept_selectors), {})  # selector -> its clauses
+            for c, selector in enumerate(self._kept_selectors):
+                self._clauses_of[1].setdefault(selector, []).append(c)
+        clauses_of = self._clauses_of[1]
+        clauses = [  # in the order they were made, as a scan of every clause would give them
             literals[starts[c] : starts[c + 1]].tolist()
-            for c, selector in enumerate(self._kept_selectors)
-            if selector in wanted
+            for c in sorted(chain.from_iterable(clauses_of.get(w, ()) for w in wanted))
         ]
         # Facts tried for deletion first are the least likely to stay: the start-state
         # fact goes first, so a conflict that section 2 or 3 explains is not blamed on it.
