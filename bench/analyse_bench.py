@@ -80,6 +80,16 @@ def run_limited(args: list[str], timeout: float) -> tuple[float, int, str] | Non
     return wall, usage.ru_maxrss // 1024, output
 
 
+def compare(output: str, published: dict[str, int], on: str, indent: str) -> None:
+    """The size `motivml sample` printed beside each published size: ratio and verdict."""
+    size = int(output.split()[0])
+    for name, theirs in published.items():
+        ratio = size / theirs
+        verdict = "met" if ratio <= SAMPLE_TARGET else "MISSED"
+        print(f"{indent}vs {name} {theirs} {on}: ratio {ratio:.2f} (target {SAMPLE_TARGET:g}) {verdict}")
+    print(f"{indent}(published sizes: {PUBLISHED_SOURCE})", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="*", default=[1000, 10_000, 100_000])
@@ -167,16 +177,7 @@ def main() -> None:
                         f"{'':>9} t=2 sample: {sampled[2].splitlines()[0]}; {sampled[0]:.1f} s, {sampled[1]} MiB",
                         flush=True,
                     )
-                    size = int(sampled[2].split()[0])
-                    for name, published in PUBLISHED.items():
-                        ratio = size / published
-                        verdict = "met" if ratio <= SAMPLE_TARGET else "MISSED"
-                        print(
-                            f"{'':>9}   vs {name} {published} on {PUBLISHED_MODEL}: ratio {ratio:.2f}"
-                            f" (target {SAMPLE_TARGET:g}) {verdict}",
-                            flush=True,
-                        )
-                    print(f"{'':>9}   (published sizes: {PUBLISHED_SOURCE})", flush=True)
+                    compare(sampled[2], PUBLISHED, f"on {PUBLISHED_MODEL}", " " * 12)
     if args.ecos:
         with tempfile.TemporaryDirectory() as tmp:
             robot = os.path.join(tmp, "ecos")
@@ -190,14 +191,7 @@ def main() -> None:
                 print(
                     f"eCos 3.0 i386pc t=2 sample: {sampled[2].splitlines()[0]}; {sampled[0]:.1f} s, {sampled[1]} MiB"
                 )
-                size = int(sampled[2].split()[0])
-                for name, published in PUBLISHED_ECOS.items():
-                    ratio = size / published
-                    verdict = "met" if ratio <= SAMPLE_TARGET else "MISSED"
-                    print(
-                        f"  vs {name} {published} on the same model: ratio {ratio:.2f} (target {SAMPLE_TARGET:g}) {verdict}"
-                    )
-                print(f"  (published sizes: {PUBLISHED_SOURCE})")
+                compare(sampled[2], PUBLISHED_ECOS, "on the same model", "  ")
     print(
         "target (issue 15): analyse (without counts) at most 10x the floor at 10k; t=2 sample sizes "
         "within 1.5x of YASA's or IncLing's published ones for a model of about the same size (a real "

@@ -384,41 +384,12 @@ def test_bindings_inherited_from_a_parent_are_impossible_and_no_others() -> None
     feature that never is (Late only, or below one), never Static below one that never is.
     Only those: a Dynamic parent leaves its sub-feature's time free, a Late one its mode,
     and beside an inherited impossibility the other value stays possible."""
-    raw = feature(
-        "r",
-        [
-            feature(
-                "late",
-                [
-                    feature(
-                        "l1",
-                        [feature("l2", isMandatory=False, time="Any", mode="Any")],
-                        isMandatory=False,
-                        time="Any",
-                        mode="Any",
-                    )
-                ],
-                isMandatory=False,
-                time="Late",
-                mode="Any",
-            ),
-            feature(
-                "dynamic",
-                [
-                    feature(
-                        "d1",
-                        [feature("d2", isMandatory=False, time="Any", mode="Any")],
-                        isMandatory=False,
-                        time="Any",
-                        mode="Any",
-                    )
-                ],
-                isMandatory=False,
-                time="Any",
-                mode="Dynamic",
-            ),
-        ],
-    )
+
+    def below(top: str, first: str, second: str, **allowed: str) -> dict[str, Any]:
+        free = {"isMandatory": False, "time": "Any", "mode": "Any"}
+        return feature(top, [feature(first, [feature(second, **free)], **free)], **{**free, **allowed})
+
+    raw = feature("r", [below("late", "l1", "l2", time="Late"), below("dynamic", "d1", "d2", mode="Dynamic")])
     result = analyse(read(raw), counts=False)
     expected = [
         ("l1", "time", "Early"),
