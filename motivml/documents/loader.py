@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import bisect
 import contextlib
+import functools
 import gc
 import json
 import os
@@ -59,15 +60,16 @@ _SURROGATE = re.compile(r"\\u[dD][89a-fA-F]")
 
 def format_path(path: JSONPath) -> str:
     """`$.sub[0].constraints` style path, as users see it in messages."""
-    parts = ["$"]
-    for item in path:
-        if isinstance(item, int):
-            parts.append(f"[{item}]")
-        elif re.fullmatch(r"[A-Za-z_$][A-Za-z0-9_$-]*", item):
-            parts.append(f".{item}")
-        else:
-            parts.append(f"[{json.dumps(item)}]")
-    return "".join(parts)
+    return "$" + "".join(map(_path_part, path))
+
+
+@functools.lru_cache(maxsize=4096, typed=True)  # paths thousands of steps deep repeat their steps
+def _path_part(item: str | int) -> str:
+    if isinstance(item, int):
+        return f"[{item}]"
+    if re.fullmatch(r"[A-Za-z_$][A-Za-z0-9_$-]*", item):
+        return f".{item}"
+    return f"[{json.dumps(item)}]"
 
 
 class Document:
@@ -89,6 +91,7 @@ class Document:
         # messages read only the containers on their paths, not the whole document
         self._scans: dict[int, _Scan] = {}
         self._ends: Callable[[int], int] | None = None  # a container's offset -> the offset after it
+        self._container_offsets: dict[int, int] = {}  # id(container) -> its offset, once walked to
 
     def _indexed(self) -> _Index:
         if self._index is None:
@@ -125,10 +128,31 @@ class Document:
 
     def _scanned_offset(self, path: JSONPath, key: bool) -> int:
         """`_offset` for a document the C decoder read (valid JSON): the text of each
-        container on the path is scanned up to the member asked for, and no further."""
-        text = self.text
-        node, offset = self.root, _WHITESPACE.match(text).end()  # type: ignore[union-attr]
-        for i, item in enumerate(path):
+        container on the path is scanned up to the member asked for, and no further.
+
+        The walk starts at the deepest container of the path whose offset an earlier walk
+        found: messages about one feature deep in a model share most of their paths."""
+        nodes: list[Any] = [self.root]
+        for item in path[: len(path) - 1 if key else len(path)]:
+            node = nodes[-1]
+            if isinstance(node, dict) and isinstance(item, str) and item in node:
+                nodes.append(node[item])
+            elif isinstance(node, list) and isinstance(item, int) and 0 <= item < len(node):
+                nodes.append(node[item])
+            else:
+                break
+        known = self._container_offsets
+        start = next(
+            (
+                j
+                for j in range(len(nodes) - 1, 0, -1)
+                if isinstance(nodes[j], (dict, list)) and id(nodes[j]) in known
+            ),
+            0,
+        )
+        node = nodes[start]
+        offset = known[id(node)] if start else _WHITESPACE.match(self.text).end()  # type: ignore[union-attr]
+        for i, item in enumerate(path[start:], start):
             if not isinstance(node, (dict, list)):
                 break
             found = self._member(node, offset, item)
@@ -138,6 +162,8 @@ class Document:
             if key and i == len(path) - 1 and isinstance(node, dict):
                 return key_offset
             node = node[item]  # type: ignore[index]
+            if isinstance(node, (dict, list)):
+                known[id(node)] = offset
         return offset
 
     def _member(self, node: dict[str, Any] | list[Any], start: int, item: str | int) -> tuple[int, int] | None:
