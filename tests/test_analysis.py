@@ -112,6 +112,20 @@ def test_analyses_equal_brute_force(raw: dict[str, Any]) -> None:
     assert result.selection_count == sum(1 for _ in ref.section_2_selections(raw))
 
 
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=8))
+def test_analyses_with_cover_checks_in_numpy_equal_them_in_python(raw: dict[str, Any]) -> None:
+    """From VECTOR_FROM open targets on, cover checks variants against them with numpy
+    arrays: forced from the first target, every answer is the same."""
+    from motivml.binding import encoding as enc
+
+    model = read(raw)
+    expected = analyse(model, counts=False)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(enc, "VECTOR_FROM", 0)
+        assert analyse(model, counts=False) == expected
+
+
 def _allowed(raw: dict[str, Any]) -> dict[str, dict[str, str]]:
     found, stack = {}, [raw]
     while stack:

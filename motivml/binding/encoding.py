@@ -31,6 +31,7 @@ from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from itertools import accumulate, chain, repeat
 from types import TracebackType
+from typing import Any
 
 from pysat.solvers import Solver
 
@@ -152,6 +153,51 @@ def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
     deque(map(add, repeat(handle), clauses), maxlen=0)
 
 
+VECTOR_FROM = 4096  # open targets (or features): from here cover's checks use numpy arrays
+
+
+class _Targets:
+    """`cover`'s targets and, made when thousands are open at once, the same as an array
+    (each row padded with its last literal, which changes neither what holds nor which
+    literal of a variable comes last), so that a variant is checked against them in C."""
+
+    def __init__(self, targets: Sequence[Sequence[int]]) -> None:
+        self.targets = targets
+        self._rows: Any = None  # numpy (targets x widest) array of literals, 0 for none
+
+    def rows(self) -> Any:
+        if self._rows is None:
+            import numpy as np  # lazy: only analyses of large models get here
+
+            width = max(map(len, self.targets), default=1) or 1
+            rows = np.zeros((len(self.targets), width), dtype=np.int64)
+            for k, target in enumerate(self.targets):
+                if target:
+                    rows[k, : len(target)] = target
+                    rows[k, len(target) :] = target[-1]
+            self._rows = rows
+        return self._rows
+
+    def split(self, values: list[int], candidates: list[int]) -> tuple[list[int], list[int]]:
+        """(the candidates the variant `values` shows, the others), each in their order."""
+        import numpy as np
+
+        chosen = np.asarray(candidates, dtype=np.int64)
+        rows = self.rows()[chosen]
+        padded = np.concatenate(([0], np.asarray(values, dtype=np.int64)))  # literal of variable v at v
+        shown = (padded[np.abs(rows)] == rows).all(axis=1)  # (an empty target: 0 == 0, shown)
+        return chosen[shown].tolist(), chosen[~shown].tolist()
+
+    def last_literals(self, todo: list[int]) -> list[int]:
+        """Per variable in the targets `todo`, its literal in the last of them that has it."""
+        import numpy as np
+
+        literals = self.rows()[np.asarray(todo, dtype=np.int64)].ravel()[::-1]
+        literals = literals[literals != 0]
+        _, first = np.unique(np.abs(literals), return_index=True)
+        return literals[first].tolist()  # type: ignore[no-any-return]
+
+
 def _top_variable(clauses: Sequence[list[int]]) -> int:
     """The highest variable in `clauses` (0 if none), as WCNF counts them."""
     present = list(filter(None, clauses))
@@ -218,7 +264,12 @@ class Encoding:
 
     def selection_of(self, values: Sequence[int]) -> bytes:
         """Which features an assignment selects: one byte (0 or 1) per feature, in pre-order."""
-        return bytes(map((0).__lt__, values[0 : 4 * self.n : 4]))  # s(i) is variable 4i + 1
+        chosen = values[0 : 4 * self.n : 4]  # s(i) is variable 4i + 1
+        if self.n >= VECTOR_FROM:
+            import numpy as np
+
+            return (np.asarray(chosen) > 0).astype(np.uint8).tobytes()
+        return bytes(map((0).__lt__, chosen))
 
     def _new_var(self) -> int:
         self._top += 1
@@ -615,48 +666,61 @@ class Encoding:
         possible = [False] * len(targets)
         base = self.assumptions(with_config)
         pending: list[int] = list(range(len(targets)))
+        table = _Targets(targets)
         for hint in hints:
             self.solver.set_phases(list(hint))
             if not self.solver.solve(assumptions=base):
                 return possible
-            pending = self._mark(targets, possible, pending, witness)
+            pending = self._mark(table, possible, pending, witness)
         while pending:
-            self._prefer(targets, pending)
+            self._prefer(table, pending)
             if not self.solver.solve(assumptions=base):
                 return possible
             before = len(pending)
-            pending = self._mark(targets, possible, pending, witness)
+            pending = self._mark(table, possible, pending, witness)
             if before - len(pending) < WITNESS_GAIN:
                 break
         pending = [k for k in pending if self.solver.propagate(assumptions=[*base, *targets[k]])[0]]
         while pending:
             k = pending[0]
-            self._prefer(targets, pending)
+            self._prefer(table, pending)
             if self.solver.solve(assumptions=[*base, *targets[k]]):
-                pending = self._mark(targets, possible, pending, witness)
+                pending = self._mark(table, possible, pending, witness)
             else:
                 pending = pending[1:]
         return possible
 
-    def _prefer(self, targets: Sequence[Sequence[int]], todo: Iterable[int]) -> None:
-        """Polarity hints: decide the open targets' literals their way first."""
+    def _prefer(self, table: _Targets, todo: list[int]) -> None:
+        """Polarity hints: decide the open targets' literals their way first (where a
+        variable is in several, as the last one has it)."""
+        if len(todo) >= VECTOR_FROM:
+            self.solver.set_phases(table.last_literals(todo))
+            return
         preferred: dict[int, int] = {}
         for k in todo:
-            for lit in targets[k]:
+            for lit in table.targets[k]:
                 preferred[abs(lit)] = lit
         self.solver.set_phases(list(preferred.values()))
 
     def _mark(
         self,
-        targets: Sequence[Sequence[int]],
+        table: _Targets,
         possible: list[bool],
-        candidates: Iterable[int],
+        candidates: list[int],
         witness: Callable[[list[int]], None] | None = None,
     ) -> list[int]:
+        """The candidates the solver's present variant does not show (those it shows are
+        marked possible), in their order."""
         values = self.assignment()
         if witness is not None:
             witness(values)
+        if len(candidates) >= VECTOR_FROM:
+            shown, left = table.split(values, candidates)
+            for k in shown:
+                possible[k] = True
+            return left
         left = []
+        targets = table.targets
         for k in candidates:
             if all(values[abs(lit) - 1] == lit for lit in targets[k]):
                 possible[k] = True
