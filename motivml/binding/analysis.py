@@ -87,6 +87,7 @@ def analyse(
             with_config=False,
             hints=[s, [s[0], *(-literal for literal in s[1:])]],
             witness=witness,
+            implied=[f.parent for f in features] + [None] * n,  # s(f) propagates to s(parent)
         )
         alive = possible[:n]
         core = [i for i in range(n) if not possible[n + i]]
@@ -238,9 +239,20 @@ def impossible_bindings(
         for e in (1, -1)
         for m in (1, -1)
     ]
-    possible = hard.cover([targets[k] for k in asked], with_config=False, hints=hints)
+    # s(f) and E(f) propagate to s(parent) and E(parent) (the sub-feature time); the same
+    # for Static (the sub-feature mode)
+    position = {owners[k]: at for at, k in enumerate(asked)}
+    parents = [model.features[owners[k][0]].parent for k in asked]
+    implied = [
+        position.get((p, owners[k][1], owners[k][2])) if p is not None and owners[k][2] in _UPWARD else None
+        for k, p in zip(asked, parents, strict=True)
+    ]
+    possible = hard.cover([targets[k] for k in asked], with_config=False, hints=hints, implied=implied)
     impossible = set(k for k, can in zip(asked, possible, strict=True) if not can)
     return [owners[k] for k in range(len(targets)) if inherited[k] or k in impossible]
+
+
+_UPWARD = (Time.EARLY, Mode.STATIC)  # the values a feature can take only if its parent does
 
 
 def _inherited(model: FeatureModel) -> tuple[list[bool], list[bool]]:

@@ -59,7 +59,10 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
         features = model.features
         n = len(features)
         alive = hard.cover(
-            [[hard.s(i)] for i in range(n)], with_config=False, hints=[[hard.s(i) for i in range(n)]]
+            [[hard.s(i)] for i in range(n)],
+            with_config=False,
+            hints=[[hard.s(i) for i in range(n)]],
+            implied=[f.parent for f in features],  # s(f) propagates to s(parent)
         )
         impossible = impossible_bindings(hard, model, alive)
 

@@ -650,11 +650,14 @@ class Encoding:
         with_config: bool = True,
         hints: Sequence[Sequence[int]] = (),
         witness: Callable[[list[int]], None] | None = None,
+        implied: Sequence[int | None] | None = None,
     ) -> list[bool]:
         """Which conjunctions of literals hold in some valid variant.
 
         `witness`, if given, is called with each valid variant found on the way (the
         solver's assignment), so that a caller can learn more from them (atomic sets).
+        `implied`, if given, names for each target an earlier one (or None) whose literals
+        unit propagation derives from it: a feature's "selected" target names its parent's.
 
         1. Solves under polarity hints (each of `hints`, then towards the targets still
            open, again while a witness settles at least WITNESS_GAIN of them) find
@@ -680,7 +683,7 @@ class Encoding:
             pending = self._mark(table, possible, pending, witness)
             if before - len(pending) < WITNESS_GAIN:
                 break
-        pending = [k for k in pending if self.solver.propagate(assumptions=[*base, *targets[k]])[0]]
+        pending = self._propagating(targets, base, pending, implied)
         while pending:
             k = pending[0]
             self._prefer(table, pending)
@@ -689,6 +692,31 @@ class Encoding:
             else:
                 pending = pending[1:]
         return possible
+
+    def _propagating(
+        self,
+        targets: Sequence[Sequence[int]],
+        base: list[int],
+        pending: list[int],
+        implied: Sequence[int | None] | None,
+    ) -> list[int]:
+        """The pending targets that unit propagation does not refute, in their order.
+
+        Propagation is monotone: when a target's literals propagate without a conflict, so
+        do those of every target they imply (`implied`, followed up the chain), which are
+        then not propagated again. Deeper targets go first, so that a chain is walked once.
+        """
+        if implied is None:
+            return [k for k in pending if self.solver.propagate(assumptions=[*base, *targets[k]])[0]]
+        consistent: set[int] = set()
+        for k in reversed(pending):
+            if k in consistent or not self.solver.propagate(assumptions=[*base, *targets[k]])[0]:
+                continue
+            j: int | None = k
+            while j is not None and j not in consistent:
+                consistent.add(j)
+                j = implied[j]
+        return [k for k in pending if k in consistent]
 
     def _prefer(self, table: _Targets, todo: list[int]) -> None:
         """Polarity hints: decide the open targets' literals their way first (where a
