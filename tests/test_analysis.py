@@ -126,6 +126,52 @@ def test_analyses_with_cover_checks_in_numpy_equal_them_in_python(raw: dict[str,
         assert analyse(model, counts=False) == expected
 
 
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=8))
+def test_cover_answers_the_same_with_targets_solved_for_in_batches(raw: dict[str, Any]) -> None:
+    """cover(batch=True) solves for several open targets at once in its last step; without
+    hints nearly every target gets there. Every answer is the one of cover alone."""
+    from motivml.binding import encoding as enc
+
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        if not hard.solve(with_config=False):
+            return
+        n = len(model.features)
+        targets = [
+            [hard.s(i), sign_e * hard.E(i), sign_s * hard.S(i)]
+            for i in range(n)
+            for sign_e in (1, -1)
+            for sign_s in (1, -1)
+        ] + [[hard.s(i), -hard.s(j)] for i in range(n) for j in range(n) if i != j]
+        alone = hard.cover(targets, with_config=False)
+        together = hard.cover(targets, with_config=False, batch=True)
+    assert together == alone
+
+
+def test_a_batch_that_fails_leaves_its_first_target_to_a_solve_of_its_own() -> None:
+    """a is dead (its XOR group wants exactly one of x and y, the formula both or neither),
+    yet unit propagation does not refute it; v is possible but not in the first variant,
+    which has u. In cover's last step a joins v in one batch, which fails: a is then asked
+    alone (impossible), and v after it (possible)."""
+    from motivml.binding import encoding as enc
+
+    raw = feature(
+        "r",
+        [
+            feature("a", [feature("x", group="XOR"), feature("y", group="XOR")], isMandatory=False),
+            feature("p", [feature("u", group="XOR"), feature("v", group="XOR")], isMandatory=False),
+        ],
+        formulas=["x <=> y"],
+    )
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        s = {f.id: hard.s(f.index) for f in model.features}
+        targets = [[s["a"]], [s["u"]], [s["v"]]]
+        assert hard.solver.propagate(assumptions=[s["a"], s["v"]])[0]  # (what makes the batch)
+        assert hard.cover(targets, with_config=False, batch=True) == [False, True, True]
+
+
 def _allowed(raw: dict[str, Any]) -> dict[str, dict[str, str]]:
     found, stack = {}, [raw]
     while stack:

