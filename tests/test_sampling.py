@@ -117,3 +117,19 @@ def test_sample_refusals(tmp_path: Path) -> None:
         main, ["sample", str(tmp_path / "big.json"), "--t", "3", "--bindings", "-o", str(tmp_path / "out")]
     )
     assert too_many.exit_code == 2 and "3-wise combinations over 600 features: more than" in too_many.output
+
+
+def test_a_model_with_only_its_root_has_an_empty_sample(tmp_path: Path) -> None:
+    """No feature to vary: no combination, no variant (the sampler once raised ValueError
+    here, from comb(-1, t - 1))."""
+    raw = {"id": "root", "name": "Root"}
+    model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    for t in (1, 2, 3):
+        for bindings in (False, True):
+            found = sample(model, t, bindings)
+            assert (found.variants, found.combinations, found.valid, found.shown) == ([], 0, 0, 0)
+    (tmp_path / "model.json").write_text(json.dumps(raw))
+    result = CliRunner().invoke(main, ["sample", str(tmp_path / "model.json"), "-o", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    assert result.output.splitlines()[-1] == "  wrote no file: no 2-wise combination, the model has 0 features besides its root"
+    assert not list((tmp_path / "out").glob("sample-*.json"))

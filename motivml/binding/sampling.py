@@ -88,7 +88,7 @@ def sample(
         witnesses: list[list[int]] = []  # per partial variant: its witness, a solver model
         everyone = 0  # the mask of all partial variants
         # per value: the combinations still to come that have it (all of them, at first)
-        waiting = [comb(len(features) - 1, t - 1) * per_feature ** (t - 1)] * len(values)
+        waiting = [comb(max(len(features) - 1, 0), t - 1) * per_feature ** (t - 1)] * len(values)
 
         def hold(k: int, literals: list[int]) -> None:
             bit = 1 << k

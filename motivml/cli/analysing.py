@@ -211,7 +211,11 @@ def sample_command(target: str, t: int, bindings: bool, output: str) -> None:
         f"{plural(len(found.variants), 'variant')} cover {shown:.1f}% of {found.valid:,} valid {t}-wise combinations"
         f" ({found.combinations - found.valid:,} of {found.combinations:,} have no valid variant)"
     )
-    out.print(f"  wrote {escape(str(Path(output)))}/sample-001.json ... sample-{len(files):03d}.json")
+    if files:
+        out.print(f"  wrote {escape(str(Path(output)))}/sample-001.json ... sample-{len(files):03d}.json")
+    else:
+        others = plural(len(model.features) - 1, "feature")
+        out.print(f"  wrote no file: no {t}-wise combination, the model has {others} besides its root")
 
 
 def _decisions(model: FeatureModel, variant: dict[int, Binding | None], bindings: bool) -> str:
