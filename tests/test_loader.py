@@ -293,3 +293,8 @@ def test_the_cli_freezes_for_one_shot_commands_only(monkeypatch: pytest.MonkeyPa
     )
     assert result.exit_code == 0, result.output
     assert entered == [True]  # run keeps its own collection policy
+    from click.shell_completion import ShellComplete
+
+    completions = ShellComplete(main, {}, "motivml", "_MOTIVML_COMPLETE").get_completions(["validate"], "--con")
+    assert [c.value for c in completions] == ["--config"]
+    assert entered == [True]  # (click never closes the context it completes in)

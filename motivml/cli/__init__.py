@@ -70,7 +70,8 @@ class LazyGroup(click.Group):
         """The command to run; a command that does one job and ends runs in
         `loader.one_command` (its collector policy) until the group's context closes."""
         name, command, rest = super().resolve_command(ctx, args)
-        if command is not None and name not in LONG_RUNNING:
+        # (not while the shell completes a command line: click never closes that context)
+        if command is not None and name not in LONG_RUNNING and not ctx.resilient_parsing:
             from ..documents.loader import one_command
 
             ctx.with_resource(one_command())
