@@ -144,13 +144,14 @@ def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
     are the same; the "formula already unsatisfiable" flag that `add_clause` keeps is not
     kept, and needs not be: every `solve` sets it anew.
     """
+    from pysat.solvers import Glucose4
+
     backend = solver.solver
-    handle = getattr(backend, "glucose", None)
     add = getattr(_glucose_functions(), "glucose41_add_cl", None)
-    if handle is None or add is None or type(backend).__name__ != "Glucose4":
+    if not isinstance(backend, Glucose4) or add is None:
         solver.append_formula(clauses)
         return
-    deque(map(add, repeat(handle), clauses), maxlen=0)
+    deque(map(add, repeat(backend.glucose), clauses), maxlen=0)
 
 
 VECTOR_FROM = 4096  # open targets (or features): from here cover's checks use numpy arrays
@@ -206,8 +207,12 @@ def _top_variable(clauses: Sequence[list[int]]) -> int:
 
 
 def _glucose_functions() -> object:
-    import pysolvers  # type: ignore[import-not-found]  # pysat's C extension, installed with it
-
+    """pysat's C extension (None if this pysat has none by that name: pysat's own methods
+    are used then)."""
+    try:
+        import pysolvers  # type: ignore[import-not-found]
+    except ImportError:
+        return None
     return pysolvers
 
 
@@ -232,7 +237,7 @@ class Encoding:
         self._kept_literals = array("i")  # the clauses one after the other
         self._kept_starts = array("q", [0])  # where each clause begins (and, last, the end)
         self._kept_selectors = array("i")  # each clause's selector
-        self._clauses_of: tuple[int, dict[int, list[int]]] | None = None  # (clauses seen, index)
+        self._clauses_of: dict[int, list[int]] | None = None  # selector -> its kept clauses
         self._model_by_literal: dict[int, int] | None = None  # (see _by_literal)
         self._encode_model()
         self.model_facts = len(self.facts)
@@ -606,11 +611,11 @@ class Encoding:
         # (the facts' selectors, and any in `fixed`; other literals have no clauses)
         wanted = {*fixed, *(self.literals[k] for k in core)}
         literals, starts = self._kept_literals, self._kept_starts
-        if self._clauses_of is None or self._clauses_of[0] != len(self._kept_selectors):
-            self._clauses_of = (len(self._kept_selectors), {})  # selector -> its clauses
+        if self._clauses_of is None:  # (all clauses are kept when the encoding is made)
+            self._clauses_of = {}
             for c, selector in enumerate(self._kept_selectors):
-                self._clauses_of[1].setdefault(selector, []).append(c)
-        clauses_of = self._clauses_of[1]
+                self._clauses_of.setdefault(selector, []).append(c)
+        clauses_of = self._clauses_of
         clauses = [  # in the order they were made, as a scan of every clause would give them
             literals[starts[c] : starts[c + 1]].tolist()
             for c in sorted(chain.from_iterable(clauses_of.get(w, ()) for w in wanted))
