@@ -91,7 +91,6 @@ class Document:
         # messages read only the containers on their paths, not the whole document
         self._scans: dict[int, _Scan] = {}
         self._ends: Callable[[int], int] | None = None  # a container's offset -> the offset after it
-        self._container_offsets: dict[int, int] = {}  # id(container) -> its offset, once walked to
 
     def _indexed(self) -> _Index:
         if self._index is None:
@@ -130,8 +129,9 @@ class Document:
         """`_offset` for a document the C decoder read (valid JSON): the text of each
         container on the path is scanned up to the member asked for, and no further.
 
-        The walk starts at the deepest container of the path whose offset an earlier walk
-        found: messages about one feature deep in a model share most of their paths."""
+        The walk starts at the deepest container of the path an earlier walk scanned (its
+        `_Scan` knows where it opens): messages about one feature deep in a model share
+        most of their paths."""
         nodes: list[Any] = [self.root]
         for item in path[: len(path) - 1 if key else len(path)]:
             node = nodes[-1]
@@ -141,17 +141,10 @@ class Document:
                 nodes.append(node[item])
             else:
                 break
-        known = self._container_offsets
-        start = next(
-            (
-                j
-                for j in range(len(nodes) - 1, 0, -1)
-                if isinstance(nodes[j], (dict, list)) and id(nodes[j]) in known
-            ),
-            0,
-        )
+        scans = self._scans
+        start = next((j for j in range(len(nodes) - 1, 0, -1) if id(nodes[j]) in scans), 0)
         node = nodes[start]
-        offset = known[id(node)] if start else _WHITESPACE.match(self.text).end()  # type: ignore[union-attr]
+        offset = scans[id(node)].opening if start else _WHITESPACE.match(self.text).end()  # type: ignore[union-attr]
         for i, item in enumerate(path[start:], start):
             if not isinstance(node, (dict, list)):
                 break
@@ -162,8 +155,6 @@ class Document:
             if key and i == len(path) - 1 and isinstance(node, dict):
                 return key_offset
             node = node[item]  # type: ignore[index]
-            if isinstance(node, (dict, list)):
-                known[id(node)] = offset
         return offset
 
     def _member(self, node: dict[str, Any] | list[Any], start: int, item: str | int) -> tuple[int, int] | None:
@@ -174,7 +165,7 @@ class Document:
             return None
         scan = self._scans.get(id(node))
         if scan is None:
-            scan = self._scans[id(node)] = _Scan(start + 1)
+            scan = self._scans[id(node)] = _Scan(start, start + 1)
         keys, values = scan.keys, scan.values
         text, space = self.text, _WHITESPACE.match
         while True:
@@ -247,11 +238,12 @@ class Document:
 
 @dataclass
 class _Scan:
-    """How far the text of one container has been read: its members' offsets so far (an
-    object's keys to (key offset, value offset), an array's value offsets), where the next
-    member's text begins (after the value at `pending`, once that is skipped), and whether
-    the closing bracket was reached."""
+    """How far the text of one container has been read: where it opens, its members'
+    offsets so far (an object's keys to (key offset, value offset), an array's value
+    offsets), where the next member's text begins (after the value at `pending`, once that
+    is skipped), and whether the closing bracket was reached."""
 
+    opening: int  # where the container's text begins (its bracket)
     position: int
     keys: dict[str, tuple[int, int]] = field(default_factory=dict)
     values: list[int] = field(default_factory=list)
