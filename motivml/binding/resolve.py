@@ -69,9 +69,7 @@ def resolve(
             raise NoVariant(check_variant(model, config))
         variant = _variant(encoding, model, config, values)
         if start:
-            late = [d.feature.index for d in variant.selected() if not d.binding.early]
-            encoding.set_configuration(as_configuration(variant))
-            active = encoding.start_state(late)
+            active = _start_on(encoding, variant)
             if active is not None:  # (None cannot happen: start_state says so if it does)
                 variant = replace(variant, active_at_start=tuple(active))
     return variant
@@ -152,13 +150,18 @@ def start_state(variant: Variant) -> list[Feature]:
     model = variant.model
     if variant.active_at_start is not None:
         return [model.features[i] for i in variant.active_at_start]
-    late = [d.feature.index for d in variant.selected() if not d.binding.early]
     with enc.Encoding(model) as encoding:
-        encoding.set_configuration(as_configuration(variant))
-        active = encoding.start_state(late)
+        active = _start_on(encoding, variant)
     if active is None:
         raise NoVariant(check_variant(model, as_configuration(variant)))
     return [model.features[i] for i in active]
+
+
+def _start_on(encoding: enc.Encoding, variant: Variant) -> list[int] | None:
+    """The start state's feature indices, found on `encoding` (whose configuration becomes
+    the variant's); None if there is none."""
+    encoding.set_configuration(as_configuration(variant))
+    return encoding.start_state([d.feature.index for d in variant.selected() if not d.binding.early])
 
 
 def decisions(variant: Variant, prefer: Collection[str] = ()) -> Configuration:
