@@ -8,6 +8,7 @@ product's parsed model is not used to decide it.
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from typing import Any
 
 import reference_semantics as ref
@@ -106,7 +107,10 @@ def test_start_state_of_any_valid_variant_equals_the_reference(data: st.DataObje
     assert not [p for p in problems if p.severity.value == "error"]
     variant = resolve(model, configuration)
     assert selection_of(variant) == chosen  # a complete configuration is kept as it is
-    assert [f.id for f in start_state(variant)] == ref.preferred_start_state(raw, chosen)
+    expected = ref.preferred_start_state(raw, chosen)
+    assert [f.id for f in start_state(variant)] == expected  # found by resolve, on its encoding
+    fresh = replace(variant, active_at_start=None)
+    assert [f.id for f in start_state(fresh)] == expected  # found on an encoding of its own
 
 
 def test_the_first_xor_alternative_in_definition_order_starts() -> None:
