@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from test_property_sat import configurations, models
 
-from motivml.binding.codegen import lock_document, lock_json, outputs
+from motivml.binding.codegen import BANNER, _printable, lock_json, outputs
 from motivml.binding.resolve import Decision, NoVariant, Variant, resolve
 from motivml.cli import main
 from motivml.documents.loader import parse
@@ -386,7 +386,25 @@ def test_the_lock_file_is_json_dumps_of_its_document_with_an_indent_of_2(
         for k, (_, selected, binding, by, time_by, mode_by) in enumerate(entries, 1)
     ]
     variant = Variant(model, name, tuple(decisions))
-    assert lock_json(variant) == json.dumps(lock_document(variant), indent=2) + "\n"
+    assert lock_json(variant) == json.dumps(_lock_document(variant), indent=2) + "\n"
+
+
+def _lock_document(variant: Variant) -> dict[str, Any]:
+    """The lock file as a document: each entry as a configuration entry with who decided it."""
+    properties: list[dict[str, Any]] = []
+    for d in variant.decisions[1:]:
+        decided: dict[str, Any] = {"selection": d.selection_by}
+        entry: dict[str, Any] = {"id": d.feature.id, "selected": d.selected}
+        if d.selected:
+            entry["props"] = {"time": d.binding.time, "mode": d.binding.mode}
+            decided |= {"time": d.time_by, "mode": d.mode_by}
+        properties.append({**entry, "x-decided": decided})
+    return {
+        "x-generated": BANNER,
+        "x-model": variant.model.root.id,
+        "x-variant": _printable(variant.name),
+        "properties": properties,
+    }
 
 
 def _feature(index: int, feature_id: str, parent: int | None) -> Feature:
