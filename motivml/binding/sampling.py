@@ -83,8 +83,7 @@ def sample(
             for lit in literals:
                 held[lit] = held[-lit] = 0
         witnessed = dict(held)
-        partial: list[list[int]] = []  # per partial variant: its literals
-        partial_sets: list[set[int]] = []
+        partial: list[dict[int, None]] = []  # per partial variant: its literals (an ordered set)
         witnesses: list[list[int]] = []  # per partial variant: its witness, a solver model
         everyone = 0  # the mask of all partial variants
         # per value: the combinations still to come that have it (all of them, at first)
@@ -93,9 +92,8 @@ def sample(
         def hold(k: int, literals: list[int]) -> None:
             bit = 1 << k
             for lit in literals:
-                if lit not in partial_sets[k]:
-                    partial_sets[k].add(lit)
-                    partial[k].append(lit)
+                if lit not in partial[k]:
+                    partial[k][lit] = None
                     if lit in held:
                         held[lit] |= bit
 
@@ -145,8 +143,9 @@ def sample(
             while candidates:
                 k = (candidates & -candidates).bit_length() - 1
                 candidates &= candidates - 1
-                consistent, implied_there = solver.propagate(assumptions=partial[k] + wanted)
-                if consistent and solve(partial[k] + wanted):
+                assumed = [*partial[k], *wanted]
+                consistent, implied_there = solver.propagate(assumptions=assumed)
+                if consistent and solve(assumed):
                     witness(k)
                     hold(k, wanted + implied_there)
                     break
@@ -155,8 +154,7 @@ def sample(
                     invalid += 1
                     continue
                 k = len(partial)
-                partial.append([])
-                partial_sets.append(set())
+                partial.append({})
                 everyone |= 1 << k
                 witness(k)
                 hold(k, wanted + implied)
