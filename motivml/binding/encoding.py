@@ -714,12 +714,22 @@ class Encoding:
         impossible bindings instead of 1,100)."""
         batch = list(targets[pending[0]])
         joined = 1
+        # the literals the batch propagates to: a target that negates one of them cannot
+        # join, and one whose literals are all among them joins without a propagation
+        implied = set(self.solver.propagate(assumptions=[*base, *batch])[1])
         for j in pending[1:BATCH_TRIED]:
-            trial = [*batch, *targets[j]]
-            if self.solver.propagate(assumptions=[*base, *trial])[0]:
-                batch, joined = trial, joined + 1
-                if joined >= BATCH:
-                    break
+            target = targets[j]
+            if any(-literal in implied for literal in target):
+                continue
+            trial = [*batch, *target]
+            if not all(literal in implied for literal in target):
+                ok, more = self.solver.propagate(assumptions=[*base, *trial])
+                if not ok:
+                    continue
+                implied = set(more)
+            batch, joined = trial, joined + 1
+            if joined >= BATCH:
+                break
         return batch
 
     def _propagating(
