@@ -149,6 +149,83 @@ def test_cover_answers_the_same_with_targets_solved_for_in_batches(raw: dict[str
     assert together == alone
 
 
+def _atomic_sets_from_rounds_alone(raw: dict[str, Any]) -> list[list[str]] | None:
+    """analysis._atomic_sets with no variant known beforehand and no first split, so that
+    its rounds (the first member against the others, then neighbours) settle every class;
+    None for a void model."""
+    from motivml.binding import encoding as enc
+
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        if not hard.solve(with_config=False):
+            return None
+        n = len(model.features)
+        alive = [i for i in range(n) if hard.solve(with_config=False, extra=[hard.s(i)])]
+        core = [i for i in alive if not hard.solve(with_config=False, extra=[-hard.s(i)])]
+        selections: list[bytes] = []
+        sets = analysis_module._atomic_sets(
+            hard, alive, core, selections, lambda values: selections.append(hard.selection_of(values))
+        )
+    return [[model.features[i].id for i in members] for members in sets]
+
+
+def _atomic_sets_by_brute_force(raw: dict[str, Any]) -> list[list[str]] | None:
+    variants = [set(v) for v in ref.valid_variants(raw, None)]
+    if not variants:
+        return None
+    by_pattern: dict[tuple[bool, ...], list[str]] = {}
+    for f in ids_in_order(raw):
+        if any(f in chosen for chosen in variants):
+            by_pattern.setdefault(tuple(f in chosen for chosen in variants), []).append(f)
+    return sorted(by_pattern.values(), key=lambda members: ids_in_order(raw).index(members[0]))
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=9))
+def test_atomic_set_rounds_alone_equal_brute_force(raw: dict[str, Any]) -> None:
+    assert _atomic_sets_from_rounds_alone(raw) == _atomic_sets_by_brute_force(raw)
+
+
+def test_atomic_set_rounds_halve_a_class_of_alternatives_and_keep_equal_neighbours() -> None:
+    """Alternatives a..e of an XOR group, each with a mandatory child: the first round
+    parts a from the others, which differ from each other too (neighbour rounds); each
+    alternative and its child are one class."""
+    alternatives = [
+        feature(name, [feature(f"{name}1", isMandatory=True)], group="XOR") for name in "abcde"
+    ]
+    raw = feature("r", [feature("g", alternatives, isMandatory=False)])
+    expected = [["r"], ["g"], *([name, f"{name}1"] for name in "abcde")]
+    assert _atomic_sets_by_brute_force(raw) == expected
+    assert _atomic_sets_from_rounds_alone(raw) == expected
+
+
+def test_atomic_set_rounds_find_equal_members_that_are_not_neighbours() -> None:
+    """b is selected exactly when q is (q is the only live member of b's OR group), with x
+    between them in pre-order: neighbour rounds see b and x differ, then x and q, and must
+    not take b's class to be final before q is compared with it."""
+    raw = feature(
+        "r",
+        [
+            feature("a", isMandatory=False),
+            feature(
+                "b",
+                [
+                    feature("x", isMandatory=False),
+                    feature("p", [feature("d", isMandatory=True)], group="OR"),
+                    feature("q", group="OR"),
+                ],
+                isMandatory=False,
+            ),
+            feature("c", isMandatory=False),
+            feature("e", isMandatory=False),
+        ],
+        formulas=["!d"],
+    )
+    expected = [["r"], ["a"], ["b", "q"], ["x"], ["c"], ["e"]]
+    assert _atomic_sets_by_brute_force(raw) == expected
+    assert _atomic_sets_from_rounds_alone(raw) == expected
+
+
 def test_a_batch_that_fails_leaves_its_first_target_to_a_solve_of_its_own() -> None:
     """a is dead (its XOR group wants exactly one of x and y, the formula both or neither),
     yet unit propagation does not refute it; v is possible but not in the first variant,

@@ -93,11 +93,9 @@ def analyse(
         core = [i for i in range(n) if not possible[n + i]]
 
         step(STEPS[2])
-        # a variant with a parent but not its optional child (one per child, found together
-        # under polarity hints): the quickest splitters of atomic-set candidates
         # Cuts of the first variant (`cuts.valid_cuts`): each valid one is a variant that
         # drops a subtree, found without a solve; they split the candidates by where they
-        # sit in the tree, and answer "parent without child" for the children they drop.
+        # sit in the tree before the first round.
         from .cuts import valid_cuts
 
         assert hard.recorded is not None
@@ -109,16 +107,7 @@ def analyse(
                 key[f.index] = (
                     f.index + 1 if cut[f.index] else (key[f.parent] if f.parent is not None else 0) or 1
                 )
-        optional = [
-            f
-            for f in features
-            if f.parent is not None
-            and not f.mandatory
-            and alive[f.index]
-            and not (cut[f.index] and base[4 * f.parent] > 0)
-        ]
-        hard.cover([[s[f.parent], -s[f.index]] for f in optional], with_config=False, witness=witness)  # type: ignore[index]
-        atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], selections, witness, key)
+        atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], core, selections, witness, key)
     # The bindings in a solver of their own: after the questions above, the same solver
     # takes several times as long over them (its learnt clauses and saved phases lead it
     # astray), and the other way round.
@@ -162,54 +151,114 @@ def analyse(
 def _atomic_sets(
     hard: enc.Encoding,
     alive: list[int],
+    core: list[int],
     selections: list[bytes],
     witness: Callable[[list[int]], None],
     key: Sequence[int] | None = None,
 ) -> list[list[int]]:
     """The classes of `alive` features selected together in every valid variant, pre-order.
 
-    Rounds: the variants found so far split the candidate classes by what they select; then
-    one `cover` asks, for every class, whether its first member can differ from each other
-    one. A class where none can is atomic; the variants that answered yes split the others
-    in the next round.
+    The core features (`core`, all alive) are one class: every variant selects them. The
+    others are split into candidate classes by what the variants found so far select, then
+    settled in rounds, each ending with one `cover` over the pairs it asks about; the
+    variants that answer "yes, they can differ" split the classes again before the next
+    round.
+
+    - The first round compares each class's first member with each other member. Unit
+      propagation from the first member selected, and from it deselected, settles most
+      pairs (two propagations per class). The members that can differ from the first in
+      neither direction form its class, which is final; the others are candidates again.
+    - Later rounds compare neighbours: the first member with the second, the second with
+      the third, and so on. Neighbours that cannot differ are merged; a class whose
+      neighbours all merge is final. Where most members differ from each other, one
+      variant that shows several neighbours apart halves a class, where comparing
+      everything with the first member would split off one member per round.
     """
     import numpy as np  # lazy: only this analysis needs it
 
     s = hard.s
-    candidates = [alive]
+    base = hard.assumptions(with_config=False)
+    is_core = set(core)
+    rest = [i for i in alive if i not in is_core]
+    first_round: list[list[int]] = [rest]
     if key is not None:  # a first split, by what valid variants known otherwise select
         by_key: dict[int, list[int]] = {}
-        for i in alive:
+        for i in rest:
             by_key.setdefault(key[i], []).append(i)
-        candidates = list(by_key.values())
-    final: list[list[int]] = []
+        first_round = list(by_key.values())
+    # a candidate class is a list of groups: features already known to be selected together
+    candidates = [[[i] for i in members] for members in first_round]
+    final: list[list[int]] = [core] if core else []
     seen = 0  # the variants already used to split
-    while candidates and len(selections) > seen:  # (a class that may split has a new variant)
-        # split every candidate class by what the variants found since the last split select
-        # (per feature, its column of the variants' selections, packed to bits)
-        rows = np.frombuffer(b"".join(selections[seen:]), dtype=np.uint8).reshape(len(selections) - seen, -1)
-        columns = np.ascontiguousarray(np.packbits(rows, axis=0).T)
-        split: list[list[int]] = []
-        for members in candidates:
-            by_pattern: dict[bytes, list[int]] = {}
-            for i in members:
-                by_pattern.setdefault(columns[i].tobytes(), []).append(i)
-            split += by_pattern.values()
-        seen = len(selections)
-        final += [members for members in split if len(members) == 1]
-        open_classes = [members for members in split if len(members) > 1]
+    star = True
+    while candidates:
+        if len(selections) > seen:
+            # split every candidate class by what the variants found since the last split
+            # select (per feature, its column of the variants' selections, packed to bits;
+            # the members of a group have the same column)
+            rows = np.frombuffer(b"".join(selections[seen:]), dtype=np.uint8).reshape(len(selections) - seen, -1)
+            columns = np.ascontiguousarray(np.packbits(rows, axis=0).T)
+            split: list[list[list[int]]] = []
+            for groups in candidates:
+                by_pattern: dict[bytes, list[list[int]]] = {}
+                for group in groups:
+                    by_pattern.setdefault(columns[group[0]].tobytes(), []).append(group)
+                split += by_pattern.values()
+            seen = len(selections)
+            candidates = split
+        final += [sorted(groups[0]) for groups in candidates if len(groups) == 1]
+        open_classes = [groups for groups in candidates if len(groups) > 1]
         targets: list[list[int]] = []
-        owners: list[int] = []
-        for k, members in enumerate(open_classes):
-            first = s(members[0])
-            for other in members[1:]:
-                targets += [[first, -s(other)], [-first, s(other)]]
-                owners += [k, k]
-        possible = hard.cover(targets, with_config=False, witness=witness)
-        differing = {owners[t] for t, can in enumerate(possible) if can}
-        final += [members for k, members in enumerate(open_classes) if k not in differing]
-        candidates = [members for k, members in enumerate(open_classes) if k in differing]
-    return sorted(final + candidates)
+        asked: list[tuple[int, int]] = []  # per target: (its class, the later group compared)
+        chained: list[tuple[list[int], tuple[int, int]]] = []
+        for k, groups in enumerate(open_classes):
+            if star:
+                first = s(groups[0][0])
+                implied = set(hard.solver.propagate(assumptions=[*base, first])[1])
+                excluded = set(hard.solver.propagate(assumptions=[*base, -first])[1])
+                for j in range(1, len(groups)):
+                    other = s(groups[j][0])
+                    if other not in implied:
+                        targets.append([first, -other])
+                        asked.append((k, j))
+                    if -other not in excluded:
+                        targets.append([-first, other])
+                        asked.append((k, j))
+            else:
+                for j in range(1, len(groups)):
+                    one, other = s(groups[j - 1][0]), s(groups[j][0])
+                    chained += [([one, -other], (k, j)), ([-one, other], (k, j))]
+        # neighbours' pairs share a feature: in an order that puts every other pair first,
+        # the pairs that can be shown by one variant come together in cover's batches
+        for parity in (0, 1):
+            for sign in (1, -1):
+                for target, owner in chained:
+                    if owner[1] % 2 == parity and target[0] * sign > 0:
+                        targets.append(target)
+                        asked.append(owner)
+        possible = hard.cover(targets, with_config=False, witness=witness, batch=True)
+        differs = {asked[t] for t, can in enumerate(possible) if can}
+        candidates = []
+        for k, groups in enumerate(open_classes):
+            if star:  # the first group and those that cannot differ from it are a class
+                same = [*groups[0], *(i for j in range(1, len(groups)) if (k, j) not in differs for i in groups[j])]
+                final.append(sorted(same))
+                others = [groups[j] for j in range(1, len(groups)) if (k, j) in differs]
+                if others:
+                    candidates.append(others)
+                continue
+            merged = [list(groups[0])]  # neighbours that cannot differ join one group
+            for j in range(1, len(groups)):
+                if (k, j) in differs:
+                    merged.append(list(groups[j]))
+                else:
+                    merged[-1] += groups[j]
+            if len(merged) == 1:
+                final.append(sorted(merged[0]))
+            else:
+                candidates.append(merged)
+        star = False
+    return sorted(final)
 
 
 def impossible_bindings(
