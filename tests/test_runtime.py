@@ -14,7 +14,7 @@ from click.testing import CliRunner
 from motivml.architecture.builder import BuildError, planar_arm
 from motivml.cli import main
 from motivml.runtime.launch import Robot, launch
-from motivml.runtime.loop import RealClock, Runtime
+from motivml.runtime.loop import Commit, RealClock, Runtime
 
 EXAMPLES = Path(__file__).parent.parent / "feature_models"
 ROOT_LAUNDRY = EXAMPLES / "laundry_gripping"
@@ -419,6 +419,38 @@ def test_an_overrunning_tick_misses_the_deadlines_it_overran_and_the_loop_keeps_
     assert (stats.ticks, stats.missed) == (8, 2)
     assert stats.elapsed == pytest.approx(0.010) and stats.achieved == pytest.approx(800.0)
     assert np.all(stats.jitter == 0.0) and len(stats.work) == 8
+
+
+def test_a_commit_is_applied_while_the_loop_waits_for_its_deadline_but_never_in_a_tick() -> None:
+    """commit_waiting applies a queued commit at once while the real-clock loop waits for
+    its next deadline (between two ticks), and leaves it to the next tick's start while a
+    tick runs, before the loop starts and after it ends."""
+    runtime = launch(EXAMPLES / "reaching_arm", "dmp").runtime
+    waiting, ticking, before, after = (Commit(name, (), (), None, {}, ()) for name in ("w", "t", "b", "a"))
+    answers: list[tuple[str, bool, bool, int]] = []
+
+    class Clock(FakeClock):
+        def wait_until(self, deadline: float) -> float:
+            if runtime.ticks == 3 and not answers:  # (the loop thread, as another would be: the loop waits)
+                runtime.submit(waiting)
+                answers.append(("waiting", runtime.commit_waiting(), waiting.done.is_set(), runtime.ticks))
+            return super().wait_until(deadline)
+
+    def in_a_tick() -> None:
+        if runtime.ticks == 5 and len(answers) == 1:
+            runtime.submit(ticking)
+            answers.append(("ticking", runtime.commit_waiting(), ticking.done.is_set(), runtime.ticks))
+
+    runtime.hooks.append(in_a_tick)
+    runtime.submit(before)
+    assert runtime.commit_waiting() is False and not before.done.is_set()
+    runtime.run(0.010, Clock())
+    assert answers == [("waiting", True, True, 3), ("ticking", False, False, 5)]
+    assert waiting.change is not None and waiting.change.tick == 3  # the first tick that ran with it
+    assert ticking.change is not None and ticking.change.tick == 5  # the next tick's start took it
+    assert before.change is not None and before.change.tick == 0
+    runtime.submit(after)
+    assert runtime.commit_waiting() is False and not after.done.is_set()
 
 
 def test_a_very_short_real_run_reports_sane_figures() -> None:

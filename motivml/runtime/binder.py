@@ -254,6 +254,8 @@ class Binder:
                 self.runtime.submit(commit)
                 if self._closing.is_set():
                     self._give_up(commit)
+                else:
+                    self.runtime.commit_waiting()
                 taken = commit.done.wait(timeout)
             finally:
                 self._in_flight = None

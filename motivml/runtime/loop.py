@@ -300,6 +300,10 @@ class Runtime:
         self._stepping: tuple[Running, float, int] | None = None  # the plugin step under way
         self._commits: queue.SimpleQueue[Commit] = queue.SimpleQueue()
         self._lock = threading.Lock()  # commit versus withdraw, and versus status()
+        # Real clock: held by the loop except while it waits for its next deadline, so that a
+        # commit can be applied from another thread then, between two ticks (`commit_waiting`)
+        self._ticking = threading.Lock()
+        self._waiting_ticks = False  # a real-clock loop is running (checked under _ticking)
         self.active: frozenset[str] = frozenset()  # the features the applied commits made active
         assembly.prime()
 
@@ -353,6 +357,21 @@ class Runtime:
     def commit_now(self) -> None:
         """Apply queued reconfigurations now (only between ticks, on the control thread)."""
         self._apply_commits()
+
+    def commit_waiting(self) -> bool:
+        """From any thread: apply the queued reconfigurations now if a real-clock loop is
+        waiting for its next deadline (between two ticks), instead of at the next tick's
+        start; True if it was. A request is then committed as soon as it is prepared, not
+        half a period later on average, and no thread waits for the loop's."""
+        if not self._ticking.acquire(blocking=False):
+            return False  # (the loop is in a tick: its next one applies them)
+        try:
+            if not self._waiting_ticks:
+                return False
+            self._apply_commits()
+            return True
+        finally:
+            self._ticking.release()
 
     def _apply_commits(self) -> None:
         while not self._commits.empty():
@@ -526,13 +545,19 @@ class Runtime:
         cpu0 = time.process_time()
         start = clock.now() + period
         slot = 0
+        self._ticking.acquire()
+        self._waiting_ticks = True
         try:
             clock.enter()
             while slot < total:
                 if self.stop_requested.is_set() or (until is not None and until(self)):
                     break
                 deadline = start + slot * period
-                began = clock.wait_until(deadline)
+                self._ticking.release()  # between two ticks: a commit may come (commit_waiting)
+                try:
+                    began = clock.wait_until(deadline)
+                finally:
+                    self._ticking.acquire()
                 self.tick()
                 ended = clock.now()
                 if stats.ticks < kept:
@@ -547,6 +572,8 @@ class Runtime:
                     self.missed = stats.missed
                     slot = ahead
         finally:
+            self._waiting_ticks = False
+            self._ticking.release()
             stats.elapsed = max(clock.now() - start, min(slot, total) * period, 0.0)
             stats.cpu = time.process_time() - cpu0
             stats.jitter, stats.work = jitter[: min(stats.ticks, kept)], work[: min(stats.ticks, kept)]
