@@ -9,6 +9,8 @@ import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from motivml.documents import writing
 from motivml.documents.writing import write_generation
@@ -146,3 +148,32 @@ def test_bytes_are_written_as_they_are_and_rewritten_only_when_they_change(tmp_p
     assert (tmp_path / "a.png").read_bytes() == png and (tmp_path / "a.txt").read_bytes() == "é".encode()
     assert writing.write_if_changed(tmp_path, {"a.png": png}) == {"a.png": False}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "a.txt"]  # no temporary left
+
+
+_scalars = st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text()
+_json_values = st.recursive(
+    _scalars | st.lists(st.text()),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(), inner, max_size=4),
+    max_leaves=30,
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(_json_values)
+def test_indented_json_is_what_json_dumps_writes_with_an_indent(value: object) -> None:
+    assert writing.indented_json(value) == json.dumps(value, indent=2)
+
+
+def test_indented_json_of_an_analysis_shaped_document() -> None:
+    document = {
+        "model": "m\u00e9/\"x\".json",
+        "features": 3,
+        "void": False,
+        "core": ["a", "b"],
+        "dead": [],
+        "atomic_sets": [["a", "b"], ["c"]],
+        "impossible_bindings": [{"feature": "c", "aspect": "time", "value": "Early"}],
+        "selection_count": None,
+        "uncounted": [],
+    }
+    assert writing.indented_json(document) == json.dumps(document, indent=2)

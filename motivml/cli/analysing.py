@@ -80,7 +80,9 @@ def analyse_command(target: str, fmt: str, no_counts: bool, count_timeout: float
             "variant_count": analysis.variant_count,
             "uncounted": analysis.uncounted,
         }
-        click.echo(json.dumps(payload, indent=2))
+        from ..documents.writing import indented_json
+
+        click.echo(indented_json(payload))
         sys.exit(0)
     out.print(f"{escape(str(model_path))}: {plural(len(model.features), 'feature')}")
     _line("core", analysis.core)

@@ -1,14 +1,60 @@
-"""Writing generated files: all of them or none, each replaced atomically."""
+"""Writing generated files: all of them or none, each replaced atomically; and JSON text."""
 
 from __future__ import annotations
 
 import errno
+import json
 import os
 import tempfile
 from collections.abc import Mapping
+from json.encoder import encode_basestring_ascii
 from pathlib import Path
+from typing import Any
 
 from ..errors import EnvironmentProblem, Location, error
+
+
+def indented_json(value: Any) -> str:
+    """`json.dumps(value, indent=2)`, for values made of dicts with string keys, lists and
+    JSON scalars, without json's pure-Python indenting encoder (which makes a generator
+    frame per container: `analyse --format json` spent 0.15 s of its 1.5 s in it at 10,000
+    features). A list of strings is written in one join; scalars go through json itself."""
+    out: list[str] = []
+    _indented(value, "\n", out)
+    return "".join(out)
+
+
+def _indented(value: Any, newline: str, out: list[str]) -> None:
+    inner = newline + "  "
+    if isinstance(value, dict):
+        if not value:
+            out.append("{}")
+            return
+        out.append("{")
+        comma = ""
+        for key, item in value.items():
+            if type(item) is str:  # (the common case, without a call of its own)
+                out.append(f"{comma}{inner}{encode_basestring_ascii(key)}: {encode_basestring_ascii(item)}")
+            else:
+                out.append(f"{comma}{inner}{encode_basestring_ascii(key)}: ")
+                _indented(item, inner, out)
+            comma = ","
+        out.append(newline + "}")
+    elif isinstance(value, list):
+        if not value:
+            out.append("[]")
+        elif all(type(item) is str for item in value):
+            out.append("[" + inner + ("," + inner).join(map(encode_basestring_ascii, value)) + newline + "]")
+        else:
+            out.append("[")
+            comma = ""
+            for item in value:
+                out.append(comma + inner)
+                _indented(item, inner, out)
+                comma = ","
+            out.append(newline + "]")
+    else:
+        out.append(json.dumps(value))
 
 
 def write_if_changed(folder: Path, files: Mapping[str, str | bytes]) -> dict[str, bool]:
