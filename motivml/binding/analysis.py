@@ -22,11 +22,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..documents.loader import no_gc
 from ..language.model import FeatureModel, Mode, Time
 from . import encoding as enc
+
+if TYPE_CHECKING:
+    from .cuts import Cuts
 
 Progress = Callable[[str], None]  # told the name of each step as it begins
 # Variants whose cuts split the atomic-set candidates before the first round: at 10,000
@@ -103,14 +106,16 @@ def analyse(
         # candidates are split by their deepest cut in each of these variants before the
         # first round.
         assert hard.recorded is not None
+        from .cuts import Cuts
+
+        cuts = Cuts(model, hard.recorded)
         parents = [f.parent for f in features]
-        key = list(zip(*(_deepest_cuts(model, hard.recorded, parents, values) for values in first), strict=True))
+        key = list(zip(*(_deepest_cuts(cuts, parents, values) for values in first), strict=True))
         atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], core, selections, witness, key)
-    # The bindings in a solver of their own: after the questions above, the same solver
-    # takes several times as long over them (its learnt clauses and saved phases lead it
-    # astray), and the other way round.
-    step(STEPS[3])
-    with no_gc(), enc.Encoding(model) as hard:
+        # The bindings on the same solver: the variants the questions above left in its
+        # saved phases select most live features, so few solves are left to do (at 10,000
+        # features, 23 solves where a fresh solver takes 75, and no second encoding).
+        step(STEPS[3])
         impossible = impossible_bindings(hard, model, alive)
     # s(f) -> s(parent) always holds, so f is selected whenever its parent is iff the two
     # are selected together in every variant: iff they share an atomic set
@@ -146,14 +151,10 @@ def analyse(
     return analysis
 
 
-def _deepest_cuts(
-    model: FeatureModel, clauses: list[list[int]], parents: list[int | None], values: list[int]
-) -> list[int]:
+def _deepest_cuts(cuts: Cuts, parents: list[int | None], values: list[int]) -> list[int]:
     """Per feature, 0 if the variant `values` leaves it out, else 1 + its deepest ancestor
     (or itself) where the variant's cut is valid (the root, where none is)."""
-    from .cuts import valid_cuts
-
-    cut = valid_cuts(model, clauses, values).tolist()
+    cut = cuts.valid(values).tolist()
     key = [0] * len(parents)
     for i, parent in enumerate(parents):  # (parents come before their children)
         if values[4 * i] > 0:

@@ -47,59 +47,74 @@ def valid_cuts(model: FeatureModel, clauses: Sequence[Sequence[int]], values: Se
     """For each feature, whether the cut at it is a model of `clauses` (see the module's
     text); False where W does not select the feature, and at the root. `values` is W as the
     solver gives it (values[v - 1] is v or -v); variables s(i) = 4i + 1 and a(i) = 4i + 4."""
-    n = len(model.features)
-    lengths = np.fromiter(map(len, clauses), dtype=np.int64, count=len(clauses))
-    lits = np.fromiter(chain.from_iterable(clauses), dtype=np.int64, count=int(lengths.sum()))
-    owner = np.repeat(np.arange(len(clauses), dtype=np.int64), lengths)
-    truth = np.asarray(values, dtype=np.int64) > 0  # truth[v - 1]: v is true in W
-    var = np.abs(lits)
-    positive = lits > 0
-    true_var = truth[var - 1]
-    kind = (var - 1) % 4
-    changing = (var <= 4 * n) & ((kind == 0) | (kind == 3)) & true_var  # s or a, true in W
-    holds = true_var == positive
-    supports = holds & positive & changing
-    solid = holds & ~supports  # a true literal no cut can falsify
-    frees = ~holds & ~positive & changing  # a false literal that a cut over its feature makes true
-    fragile = np.ones(len(clauses), dtype=bool)
-    fragile[owner[solid]] = False
+    return Cuts(model, clauses).valid(values)
 
-    feature = (var - 1) // 4
-    depth = np.zeros(n, dtype=np.int64)
-    parent = np.array([-1 if f.parent is None else f.parent for f in model.features], dtype=np.int64)
-    for i in range(1, n):
-        depth[i] = depth[parent[i]] + 1
-    lca = _LowestCommonAncestors(depth, parent)
 
-    picked = supports & fragile[owner]
-    low = np.full(len(clauses), n, dtype=np.int64)
-    high = np.full(len(clauses), -1, dtype=np.int64)
-    np.minimum.at(low, owner[picked], feature[picked])
-    np.maximum.at(high, owner[picked], feature[picked])
-    broken_clauses = np.flatnonzero(fragile)
-    if np.any(high[broken_clauses] < 0):  # a clause W does not satisfy: W is not a model
-        raise ValueError("the assignment is not a model of the clauses")
-    lowest = np.full(len(clauses), -1, dtype=np.int64)  # L per fragile clause
-    lowest[broken_clauses] = lca(low[broken_clauses], high[broken_clauses])
+class Cuts:
+    """`valid_cuts` for several variants of one model and one set of clauses: what does not
+    depend on the variant (the clauses as flat arrays, the tree's depths, its table of
+    lowest common ancestors, its subtree ends) is made once."""
 
-    freed = frees & fragile[owner]
-    deepest = np.full(len(clauses), -1, dtype=np.int64)  # depth * n + M, the deepest M per clause
-    if np.any(freed):
-        k = owner[freed]
-        meet = lca(lowest[k], feature[freed])
-        np.maximum.at(deepest, k, depth[meet] * n + meet)
-    marks = np.zeros(n + 1, dtype=np.int64)
-    np.add.at(marks, lowest[broken_clauses], 1)
-    stops = deepest[broken_clauses]
-    stops = stops[stops >= 0] % n
-    np.add.at(marks, stops, -1)
-    sums = np.concatenate(([0], np.cumsum(marks[:n])))
-    ends = subtree_ends(model)
-    broken = (sums[ends] - sums[np.arange(n)]) > 0
-    selected = truth[np.arange(n, dtype=np.int64) * 4]
-    cuts: np.ndarray = selected & ~broken
-    cuts[0] = False
-    return cuts
+    def __init__(self, model: FeatureModel, clauses: Sequence[Sequence[int]]) -> None:
+        n = self.n = len(model.features)
+        lengths = np.fromiter(map(len, clauses), dtype=np.int64, count=len(clauses))
+        lits = np.fromiter(chain.from_iterable(clauses), dtype=np.int64, count=int(lengths.sum()))
+        self.count = len(clauses)
+        self.owner = np.repeat(np.arange(len(clauses), dtype=np.int64), lengths)
+        self.var = np.abs(lits)
+        self.positive = lits > 0
+        kind = (self.var - 1) % 4
+        self.movable = (self.var <= 4 * n) & ((kind == 0) | (kind == 3))  # an s or an a variable
+        self.feature = (self.var - 1) // 4
+        depth = np.zeros(n, dtype=np.int64)
+        parent = np.array([-1 if f.parent is None else f.parent for f in model.features], dtype=np.int64)
+        for i in range(1, n):
+            depth[i] = depth[parent[i]] + 1
+        self.depth = depth
+        self.lca = _LowestCommonAncestors(depth, parent)
+        self.ends = subtree_ends(model)
+
+    def valid(self, values: Sequence[int]) -> np.ndarray:
+        """`valid_cuts` of the variant `values`."""
+        n, owner, feature = self.n, self.owner, self.feature
+        truth = np.asarray(values, dtype=np.int64) > 0  # truth[v - 1]: v is true in W
+        true_var = truth[self.var - 1]
+        changing = self.movable & true_var  # s or a, true in W
+        holds = true_var == self.positive
+        supports = holds & self.positive & changing
+        solid = holds & ~supports  # a true literal no cut can falsify
+        frees = ~holds & ~self.positive & changing  # a false literal that a cut over its feature makes true
+        fragile = np.ones(self.count, dtype=bool)
+        fragile[owner[solid]] = False
+
+        picked = supports & fragile[owner]
+        low = np.full(self.count, n, dtype=np.int64)
+        high = np.full(self.count, -1, dtype=np.int64)
+        np.minimum.at(low, owner[picked], feature[picked])
+        np.maximum.at(high, owner[picked], feature[picked])
+        broken_clauses = np.flatnonzero(fragile)
+        if np.any(high[broken_clauses] < 0):  # a clause W does not satisfy: W is not a model
+            raise ValueError("the assignment is not a model of the clauses")
+        lowest = np.full(self.count, -1, dtype=np.int64)  # L per fragile clause
+        lowest[broken_clauses] = self.lca(low[broken_clauses], high[broken_clauses])
+
+        freed = frees & fragile[owner]
+        deepest = np.full(self.count, -1, dtype=np.int64)  # depth * n + M, the deepest M per clause
+        if np.any(freed):
+            k = owner[freed]
+            meet = self.lca(lowest[k], feature[freed])
+            np.maximum.at(deepest, k, self.depth[meet] * n + meet)
+        marks = np.zeros(n + 1, dtype=np.int64)
+        np.add.at(marks, lowest[broken_clauses], 1)
+        stops = deepest[broken_clauses]
+        stops = stops[stops >= 0] % n
+        np.add.at(marks, stops, -1)
+        sums = np.concatenate(([0], np.cumsum(marks[:n])))
+        broken = (sums[self.ends] - sums[np.arange(n)]) > 0
+        selected = truth[np.arange(n, dtype=np.int64) * 4]
+        cuts: np.ndarray = selected & ~broken
+        cuts[0] = False
+        return cuts
 
 
 class _LowestCommonAncestors:
