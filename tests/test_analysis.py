@@ -130,7 +130,9 @@ def test_analyses_with_cover_checks_in_numpy_equal_them_in_python(raw: dict[str,
 @given(models(max_features=8))
 def test_cover_answers_the_same_with_targets_solved_for_in_batches(raw: dict[str, Any]) -> None:
     """cover(batch=True) solves for several open targets at once in its last step; without
-    hints nearly every target gets there. Every answer is the one of cover alone."""
+    hints nearly every target gets there. Every answer is the one of cover alone, and the
+    same without the propagation step (refute=False: impossible targets are then solved
+    for)."""
     from motivml.binding import encoding as enc
 
     model = read(raw)
@@ -146,7 +148,8 @@ def test_cover_answers_the_same_with_targets_solved_for_in_batches(raw: dict[str
         ] + [[hard.s(i), -hard.s(j)] for i in range(n) for j in range(n) if i != j]
         alone = hard.cover(targets, with_config=False)
         together = hard.cover(targets, with_config=False, batch=True)
-    assert together == alone
+        unrefuted = hard.cover(targets, with_config=False, batch=True, refute=False)
+    assert together == alone and unrefuted == alone
 
 
 def _atomic_sets_from_rounds_alone(raw: dict[str, Any]) -> list[list[str]] | None:

@@ -250,7 +250,8 @@ def _atomic_sets(
                     if owner[1] % 2 == parity and target[0] * sign > 0:
                         targets.append(target)
                         asked.append(owner)
-        possible = hard.cover(targets, with_config=False, witness=witness, batch=True)
+        # (the first round's pairs are what propagating each first member did not settle)
+        possible = hard.cover(targets, with_config=False, witness=witness, batch=True, refute=not star)
         differs = {asked[t] for t, can in enumerate(possible) if can}
         candidates = []
         for k, groups in enumerate(open_classes):
