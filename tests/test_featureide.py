@@ -220,3 +220,26 @@ def test_import_and_export_commands(tmp_path: Path) -> None:
         for path in (ROOT / "feature_models" / "simplebot", tmp_path / "again")
     ]
     assert counts == [96, 96]
+
+
+def test_the_shipped_ecos_benchmark_model_is_the_benchmarks_file_and_imports_whole(tmp_path: Path) -> None:
+    """bench/models/ecos-3.0-i386pc.xml.xz (analyse_bench's same-model comparison of sample
+    sizes) decompresses to the Feature-Model Benchmark's file, git blob 4b909a7a..., and
+    `motivml import featureide` reads all of its 1,245 features."""
+    import hashlib
+    import lzma
+
+    data = lzma.decompress((ROOT / "bench" / "models" / "ecos-3.0-i386pc.xml.xz").read_bytes())
+    blob = hashlib.sha1(b"blob %d\0" % len(data) + data).hexdigest()  # noqa: S324 (git's object id)
+    assert blob == "4b909a7a2425214d7654860737943f09a22116f0"
+    xml = tmp_path / "ecos.xml"
+    xml.write_bytes(data)
+    result = CliRunner().invoke(main, ["import", "featureide", str(xml), "-o", str(tmp_path / "ecos")])
+    assert result.exit_code == 0, result.output
+    model = json.loads((tmp_path / "ecos" / "model.json").read_text())
+    count, stack = 0, [model]
+    while stack:
+        node = stack.pop()
+        count += 1
+        stack.extend(node.get("sub", []))
+    assert count == 1245
