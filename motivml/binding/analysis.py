@@ -2,12 +2,13 @@
 features, atomic sets, impossible bindings, and exact counts.
 
 Every question but the counts is asked of one hard (selector-free) build of the one
-encoding, with `Encoding.cover`: a few solves under polarity hints settle most questions at
-once, unit propagation refutes most of the rest, and only what is left is solved for one by
-one. Atomic sets are classes of features that every valid variant selects together: the
-variants found while answering the other questions split the features by what they select,
-and each class left is confirmed (or split again) by asking whether its first feature can
-differ from each other member.
+encoding, on one solver, with `Encoding.cover`: a few solves under polarity hints settle
+most questions at once, unit propagation refutes most of the rest, and what is left is
+solved for in batches. Atomic sets are classes of features that every valid variant
+selects together: the variants found while answering the other questions split the
+features by what they select, and so do the variants derived from the first few of them
+without a solve (`cuts`: a valid variant less one of its subtrees); the classes left are
+settled in rounds (`_atomic_sets`).
 
 Counts are exact (Python integers) and come from Ganak (`pyganak`), an exact projected
 model counter: the selection count counts `selection_cnf` (section 2 alone, as other tools
