@@ -6,7 +6,10 @@ gesture plugins (plugins/cpp, built by make cpp-plugins), runs the loop on the r
 at --rate Hz, and swaps each pair --swaps times, one request after the other,
 through the binder (the control socket's path minus the socket), one request every
 --interval seconds. Prints the request-to-
-commit latency p50/p99/max, and the loop's jitter and missed deadlines over the swaps.
+commit latency p50/p99/max (to the change being applied between two ticks: by the
+requesting thread while the loop waits, else by the loop before its next tick; the next
+tick is the first to run with it either way), and the loop's jitter and missed deadlines
+over the swaps.
 
     python bench/swap_bench.py [--swaps 1000] [--rate 1000]
 

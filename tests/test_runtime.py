@@ -423,34 +423,71 @@ def test_an_overrunning_tick_misses_the_deadlines_it_overran_and_the_loop_keeps_
 
 def test_a_commit_is_applied_while_the_loop_waits_for_its_deadline_but_never_in_a_tick() -> None:
     """commit_waiting applies a queued commit at once while the real-clock loop waits for
-    its next deadline (between two ticks), and leaves it to the next tick's start while a
-    tick runs, before the loop starts and after it ends."""
+    its next deadline with half a period or more to go, and leaves it to the next tick's
+    start while a tick runs, closer to the deadline, before the loop starts and after it
+    ends. (commit_waiting is called from the loop's thread inside wait_until, as another
+    thread would call it while the loop waits: deterministic.)"""
     runtime = launch(EXAMPLES / "reaching_arm", "dmp").runtime
-    waiting, ticking, before, after = (Commit(name, (), (), None, {}, ()) for name in ("w", "t", "b", "a"))
+    commits = {name: Commit(name, (), (), None, {}, ()) for name in ("waiting", "late", "ticking", "before", "after")}
     answers: list[tuple[str, bool, bool, int]] = []
+
+    def ask(name: str) -> None:
+        runtime.submit(commits[name])
+        answers.append((name, runtime.commit_waiting(), commits[name].done.is_set(), runtime.ticks))
 
     class Clock(FakeClock):
         def wait_until(self, deadline: float) -> float:
-            if runtime.ticks == 3 and not answers:  # (the loop thread, as another would be: the loop waits)
-                runtime.submit(waiting)
-                answers.append(("waiting", runtime.commit_waiting(), waiting.done.is_set(), runtime.ticks))
+            if runtime.ticks == 3 and not answers:
+                ask("waiting")
+            elif runtime.ticks == 7 and len(answers) == 2:
+                self.t = deadline - 0.0001  # 0.1 ms before the deadline: less than COMMIT_MARGIN
+                ask("late")
             return super().wait_until(deadline)
 
     def in_a_tick() -> None:
         if runtime.ticks == 5 and len(answers) == 1:
-            runtime.submit(ticking)
-            answers.append(("ticking", runtime.commit_waiting(), ticking.done.is_set(), runtime.ticks))
+            ask("ticking")
 
     runtime.hooks.append(in_a_tick)
-    runtime.submit(before)
-    assert runtime.commit_waiting() is False and not before.done.is_set()
+    ask("before")
+    answers.clear()
     runtime.run(0.010, Clock())
-    assert answers == [("waiting", True, True, 3), ("ticking", False, False, 5)]
-    assert waiting.change is not None and waiting.change.tick == 3  # the first tick that ran with it
-    assert ticking.change is not None and ticking.change.tick == 5  # the next tick's start took it
-    assert before.change is not None and before.change.tick == 0
-    runtime.submit(after)
-    assert runtime.commit_waiting() is False and not after.done.is_set()
+    assert answers == [
+        ("waiting", True, True, 3),
+        ("ticking", False, False, 5),
+        ("late", False, False, 7),
+    ]
+    ticks = {name: commit.change.tick for name, commit in commits.items() if commit.change is not None}
+    assert ticks == {"before": 0, "waiting": 3, "ticking": 5, "late": 7}  # the first tick that ran with each
+    runtime.submit(commits["after"])
+    assert runtime.commit_waiting() is False and not commits["after"].done.is_set()
+
+
+def test_a_real_time_loop_applies_every_commit_itself() -> None:
+    """A loop at a real-time priority would wait for an ordinary thread applying a commit:
+    commit_waiting leaves every commit to it."""
+    runtime = launch(EXAMPLES / "reaching_arm", "dmp").runtime
+    commit = Commit("c", (), (), None, {}, ())
+    answers: list[bool] = []
+
+    class Clock(FakeClock):
+        priority = 80
+
+        def enter(self) -> None:  # (no scheduling change in a test)
+            pass
+
+        def leave(self) -> None:
+            pass
+
+        def wait_until(self, deadline: float) -> float:
+            if runtime.ticks == 3 and not answers:
+                runtime.submit(commit)
+                answers.append(runtime.commit_waiting())
+            return super().wait_until(deadline)
+
+    runtime.run(0.010, Clock())
+    assert answers == [False]
+    assert commit.change is not None and commit.change.tick == 3
 
 
 def test_a_very_short_real_run_reports_sane_figures() -> None:

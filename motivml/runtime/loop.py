@@ -103,6 +103,9 @@ class Event:
     status: str
 
 
+# s before a deadline from which a commit is left to the loop (commit_waiting), so that the
+# loop seldom begins a tick by waiting for the committing thread
+COMMIT_MARGIN = 0.0002
 SAMPLES = 1 << 22  # per-tick timings kept: 70 minutes at 1 kHz (64 MiB); longer runs keep the first
 
 
@@ -300,10 +303,11 @@ class Runtime:
         self._stepping: tuple[Running, float, int] | None = None  # the plugin step under way
         self._commits: queue.SimpleQueue[Commit] = queue.SimpleQueue()
         self._lock = threading.Lock()  # commit versus withdraw, and versus status()
-        # Real clock: held by the loop except while it waits for its next deadline, so that a
-        # commit can be applied from another thread then, between two ticks (`commit_waiting`)
+        # Real clock: while the loop waits for its next deadline, `_waiting_for` says so and a
+        # commit may be applied from another thread (`commit_waiting`), under this lock; the
+        # loop takes it to end the wait, so a commit under way ends before the tick begins
         self._ticking = threading.Lock()
-        self._waiting_ticks = False  # a real-clock loop is running (checked under _ticking)
+        self._waiting_for: tuple[RealClock, float] | None = None  # (its clock, latest time to commit)
         self.active: frozenset[str] = frozenset()  # the features the applied commits made active
         assembly.prime()
 
@@ -360,13 +364,23 @@ class Runtime:
 
     def commit_waiting(self) -> bool:
         """From any thread: apply the queued reconfigurations now if a real-clock loop is
-        waiting for its next deadline (between two ticks), instead of at the next tick's
-        start; True if it was. A request is then committed as soon as it is prepared, not
-        half a period later on average, and no thread waits for the loop's."""
+        waiting for its next deadline (between two ticks) with COMMIT_MARGIN (at most half a
+        period) or more to go,
+        instead of at the next tick's start; True if it did. The next tick is the first to
+        run with them either way; what no longer waits for that tick is the request's
+        answer (half a period on average).
+
+        Not while a tick runs, nor before the loop starts or after it ends, nor close to a
+        deadline (the loop would wait for this thread), nor for a loop at a real-time
+        priority (which would then wait for an ordinary thread): then the loop applies them
+        itself, just before its next tick."""
         if not self._ticking.acquire(blocking=False):
             return False  # (the loop is in a tick: its next one applies them)
         try:
-            if not self._waiting_ticks:
+            if self._waiting_for is None:
+                return False
+            clock, latest = self._waiting_for
+            if clock.now() > latest:
                 return False
             self._apply_commits()
             return True
@@ -545,19 +559,19 @@ class Runtime:
         cpu0 = time.process_time()
         start = clock.now() + period
         slot = 0
-        self._ticking.acquire()
-        self._waiting_ticks = True
+        others_commit = clock.priority is None  # (see commit_waiting)
         try:
             clock.enter()
             while slot < total:
                 if self.stop_requested.is_set() or (until is not None and until(self)):
                     break
                 deadline = start + slot * period
-                self._ticking.release()  # between two ticks: a commit may come (commit_waiting)
-                try:
-                    began = clock.wait_until(deadline)
-                finally:
-                    self._ticking.acquire()
+                if others_commit:  # between two ticks: a commit may come (commit_waiting)
+                    with self._ticking:
+                        self._waiting_for = (clock, deadline - min(period / 2, COMMIT_MARGIN))
+                began = clock.wait_until(deadline)
+                with self._ticking:  # (a commit being applied ends first)
+                    self._waiting_for = None
                 self.tick()
                 ended = clock.now()
                 if stats.ticks < kept:
@@ -572,8 +586,8 @@ class Runtime:
                     self.missed = stats.missed
                     slot = ahead
         finally:
-            self._waiting_ticks = False
-            self._ticking.release()
+            with self._ticking:
+                self._waiting_for = None
             stats.elapsed = max(clock.now() - start, min(slot, total) * period, 0.0)
             stats.cpu = time.process_time() - cpu0
             stats.jitter, stats.work = jitter[: min(stats.ticks, kept)], work[: min(stats.ticks, kept)]
