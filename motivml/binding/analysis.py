@@ -90,18 +90,19 @@ def analyse(
 
         step(STEPS[1])
         s = [hard.s(i) for i in range(n)]
+        parents = [f.parent for f in features]
         possible = hard.cover(
             [[literal] for literal in s] + [[-literal] for literal in s],
             with_config=False,
             hints=[s, [s[0], *(-literal for literal in s[1:])]],
             witness=witness,
-            implied=[f.parent for f in features] + [None] * n,  # s(f) propagates to s(parent)
+            implied=[*parents, *([None] * n)],  # s(f) propagates to s(parent)
         )
         alive = possible[:n]
         core = [i for i in range(n) if not possible[n + i]]
 
         step(STEPS[2])
-        # Cuts of the first variants found (`cuts.valid_cuts`): each valid cut is a variant
+        # Cuts of the first variants found (`cuts.Cuts`): each valid cut is a variant
         # that drops a subtree, found without a solve. Two features that a variant selects
         # and whose deepest valid cuts differ are told apart by one of those cuts, so the
         # candidates are split by their deepest cut in each of these variants before the
@@ -110,7 +111,6 @@ def analyse(
         from .cuts import Cuts
 
         cuts = Cuts(model, hard.recorded)
-        parents = [f.parent for f in features]
         key = list(zip(*(_deepest_cuts(cuts, parents, values) for values in first), strict=True))
         atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], core, selections, witness, key)
         # The bindings on the same solver: the variants the questions above left in its

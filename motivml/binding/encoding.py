@@ -722,7 +722,10 @@ class Encoding:
         joined = 1
         # the literals the batch propagates to: a target that negates one of them cannot
         # join, and one whose literals are all among them joins without a propagation
-        implied = set(self.solver.propagate(assumptions=[*base, *batch])[1])
+        ok, first = self.solver.propagate(assumptions=[*base, *batch])
+        if not ok:  # (impossible: its own solve says so, joined with nothing)
+            return batch
+        implied = set(first)
         for j in pending[1:BATCH_TRIED]:
             target = targets[j]
             if any(-literal in implied for literal in target):
@@ -751,8 +754,6 @@ class Encoding:
         do those of every target they imply (`implied`, followed up the chain), which are
         then not propagated again. Deeper targets go first, so that a chain is walked once.
         """
-        if implied is None:
-            return [k for k in pending if self.solver.propagate(assumptions=[*base, *targets[k]])[0]]
         consistent: set[int] = set()
         for k in reversed(pending):
             if k in consistent or not self.solver.propagate(assumptions=[*base, *targets[k]])[0]:
@@ -760,7 +761,7 @@ class Encoding:
             j: int | None = k
             while j is not None and j not in consistent:
                 consistent.add(j)
-                j = implied[j]
+                j = implied[j] if implied is not None else None
         return [k for k in pending if k in consistent]
 
     def _prefer(self, table: _Targets, todo: list[int]) -> None:
