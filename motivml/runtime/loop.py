@@ -560,6 +560,7 @@ class Runtime:
         start = clock.now() + period
         slot = 0
         others_commit = clock.priority is None  # (see commit_waiting)
+        margin = min(period / 2, COMMIT_MARGIN)
         try:
             clock.enter()
             while slot < total:
@@ -568,7 +569,7 @@ class Runtime:
                 deadline = start + slot * period
                 if others_commit:  # between two ticks: a commit may come (commit_waiting)
                     with self._ticking:
-                        self._waiting_for = (clock, deadline - min(period / 2, COMMIT_MARGIN))
+                        self._waiting_for = (clock, deadline - margin)
                 began = clock.wait_until(deadline)
                 with self._ticking:  # (a commit being applied ends first)
                     self._waiting_for = None
