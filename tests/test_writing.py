@@ -153,7 +153,9 @@ def test_bytes_are_written_as_they_are_and_rewritten_only_when_they_change(tmp_p
 _scalars = st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False) | st.text()
 _json_values = st.recursive(
     _scalars | st.lists(st.text()),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(), inner, max_size=4),
+    lambda inner: st.lists(inner, max_size=4)
+    | st.lists(inner, max_size=3).map(tuple)
+    | st.dictionaries(st.text(), inner, max_size=4),
     max_leaves=30,
 )
 
