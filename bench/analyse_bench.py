@@ -117,6 +117,8 @@ def main() -> None:
     )
     parser.add_argument("--no-ecos", action="store_true", help="do not sample eCos")
     args = parser.parse_args()
+    if args.repeat < 1:
+        parser.error("--repeat must be at least 1")
     from motivml.binding.encoding import SOLVER
 
     motivml = str(Path(sys.executable).with_name("motivml"))
@@ -140,6 +142,8 @@ def main() -> None:
                 runs.append(
                     run_limited([motivml, "analyse", model_path, "--no-counts", "--format", "json"], args.timeout)
                 )
+                if runs[-1] is None:  # (out of time: so would the next ones be)
+                    break
             floor_wall, floor_peak = statistics.median(f[0] for f in floors), max(f[1] for f in floors)
             measured = None
             if all(r is not None for r in runs):
