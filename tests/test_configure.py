@@ -181,9 +181,9 @@ def test_resolution_is_valid_and_optimal(data: st.DataObject, prefer: set[str]) 
 def test_optimise_gives_the_variant_rc2_gives_for_the_formula_built_clause_by_clause(
     data: st.DataObject, prefer: set[str]
 ) -> None:
-    """Encoding.optimise hands RC2 its hard clauses straight into RC2's solver; the variant
-    (not only its cost: the lock files must not change) is the one RC2 finds for the same
-    formula built as a WCNF clause by clause, as optimise once did."""
+    """Encoding.optimise runs RC2 on the encoding's own solver; the variant (not only its
+    cost: the lock files must not change) is the one RC2 finds for the same formula built
+    as a WCNF clause by clause, as optimise once did."""
     from pysat.examples.rc2 import RC2
     from pysat.formula import WCNF
 
@@ -209,6 +209,57 @@ def test_optimise_gives_the_variant_rc2_gives_for_the_formula_built_clause_by_cl
         with RC2(formula, solver="g4") as maxsat:
             expected = maxsat.compute()
     assert found == (list(expected) if expected is not None else None)
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=list(HealthCheck))
+@given(model=models(max_features=12))
+def test_every_variable_up_to_top_occurs_in_the_encodings_clauses(model: dict[str, Any]) -> None:
+    """optimise tells RC2 that `top` is the formula's highest variable, as a WCNF counting
+    the clauses would (RC2 numbers its totalizers after it): so no variable is made
+    without a clause."""
+    from motivml.binding import encoding as enc
+
+    feature_model, _ = read_model(parse(json.dumps(model), "model.json"))
+    with enc.Encoding(feature_model, record=True) as encoding:
+        assert encoding.recorded is not None
+        used = {abs(literal) for clause in encoding.recorded for literal in clause}
+        assert used == set(range(1, encoding.top + 1))
+
+
+def test_optimise_refuses_an_encoding_that_has_solved_already() -> None:
+    """Its result is RC2's own only on a solver in the state RC2 would build: a solve
+    before it would change the search, and so perhaps the variant among equals."""
+    from motivml.binding import encoding as enc
+
+    model, _ = load_model(SIMPLEBOT / "model.json")
+    assert model is not None
+    with enc.Encoding(model) as encoding:
+        assert encoding.solve()
+        with pytest.raises(ValueError, match="not solved anything yet"):
+            encoding.optimise([])
+
+
+def test_the_start_state_follows_optimise_on_the_same_solver() -> None:
+    """After optimise the solver holds RC2's totalizers and the configuration as units;
+    the start state found there is the one a fresh encoding finds, and the encoding takes
+    no other configuration."""
+    from motivml.binding import encoding as enc
+    from motivml.binding.resolve import _preferences, _start_on, as_configuration
+
+    model, _ = load_model(SIMPLEBOT / "model.json")
+    assert model is not None
+    config, _ = load_configuration(SIMPLEBOT / "variants" / "field.json", model, partial=True)
+    assert config is not None
+    variant = resolve(model, config, start=False)
+    with enc.Encoding(model) as fresh:
+        expected = _start_on(fresh, variant)
+    with enc.Encoding(model) as encoding:
+        encoding.set_configuration(config)
+        assert encoding.optimise(_preferences(encoding, model, config, {"late"})) is not None
+        assert _start_on(encoding, variant) == expected
+        with pytest.raises(ValueError, match="made final"):
+            encoding.set_configuration(as_configuration(variant))
+    assert expected is not None and len(expected) > 1
 
 
 def test_fewer_undecided_features_come_before_the_time_wish() -> None:

@@ -200,12 +200,6 @@ class _Targets:
         return literals[first].tolist()  # type: ignore[no-any-return]
 
 
-def _top_variable(clauses: Sequence[list[int]]) -> int:
-    """The highest variable in `clauses` (0 if none), as WCNF counts them."""
-    present = list(filter(None, clauses))
-    return max(max(map(max, present), default=0), -min(map(min, present), default=0), 0)
-
-
 def _glucose_functions() -> object:
     """pysat's C extension (None if this pysat has none by that name: pysat's own methods
     are used then)."""
@@ -231,6 +225,7 @@ class Encoding:
         self.literals: list[int] = []  # the assumption literal of each fact
         self._top = 4 * n
         self._activity: int | None = None  # index of the first ACTIVE fact, once made
+        self._final = False  # a variant is in the solver as units (start_state)
         self._clauses: list[list[int]] = []
         # explain build: every clause, flat, with its selector, so that a conflict is shrunk
         # in a solver of its own facts' clauses only (`_minimise`), not in the whole model's
@@ -497,6 +492,8 @@ class Encoding:
     def set_configuration(self, config: Configuration) -> None:
         """Put a configuration's facts (literals to assume) in place of the previous
         configuration's, if any: one encoding answers for several configurations."""
+        if self._final:
+            raise ValueError("this encoding's variant was made final by start_state()")
         del self.facts[self.model_facts :], self.literals[self.model_facts :]
         self._activity = None  # (the active-set facts came after the configuration's)
         first = len(self.facts)
@@ -805,32 +802,44 @@ class Encoding:
     def optimise(self, soft: Sequence[tuple[int, int]], with_config: bool = True) -> list[int] | None:
         """A valid variant that minimises the weight of the soft literals it leaves false.
 
-        MaxSAT with RC2 over the recorded clauses (build with `record=True`), the
-        configuration as hard units and `soft` as (literal, weight) pairs; None when no
-        variant exists. RC2 runs its own solver; the result is deterministic for the same
-        model, configuration and weights.
+        MaxSAT with RC2: the encoding's clauses, the configuration as hard units and `soft`
+        as (literal, weight) pairs; None when no variant exists. The values come in variable
+        order (variable v's literal at index v - 1), up to `top`.
 
-        RC2 is given the soft units in a WCNF and the hard clauses straight into its solver,
-        before it solves: the same solver, clauses and numbering as a WCNF built clause by
-        clause would give it (RC2 adds nothing for unit soft clauses), without copying the
-        formula twice in Python (2 s of `configure` at 100,000 features).
+        RC2 runs on the encoding's own solver, which must not have solved anything yet:
+        that solver got the same clauses in the same order as RC2's own would from a WCNF
+        built clause by clause (RC2 adds nothing for unit soft clauses), so the search and
+        its result are the same, without a second copy of the formula (2 s of `configure`
+        at 100,000 features). Afterwards the solver keeps the configuration as units (the
+        encoding takes no other configuration) and RC2's totalizers, which leave the
+        features' variables free: `start_state` may follow.
         """
-        if self.recorded is None:
-            raise ValueError("optimise() needs Encoding(model, record=True)")
+        if self.solver.accum_stats().get("restarts"):
+            raise ValueError("optimise() needs an encoding that has not solved anything yet")
         from pysat.examples.rc2 import RC2
         from pysat.formula import WCNF
 
-        hard, units = self.recorded, [[literal] for literal in self.assumptions(with_config)]
         formula = WCNF()
         formula.soft = [[literal] for literal, _ in soft]
         formula.wght = [weight for _, weight in soft]
         formula.topw += sum(formula.wght)
-        formula.nv = max(_top_variable(hard), _top_variable(units), _top_variable(formula.soft))
-        with RC2(formula, solver="g4") as maxsat:
-            add_clauses(maxsat.oracle, hard)
-            add_clauses(maxsat.oracle, units)
-            model = maxsat.compute()
-        return list(model) if model is not None else None
+        # the highest variable of the clauses: every variable up to `top` occurs in the
+        # encoding's clauses (a test checks it), and the units and soft literals are features'
+        formula.nv = self._top
+        maxsat = RC2(formula, solver="g4")  # (its own solver is empty: nothing is copied)
+        try:
+            maxsat.oracle.delete()
+            maxsat.oracle = self.solver
+            add_clauses(self.solver, [[literal] for literal in self.assumptions(with_config)])
+            self._final = True
+            # what `compute` returns, without its sort by a Python key of every literal: the
+            # model lists variables 1, 2, ... in order, and RC2 maps 1..nv to themselves
+            values = list(self.solver.get_model()[: formula.nv]) if maxsat.compute_() else None
+            self._top = max(self._top, maxsat.pool.top)  # past RC2's totalizers
+        finally:
+            maxsat.oracle = None  # the solver stays the encoding's
+            maxsat.delete()
+        return values
 
     def active_set_conflicts(
         self, fixed: Sequence[int], active: Collection[int], limit: int = 5
@@ -859,19 +868,30 @@ class Encoding:
             return []
         return self.conflicts(limit=limit, order=[*chosen, *model], fixed=fixed)
 
-    def start_state(self, late: Sequence[int]) -> list[int] | None:
+    def start_state(self, late: Sequence[int], variant: Sequence[int] | None = None) -> list[int] | None:
         """The active set at start (semantics.md section 4), as feature indices; None if none.
 
-        Call after `set_configuration` with a complete variant. `late` are the selected Late
+        Call after `set_configuration` with a complete variant, or give the variant's
+        literals as `variant` (s of every feature, E and S of each selected one). `late` are the selected Late
         features in definition order: the fewest of them are activated (an incremental
         totalizer bounds the count, tightened until unsatisfiable), and among the smallest
         sets the one that activates earlier features first (greedy in pre-order, each
-        choice kept as an assumption). One solver throughout.
+        choice kept as an assumption). One solver throughout; the answer is unique, so it
+        does not depend on the solver's path.
+
+        A `variant` becomes unit clauses, not assumptions, which makes each solve cheap at
+        100,000 features (Glucose makes a decision level per assumption); the encoding then
+        takes no configuration any more.
         """
-        base = self.assumptions()
+        if variant is not None:
+            add_clauses(self.solver, [[literal] for literal in variant])
+            self._final = True
+            base: list[int] = []
+        else:
+            base = self.assumptions()
         if not self.solver.solve(assumptions=base):
             return None
-        chosen: list[int] = []
+        truth = set(self.assignment())
         if late:
             from pysat.card import ITotalizer
 
@@ -879,21 +899,22 @@ class Encoding:
             counter = ITotalizer(lits=literals, ubound=len(literals), top_id=self._top)
             self._top = counter.top_id
             add_clauses(self.solver, counter.cnf.clauses)
-            truth = set(self.assignment())
             bound = sum(1 for literal in literals if literal in truth)
             while bound and self.solver.solve(assumptions=[*base, -counter.rhs[bound - 1]]):
                 truth = set(self.assignment())
                 bound = sum(1 for literal in literals if literal in truth)
             fixed = [*base, -counter.rhs[bound]] if bound < len(literals) else list(base)
             for literal in literals:
-                ok = self.solver.solve(assumptions=[*fixed, literal])
-                fixed.append(literal if ok else -literal)
+                # `truth` satisfies every choice so far (a refused literal is false in each
+                # solution of the earlier ones): where it holds `literal`, so may the choice
+                if literal not in truth:
+                    if not self.solver.solve(assumptions=[*fixed, literal]):
+                        fixed.append(-literal)
+                        continue
+                    truth = set(self.assignment())
+                fixed.append(literal)
             counter.delete()
-            if not self.solver.solve(assumptions=fixed):  # cannot happen: each step stayed satisfiable
-                return None
-        truth = set(self.assignment())
-        chosen = [i for i in range(self.n) if self.a(i) in truth]
-        return chosen
+        return [i for i in range(self.n) if self.a(i) in truth]
 
     # --------------------------------------------------------------- lifecycle
     def close(self) -> None:

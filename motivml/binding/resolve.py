@@ -59,13 +59,11 @@ def resolve(
     unknown = set(prefer) - set(PREFERENCES)
     if unknown:
         raise ValueError(f"unknown preference {sorted(unknown)}: choose from {PREFERENCES}")
-    with no_gc(), enc.Encoding(model, record=True) as encoding:
+    with no_gc(), enc.Encoding(model) as encoding:
         encoding.set_configuration(config)
-        if not encoding.solve():
-            raise NoVariant(check_variant(model, config))
         soft = _preferences(encoding, model, config, set(prefer))
         values = encoding.optimise(soft)
-        if values is None:  # cannot happen after a successful solve; never write half a variant
+        if values is None:
             raise NoVariant(check_variant(model, config))
         variant = _variant(encoding, model, config, values)
         if start:
@@ -76,28 +74,22 @@ def resolve(
 
 
 def _variant(encoding: enc.Encoding, model: FeatureModel, config: Configuration, values: list[int]) -> Variant:
-    """The variant of a solution of the encoding: who decided what, feature by feature."""
-    truth = {abs(v): v > 0 for v in values}
+    """The variant of a solution of the encoding (values in variable order: variable v's
+    literal at index v - 1): who decided what, feature by feature."""
+    entries, from_flags = config.entries, Binding.from_flags
+    s, E, S = encoding.s, encoding.E, encoding.S  # noqa: N806 - the spec's names
     decisions = []
     for f in model.features:
-        entry = config.entries.get(f.id)
+        entry = entries.get(f.id)
         i = f.index
         decisions.append(
             Decision(
-                feature=f,
-                selected=truth[encoding.s(i)],
-                binding=Binding.from_flags(truth[encoding.E(i)], truth[encoding.S(i)]),
-                selection_by="model"
-                if f.parent is None
-                else "configuration"
-                if entry is not None
-                else "solver",
-                time_by="configuration"
-                if entry is not None and entry.time is not None
-                else _model_or_solver(f, "time"),
-                mode_by="configuration"
-                if entry is not None and entry.mode is not None
-                else _model_or_solver(f, "mode"),
+                f,
+                values[s(i) - 1] > 0,
+                from_flags(values[E(i) - 1] > 0, values[S(i) - 1] > 0),
+                "model" if f.parent is None else "configuration" if entry is not None else "solver",
+                "configuration" if entry is not None and entry.time is not None else _model_or_solver(f, "time"),
+                "configuration" if entry is not None and entry.mode is not None else _model_or_solver(f, "mode"),
             )
         )
     return Variant(model, config.name, tuple(decisions))
@@ -158,10 +150,20 @@ def start_state(variant: Variant) -> list[Feature]:
 
 
 def _start_on(encoding: enc.Encoding, variant: Variant) -> list[int] | None:
-    """The start state's feature indices, found on `encoding` (whose configuration becomes
-    the variant's); None if there is none."""
-    encoding.set_configuration(as_configuration(variant))
-    return encoding.start_state([d.feature.index for d in variant.selected() if not d.binding.early])
+    """The start state's feature indices, found on `encoding`, which then holds the variant
+    for good; None if there is none."""
+    s, E, S = encoding.s, encoding.E, encoding.S
+    literals, late = [], []
+    for d in variant.decisions:
+        i = d.feature.index
+        if not d.selected:
+            literals.append(-s(i))
+            continue
+        early, static = d.binding.early, d.binding.static
+        literals += (s(i), E(i) if early else -E(i), S(i) if static else -S(i))
+        if not early:
+            late.append(i)
+    return encoding.start_state(late, literals)
 
 
 def decisions(variant: Variant, prefer: Collection[str] = ()) -> Configuration:
