@@ -56,11 +56,11 @@ def lock_json(variant: Variant) -> str:
     return head + body + "\n}\n"
 
 
-def features_header(variant: Variant, prefix: str = "MOTIVML_") -> str:
+def features_header(variant: Variant, prefix: str = "MOTIVML_", check_names: bool = True) -> str:
     """`#define <PREFIX>FEATURE_<ID> 1` for each selected Static Early feature (compiled in),
     and `<PREFIX>BINDING_<ID>` naming the binding of every selected feature."""
     guard = f"{prefix}FEATURES_H"
-    lines = _opening(variant, guard) + [
+    lines = _opening(variant, guard, check_names) + [
         *(f"#define {prefix}{b.macro} {number}" for number, b in enumerate(Binding, 1)),
         "",
         "/* Static Early features: compiled in. */",
@@ -74,9 +74,11 @@ def features_header(variant: Variant, prefix: str = "MOTIVML_") -> str:
     return "\n".join(lines)
 
 
-def _opening(variant: Variant, guard: str) -> list[str]:
-    """Banner, origin and include guard of a generated header (after checking its names)."""
-    _check_macro_names(variant)
+def _opening(variant: Variant, guard: str, check_names: bool) -> list[str]:
+    """Banner, origin and include guard of a generated header (after checking its names,
+    unless the caller did)."""
+    if check_names:
+        _check_macro_names(variant)
     return [
         f"/* {BANNER} */",
         f"/* model {variant.model.root.id}, variant {_printable(variant.name)} */",
@@ -128,7 +130,7 @@ def bindings_yaml(variant: Variant) -> str:
     return "\n".join(lines) + "\n"
 
 
-def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
+def static_loader(variant: Variant, prefix: str = "MOTIVML_", check_names: bool = True) -> str:
     """The static feature loader (the paper's Listing 5, generated): for every feature of
     the model, its implementation is included and registered only when features.h compiles
     it in. An implementation is the header <motivml_features/ID.hpp> defining
@@ -140,7 +142,7 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_") -> str:
     so that a program can report them. Abstract features (they only group others) expect no
     implementation: the loader does not mention them."""
     guard = f"{prefix}STATIC_LOADER_HPP"
-    lines = _opening(variant, guard) + [
+    lines = _opening(variant, guard, check_names) + [
         '#include "features.h"',
         "#include <motivml/feature.hpp>",
         "",
@@ -201,8 +203,11 @@ def late_or_dynamic(variant: Variant) -> list[str]:
 def plugins_json(variant: Variant, plugins: dict[str, Plugin], robot: Path) -> str:
     """For each selected Dynamic or Late feature, the plugin that implements it (or null)."""
     entries = []
-    for feature_id in late_or_dynamic(variant):
-        decision = next(d for d in variant.decisions if d.feature.id == feature_id)
+    compiled_in = Binding.SE
+    for decision in variant.selected():  # the features of late_or_dynamic, in its order
+        if decision.feature.parent is None or decision.binding is compiled_in:
+            continue
+        feature_id = decision.feature.id
         plugin = plugins.get(feature_id)
         entries.append(
             {
@@ -294,11 +299,12 @@ def outputs(
     plugins: dict[str, Plugin] | None = None,
     robot: Path | None = None,
 ) -> dict[str, str]:
+    _check_macro_names(variant)  # once for both headers
     return {
         "variant.lock.json": lock_json(variant),
-        "features.h": features_header(variant, prefix),
+        "features.h": features_header(variant, prefix, check_names=False),
         "bindings.yaml": bindings_yaml(variant),
-        "static_loader.hpp": static_loader(variant, prefix),
+        "static_loader.hpp": static_loader(variant, prefix, check_names=False),
         "plugins.json": plugins_json(variant, plugins or {}, robot or Path(".")),
         "ros2_params.yaml": ros2_params_yaml(variant, plugins or {}),
     }
