@@ -602,9 +602,11 @@ class Encoding:
         In a solver of the core's own clauses: every clause of the explain build is under
         its fact's selector, so facts not assumed are switched off, and a set of facts has
         a variant in the whole model iff its clauses are satisfiable on their own. (In the
-        whole model, each of these solves assigned every variable of every feature.)
+        whole model, each of these solves assigned every variable of every feature.) Their
+        variables are numbered anew, 1, 2, ... in their order: a solver numbered as the
+        model decides every variable up to the highest one (7 ms a solve at 100,000
+        features, for a core of 4 clauses).
         """
-        by_literal = {self.literals[k]: k for k in core}
         # (the facts' selectors, and any in `fixed`; other literals have no clauses)
         wanted = {*fixed, *(self.literals[k] for k in core)}
         literals, starts = self._kept_literals, self._kept_starts
@@ -617,6 +619,16 @@ class Encoding:
             literals[starts[c] : starts[c + 1]].tolist()
             for c in sorted(chain.from_iterable(clauses_of.get(w, ()) for w in wanted))
         ]
+        used = sorted({abs(lit) for clause in clauses for lit in clause} | {abs(lit) for lit in wanted})
+        number = {variable: k for k, variable in enumerate(used, 1)}
+
+        def renumbered(lit: int) -> int:
+            return number[lit] if lit > 0 else -number[-lit]
+
+        clauses = [[renumbered(lit) for lit in clause] for clause in clauses]
+        fixed = [renumbered(lit) for lit in fixed]
+        literal_of = {k: renumbered(self.literals[k]) for k in core}
+        by_literal = {literal_of[k]: k for k in core}
         # Facts tried for deletion first are the least likely to stay: the start-state
         # fact goes first, so a conflict that section 2 or 3 explains is not blamed on it.
         current = sorted(core, key=lambda k: self.facts[k].kind not in (START, START_EARLY))
@@ -624,7 +636,7 @@ class Encoding:
             i = 0
             while i < len(current):
                 trial = current[:i] + current[i + 1 :]
-                if solver.solve(assumptions=[*fixed, *(self.literals[k] for k in trial)]):
+                if solver.solve(assumptions=[*fixed, *(literal_of[k] for k in trial)]):
                     i += 1  # needed
                 else:
                     smaller = set(self._core(by_literal, trial, solver))
