@@ -232,8 +232,8 @@ def test_atomic_set_rounds_find_equal_members_that_are_not_neighbours() -> None:
 def test_a_batch_that_fails_leaves_its_first_target_to_a_solve_of_its_own() -> None:
     """a is dead (its XOR group wants exactly one of x and y, the formula both or neither),
     yet unit propagation does not refute it; v is possible but not in the first variant,
-    which has u. In cover's last step a joins v in one batch, which fails: a is then asked
-    alone (impossible), and v after it (possible)."""
+    which has u. In cover's last step a and v are solved for in one batch, which fails on
+    a alone: a is then asked alone (impossible), and v after it (possible)."""
     from motivml.binding import encoding as enc
 
     raw = feature(
@@ -248,8 +248,34 @@ def test_a_batch_that_fails_leaves_its_first_target_to_a_solve_of_its_own() -> N
     with enc.Encoding(model) as hard:
         s = {f.id: hard.s(f.index) for f in model.features}
         targets = [[s["a"]], [s["u"]], [s["v"]]]
-        assert hard.solver.propagate(assumptions=[s["a"], s["v"]])[0]  # (what makes the batch)
+        assert hard.solver.propagate(assumptions=[s["a"], s["v"]])[0]  # (a is not refuted so)
         assert hard.cover(targets, with_config=False, batch=True) == [False, True, True]
+
+
+def test_a_failed_batch_drops_the_targets_its_core_blames_and_is_solved_again() -> None:
+    """x and y exclude each other (an XOR group of Static members); z is free. A batch that
+    begins with x and holds y and z fails; its core blames y, which leaves, and x with z
+    is solved for. A batch that begins with the dead d fails on d alone: its own solve is
+    left to decide it."""
+    from motivml.binding import encoding as enc
+
+    raw = feature(
+        "r",
+        [
+            feature("g", [feature("x", group="XOR"), feature("y", group="XOR")]),
+            feature("z", isMandatory=False),
+            feature("d", isMandatory=False, constraints={"featuresExcluded": ["g"]}),
+        ],
+    )
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        s = {f.id: hard.s(f.index) for f in model.features}
+        targets = [[s["x"]], [s["y"]], [s["z"]], [s["d"]]]
+        assert hard._solve_batch(targets, [], [0, 1, 2])
+        shown = set(hard.assignment())
+        assert {s["x"], s["z"]} <= shown and s["y"] not in shown
+        assert not hard._solve_batch(targets, [], [3, 0, 2])
+        assert hard.cover(targets, with_config=False, batch=True) == [True, True, True, False]
 
 
 def _allowed(raw: dict[str, Any]) -> dict[str, dict[str, str]]:

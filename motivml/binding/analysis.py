@@ -97,6 +97,8 @@ def analyse(
             hints=[s, [s[0], *(-literal for literal in s[1:])]],
             witness=witness,
             implied=[*parents, *([None] * n)],  # s(f) propagates to s(parent)
+            batch=True,
+            refute=False,
         )
         alive = possible[:n]
         core = [i for i in range(n) if not possible[n + i]]

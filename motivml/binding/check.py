@@ -63,6 +63,8 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
             with_config=False,
             hints=[[hard.s(i) for i in range(n)]],
             implied=[f.parent for f in features],  # s(f) propagates to s(parent)
+            batch=True,
+            refute=False,
         )
         impossible = impossible_bindings(hard, model, alive)
 
