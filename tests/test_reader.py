@@ -3,8 +3,13 @@
 from __future__ import annotations
 
 import json
+from random import Random
+from typing import Any
 
 from helpers import config, dumps, feature
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_property_sat import models
 
 from motivml.documents.loader import parse
 from motivml.language.model import Binding, Mode, Time, token
@@ -165,3 +170,28 @@ def test_a_configuration_whose_shape_is_wrong_reports_only_its_schema_errors(tmp
     path.write_text('{"properties": {"id": "slma"}}')
     config, diagnostics = load_configuration(path, model)
     assert config is None and [d.rule for d in diagnostics] == ["schema.type"]
+
+
+def _json_paths(raw: dict[str, object]) -> dict[str, tuple[object, ...]]:
+    """Each feature id's path in the model document, found by walking the document."""
+    found: dict[str, tuple[object, ...]] = {}
+    stack: list[tuple[dict[str, object], tuple[object, ...]]] = [(raw, ())]
+    while stack:
+        node, path = stack.pop()
+        found[str(node["id"])] = path
+        for position, child in enumerate(node.get("sub", [])):  # type: ignore[arg-type]
+            stack.append((child, (*path, "sub", position)))
+    return found
+
+
+@settings(max_examples=100, deadline=None)
+@given(models(max_features=12), st.randoms(use_true_random=False))
+def test_feature_paths_are_the_documents_in_any_order_they_are_asked(raw: dict[str, Any], rng: Random) -> None:
+    """FeatureModel.path keeps each path it makes and makes a new one from the nearest
+    kept ancestor's: whatever the order of the questions, each is the document's path."""
+    model, _ = read_model(parse(json.dumps(raw), "m.json"))
+    expected = _json_paths(raw)
+    asked = list(range(len(model.features))) * 2
+    rng.shuffle(asked)
+    for i in asked:
+        assert model.path(i, "id") == (*expected[model.features[i].id], "id")

@@ -91,6 +91,8 @@ class Document:
         # messages read only the containers on their paths, not the whole document
         self._scans: dict[int, _Scan] = {}
         self._ends: Callable[[int], int] | None = None  # a container's offset -> the offset after it
+        # the last path walked through the values and the values on it (`_scanned_offset`)
+        self._walk: tuple[JSONPath, list[Any]] | None = None
 
     def _indexed(self) -> _Index:
         if self._index is None:
@@ -132,8 +134,13 @@ class Document:
         The walk starts at the deepest container of the path an earlier walk scanned (its
         `_Scan` knows where it opens): messages about one feature deep in a model share
         most of their paths."""
-        nodes: list[Any] = [self.root]
-        for item in path[: len(path) - 1 if key else len(path)]:
+        steps = tuple(path[: len(path) - 1 if key else len(path)])
+        # the values on the path, from those of the last walk as far as the paths agree
+        # (two messages about features deep in a model share thousands of steps)
+        walked, known = self._walk or ((), [self.root])
+        same = _common_prefix(steps, walked)
+        nodes = known[: same + 1]
+        for item in steps[same:]:
             node = nodes[-1]
             if isinstance(node, dict) and isinstance(item, str) and item in node:
                 nodes.append(node[item])
@@ -141,6 +148,7 @@ class Document:
                 nodes.append(node[item])
             else:
                 break
+        self._walk = (steps[: len(nodes) - 1], nodes)
         scans = self._scans
         start = next((j for j in range(len(nodes) - 1, 0, -1) if id(nodes[j]) in scans), 0)
         node = nodes[start]
@@ -234,6 +242,18 @@ class Document:
                 raw += 6
         line, column = self.position(raw)
         return Location(self.file, line, column, format_path(path))
+
+
+def _common_prefix(a: JSONPath, b: JSONPath) -> int:
+    """How many first steps two paths share (by halving, each comparison in C)."""
+    low, high = 0, min(len(a), len(b))
+    while low < high:
+        middle = (low + high + 1) // 2
+        if a[:middle] == b[:middle]:
+            low = middle
+        else:
+            high = middle - 1
+    return low
 
 
 @dataclass

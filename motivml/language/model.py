@@ -132,6 +132,7 @@ class FeatureModel:
     name: str = ""
     source: Any = None  # the loader's Document, to locate messages
     formulas: list[Formula] = field(default_factory=list)  # the root's cross-tree formulas (2.4)
+    _paths: dict[int, tuple[PathItem, ...]] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property
     def root(self) -> Feature:
@@ -141,15 +142,23 @@ class FeatureModel:
         return self.features[self.index[feature_id]]
 
     def path(self, index: int, *keys: PathItem) -> tuple[PathItem, ...]:
-        """JSON path of a feature (and of keys below it) in the model document."""
-        parts: list[PathItem] = []
+        """JSON path of a feature (and of keys below it) in the model document.
+
+        Each feature's path is kept once made, and made from its nearest ancestor's that
+        was kept: paths in a deep model are thousands of steps long, and the messages
+        about one part of it share most of them."""
+        paths = self._paths
+        missing: list[int] = []
         node: int | None = index
-        while node is not None and node != 0:
+        while node is not None and node not in paths:
+            missing.append(node)
+            node = self.features[node].parent
+        path: tuple[PathItem, ...] = paths[node] if node is not None else ()
+        for node in reversed(missing):
             feature = self.features[node]
-            parts.append(feature.position)
-            parts.append("sub")
-            node = feature.parent
-        return tuple(reversed(parts)) + keys
+            path = path + ("sub", feature.position) if feature.parent is not None else ()
+            paths[node] = path
+        return path + keys
 
     def subtree(self, index: int) -> list[int]:
         """The feature and all its descendants, pre-order (iterative)."""
