@@ -259,6 +259,8 @@ def test_the_start_state_follows_optimise_on_the_same_solver() -> None:
         assert _start_on(encoding, variant) == expected
         with pytest.raises(ValueError, match="made final"):
             encoding.set_configuration(as_configuration(variant))
+    with enc.Encoding(model, explain=True) as explaining:  # (its model facts stay assumed)
+        assert _start_on(explaining, variant) == expected
     assert expected is not None and len(expected) > 1
 
 

@@ -900,12 +900,12 @@ class Encoding:
         """The active set at start (semantics.md section 4), as feature indices; None if none.
 
         Call after `set_configuration` with a complete variant, or give the variant's
-        literals as `variant` (s of every feature, E and S of each selected one). `late` are the selected Late
-        features in definition order: the fewest of them are activated (an incremental
-        totalizer bounds the count, tightened until unsatisfiable), and among the smallest
-        sets the one that activates earlier features first (greedy in pre-order, each
-        choice kept as an assumption). One solver throughout; the answer is unique, so it
-        does not depend on the solver's path.
+        literals as `variant` (s of every feature, E and S of each selected one). `late`
+        are the selected Late features in definition order: the fewest of them are
+        activated (an incremental totalizer bounds the count, tightened until
+        unsatisfiable), and among the smallest sets the one that activates earlier features
+        first (greedy in pre-order, each choice kept as an assumption). One solver
+        throughout; the answer is unique, so it does not depend on the solver's path.
 
         A `variant` becomes unit clauses, not assumptions, which makes each solve cheap at
         100,000 features (Glucose makes a decision level per assumption); the encoding then
@@ -914,7 +914,7 @@ class Encoding:
         if variant is not None:
             add_clauses(self.solver, [[literal] for literal in variant])
             self._final = True
-            base: list[int] = []
+            base = self.assumptions(with_config=False)  # (the model's facts, in an explain build)
         else:
             base = self.assumptions()
         if not self.solver.solve(assumptions=base):
