@@ -255,8 +255,8 @@ def test_a_batch_that_fails_leaves_its_first_target_to_a_solve_of_its_own() -> N
 def test_a_failed_batch_drops_the_targets_its_core_blames_and_is_solved_again() -> None:
     """x and y exclude each other (an XOR group of Static members); z is free. A batch that
     begins with x and holds y and z fails; its core blames y, which leaves, and x with z
-    is solved for. A batch that begins with the dead d fails on d alone: its own solve is
-    left to decide it."""
+    is solved for. A batch that begins with the dead d fails on d alone: d cannot hold.
+    A batch of one target leaves it to its own solve."""
     from motivml.binding import encoding as enc
 
     raw = feature(
@@ -274,7 +274,8 @@ def test_a_failed_batch_drops_the_targets_its_core_blames_and_is_solved_again() 
         assert hard._solve_batch(targets, [], [0, 1, 2])
         shown = set(hard.assignment())
         assert {s["x"], s["z"]} <= shown and s["y"] not in shown
-        assert not hard._solve_batch(targets, [], [3, 0, 2])
+        assert hard._solve_batch(targets, [], [3, 0, 2]) is False
+        assert hard._solve_batch(targets, [], [2]) is None
         assert hard.cover(targets, with_config=False, batch=True) == [True, True, True, False]
 
 

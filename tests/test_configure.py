@@ -211,6 +211,77 @@ def test_optimise_gives_the_variant_rc2_gives_for_the_formula_built_clause_by_cl
     assert found == (list(expected) if expected is not None else None)
 
 
+def test_optimise_gives_rc2s_variant_where_rc2_builds_totalizers() -> None:
+    """Undecided members of the root's OR groups: each core holds several of them, so RC2
+    relaxes it with a totalizer numbered after the formula's highest variable. The
+    variant is the one RC2 finds for the formula built clause by clause."""
+    from pysat.examples.rc2 import RC2
+    from pysat.formula import WCNF
+
+    from motivml.binding import encoding as enc
+    from motivml.binding.resolve import _preferences
+
+    raw = feature(
+        "r",
+        [
+            feature("g", [feature(f"x{k}", group="OR", time="Any", mode="Any") for k in range(4)]),
+            feature("h", [feature(f"y{k}", group="OR", time="Any", mode="Any") for k in range(3)]),
+        ],
+    )
+    feature_model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    configuration, _ = read_configuration(parse('{"properties": []}', "c.json"), feature_model, partial=True)
+    with enc.Encoding(feature_model, record=True) as encoding:
+        encoding.set_configuration(configuration)
+        soft = _preferences(encoding, feature_model, configuration, {"late"})
+        found = encoding.optimise(soft)
+        assert encoding.recorded is not None
+        formula = WCNF()
+        for clause in encoding.recorded:
+            formula.append(clause)
+        for literal, weight in soft:
+            formula.append([literal], weight=weight)
+        with RC2(formula, solver="g4") as maxsat:
+            expected = maxsat.compute()
+            assert maxsat.tobj  # (totalizers were built)
+    assert found == expected
+
+
+def test_the_start_state_takes_each_choice_from_the_latest_variant() -> None:
+    """x and y are Dynamic Late alternatives (an XOR group); one is active at start, x,
+    the first. With the solver's phases preferring y, the first variant activates y; the
+    choice of x then needs a solve, whose variant (not the first) must decide y."""
+    from motivml.binding import encoding as enc
+    from motivml.binding.resolve import _start_on
+
+    raw = feature("r", [feature(k, group="XOR", time="Late", mode="Dynamic") for k in ("x", "y")])
+    feature_model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    configuration, _ = read_configuration(
+        parse('{"properties": [{"id": "x"}, {"id": "y"}]}', "c.json"), feature_model, partial=True
+    )
+    variant = resolve(feature_model, configuration, start=False)
+    with enc.Encoding(feature_model) as encoding:
+        encoding.solver.set_phases([encoding.a(2), -encoding.a(1)])
+        assert _start_on(encoding, variant) == [0, 1]
+
+
+def test_an_encoding_with_its_configuration_for_good_answers_nothing_without_it() -> None:
+    """After optimise the configuration is in the solver as units: a question about the
+    model alone would be answered for the configuration, so it is refused; and optimise
+    runs on Glucose 4 only, as RC2 did."""
+    from motivml.binding import encoding as enc
+
+    model, _ = load_model(SIMPLEBOT / "model.json")
+    config, _ = load_configuration(SIMPLEBOT / "variants" / "field.json", model, partial=True) if model else (None, [])
+    assert model is not None and config is not None
+    with enc.Encoding(model) as encoding:
+        encoding.set_configuration(config)
+        assert encoding.optimise([]) is not None
+        with pytest.raises(ValueError, match="for good"):
+            encoding.solve(with_config=False)
+    with enc.Encoding(model, solver="minisat22") as other, pytest.raises(ValueError, match="Glucose 4"):
+        other.optimise([])
+
+
 @settings(max_examples=200, deadline=None, suppress_health_check=list(HealthCheck))
 @given(model=models(max_features=12))
 def test_every_variable_up_to_top_occurs_in_the_encodings_clauses(model: dict[str, Any]) -> None:
@@ -257,7 +328,7 @@ def test_the_start_state_follows_optimise_on_the_same_solver() -> None:
         encoding.set_configuration(config)
         assert encoding.optimise(_preferences(encoding, model, config, {"late"})) is not None
         assert _start_on(encoding, variant) == expected
-        with pytest.raises(ValueError, match="made final"):
+        with pytest.raises(ValueError, match="for good"):
             encoding.set_configuration(as_configuration(variant))
     with enc.Encoding(model, explain=True) as explaining:  # (its model facts stay assumed)
         assert _start_on(explaining, variant) == expected

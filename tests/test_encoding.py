@@ -61,3 +61,33 @@ def test_a_conflict_is_shrunk_in_a_solver_of_its_own_variables_only(monkeypatch:
         assert encoding.top > 1000
     assert kinds == ["allowed-mode", "exclude", "include", "query-selected"]  # (Static: no alternatives)
     assert sizes and max(sizes) < 20
+
+
+def test_a_run_time_conflict_is_shrunk_with_the_variants_literals_assumed() -> None:
+    """active_set_conflicts assumes the variant's literals (`fixed`) in the solver that
+    shrinks a conflict, numbered as the conflict's own variables are: amcl, not selected
+    in the field variant, cannot be active; the conflict is its being active and the
+    start-state statement (an active feature is selected), with the variant assumed."""
+    from pathlib import Path
+
+    from motivml.binding.resolve import resolve, start_state
+    from motivml.language.reader import load_configuration, load_model
+
+    robot = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
+    model, _ = load_model(robot / "model.json")
+    assert model is not None
+    config, _ = load_configuration(robot / "variants" / "field.json", model, partial=True)
+    assert config is not None
+    variant = resolve(model, config)
+    active = [f.index for f in start_state(variant)] + [model.index["amcl"]]
+    with enc.Encoding(model, explain=True) as encoding:
+        fixed = []
+        for d in variant.decisions:
+            i = d.feature.index
+            fixed.append(encoding.s(i) if d.selected else -encoding.s(i))
+            if d.selected:
+                fixed += [encoding.E(i) * (1 if d.binding.early else -1), encoding.S(i) * (1 if d.binding.static else -1)]
+        conflicts = encoding.active_set_conflicts(fixed, active)
+        assert conflicts, "amcl is not selected: it cannot be active"
+        facts = {(encoding.facts[k].kind, encoding.model.features[encoding.facts[k].a].id) for k in conflicts[0]}
+    assert facts == {("active", "amcl"), ("start", "root_feature")}

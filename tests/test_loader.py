@@ -298,3 +298,27 @@ def test_the_cli_freezes_for_one_shot_commands_only(monkeypatch: pytest.MonkeyPa
     completions = ShellComplete(main, {}, "motivml", "_MOTIVML_COMPLETE").get_completions(["validate"], "--con")
     assert [c.value for c in completions] == ["--config"]
     assert entered == [True]  # (click never closes the context it completes in)
+
+
+def test_a_walk_that_stopped_early_is_gone_on_from_only_as_far_as_it_went() -> None:
+    """A path that runs past the document stops where it ends; the next walk reuses the
+    values of that one only up to there. Each location is the one a fresh document gives."""
+    text = '{"a": {"b": [1, {"c": 2, "e": [3, 4]}], "f": 5}, "d": 6}'
+    document = parse(text)
+    paths = [
+        ("a", "b", 1, "c"),
+        ("a", "b", 7),
+        ("a", "b", 7, "x"),
+        ("a", "b", 7, "x", 1),  # (not b's second value: the walk stops at 7)
+        ("a", "b", 1, "c"),
+        ("a", "b", 7, "c"),
+        ("a", "x", "y"),
+        ("a", "b", 1, "e", 1),
+        ("a", "b", 1, "e", 9),
+        ("a", "b", 1, "e", 1),
+        ("d",),
+        ("a", "f"),
+    ]
+    for key in (False, True):
+        for path in paths:
+            assert document.locate(path, key) == parse(text).locate(path, key), (path, key)

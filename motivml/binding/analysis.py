@@ -96,8 +96,7 @@ def analyse(
             with_config=False,
             hints=[s, [s[0], *(-literal for literal in s[1:])]],
             witness=witness,
-            implied=[*parents, *([None] * n)],  # s(f) propagates to s(parent)
-            batch=True,
+            batch=True,  # (most of what the hints leave open is possible)
             refute=False,
         )
         alive = possible[:n]

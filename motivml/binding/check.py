@@ -62,8 +62,7 @@ def analyse_model(model: FeatureModel) -> list[Diagnostic]:
             [[hard.s(i)] for i in range(n)],
             with_config=False,
             hints=[[hard.s(i) for i in range(n)]],
-            implied=[f.parent for f in features],  # s(f) propagates to s(parent)
-            batch=True,
+            batch=True,  # (most of what the hint leaves open is possible)
             refute=False,
         )
         impossible = impossible_bindings(hard, model, alive)

@@ -225,7 +225,7 @@ class Encoding:
         self.literals: list[int] = []  # the assumption literal of each fact
         self._top = 4 * n
         self._activity: int | None = None  # index of the first ACTIVE fact, once made
-        self._final = False  # a variant is in the solver as units (start_state)
+        self._final = False  # a configuration or variant is in the solver as units (optimise, start_state)
         self._clauses: list[list[int]] = []
         # explain build: every clause, flat, with its selector, so that a conflict is shrunk
         # in a solver of its own facts' clauses only (`_minimise`), not in the whole model's
@@ -493,7 +493,7 @@ class Encoding:
         """Put a configuration's facts (literals to assume) in place of the previous
         configuration's, if any: one encoding answers for several configurations."""
         if self._final:
-            raise ValueError("this encoding's variant was made final by start_state()")
+            raise ValueError("this encoding's configuration is in its solver for good (optimise, start_state)")
         del self.facts[self.model_facts :], self.literals[self.model_facts :]
         self._activity = None  # (the active-set facts came after the configuration's)
         first = len(self.facts)
@@ -519,7 +519,12 @@ class Encoding:
 
     # ----------------------------------------------------------------- queries
     def assumptions(self, with_config: bool = True) -> list[int]:
-        """The literals that put every model fact (explain build) and the configuration in force."""
+        """The literals that put every model fact (explain build) and the configuration in force.
+
+        Without the configuration only while it is not in the solver for good (after
+        `optimise` or `start_state(variant=...)` it is: the answer would not be the model's)."""
+        if self._final and not with_config:
+            raise ValueError("this encoding's configuration is in its solver for good: no answer without it")
         last = self._config_fact_range[1] if with_config else self.model_facts
         return self.literals[:last]
 
@@ -689,10 +694,12 @@ class Encoding:
         unit propagation derives from it: a feature's "selected" target names its parent's.
         `batch`: solve for several open targets at once in step 3 (where most of what is
         left is possible, as for bindings; where most is not, the batches mostly fail).
-        `refute=False` skips step 2, for targets that unit propagation has already failed
-        to refute one literal at a time (atomic sets' first round): there it refutes almost
-        nothing and costs one propagation per open target (0.25 ms each at 100,000
-        features). An impossible target is still found so, by its own solve in step 3.
+        `refute=False` skips step 2, where it would refute almost nothing and cost one
+        propagation per open target (0.25 ms each at 100,000 features, more for targets
+        that imply much): for targets that unit propagation has already failed to refute
+        one literal at a time (atomic sets' first round), and for features' selections
+        (dead features), which batches settle. An impossible target is still found so, by
+        a solve in step 3.
 
         1. Solves under polarity hints (each of `hints`, then towards the targets still
            open, again while a witness settles at least WITNESS_GAIN of them) find
@@ -700,8 +707,8 @@ class Encoding:
         2. Unit propagation refutes most impossible targets without a search.
         3. Each target still open is solved for under its literals as assumptions (with
            `batch`, with those of later open targets, less those a failed solve's core
-           blames, `_solve_batch`; alone if that fails), with the hints renewed towards
-           every open target, so its witness settles others too.
+           blames, `_solve_batch`; alone when none is left), with the hints renewed
+           towards every open target, so its witness settles others too.
         """
         possible = [False] * len(targets)
         base = self.assumptions(with_config)
@@ -725,25 +732,29 @@ class Encoding:
         while pending:
             k = pending[0]
             self._prefer(table, pending)
-            if batch and self._solve_batch(targets, base, pending):
+            shown = self._solve_batch(targets, base, pending) if batch else None
+            if shown is None:
+                shown = bool(self.solver.solve(assumptions=[*base, *targets[k]]))
+            if shown:
                 pending = self._mark(table, possible, pending, witness)  # (k among them)
-            elif self.solver.solve(assumptions=[*base, *targets[k]]):
-                pending = self._mark(table, possible, pending, witness)
             else:
                 pending = pending[1:]
         return possible
 
-    def _solve_batch(self, targets: Sequence[Sequence[int]], base: list[int], pending: list[int]) -> bool:
+    def _solve_batch(
+        self, targets: Sequence[Sequence[int]], base: list[int], pending: list[int]
+    ) -> bool | None:
         """Solve for the first open target together with up to BATCH - 1 of the next
-        BATCH_TRIED, those whose literals do not contradict the ones taken before them;
-        True when that succeeds (the solver's variant then shows them all).
+        BATCH_TRIED, those whose literals do not contradict the ones taken before them:
+        True when that succeeds (the solver's variant then shows them all), False when the
+        first target cannot hold, None when no other target is left (its own solve decides).
 
         A failed solve's core names assumptions that cannot hold together: the targets
         that own one of them (other than the first target's and the configuration's) leave,
-        and the rest is solved for again. Failed solves are cheap (unit propagation finds
-        most conflicts); a successful one assigns every variable (50 ms at 100,000
-        features), so one for many targets is what saves time. False when no other target
-        is left, or when the core blames only the first target: its own solve decides it.
+        and the rest is solved for again; a core within the first target's literals and the
+        configuration's says that the first cannot hold. Failed solves are cheap (unit
+        propagation finds most conflicts); a successful one assigns every variable (50 ms
+        at 100,000 features), so one for many targets is what saves time.
         """
         first = targets[pending[0]]
         taken = {abs(literal): literal for literal in [*base, *first]}
@@ -764,7 +775,7 @@ class Encoding:
             if not blamed:
                 return False
             members = [target for target in members if blamed.isdisjoint(target)]
-        return False
+        return None
 
     def _propagating(
         self,
@@ -842,6 +853,10 @@ class Encoding:
         encoding takes no other configuration) and RC2's totalizers, which leave the
         features' variables free: `start_state` may follow.
         """
+        from pysat.solvers import Glucose4
+
+        if not isinstance(self.solver.solver, Glucose4):
+            raise ValueError("optimise() runs RC2 on Glucose 4: make the encoding with solver='glucose4'")
         if self.solver.accum_stats().get("restarts"):
             raise ValueError("optimise() needs an encoding that has not solved anything yet")
         from pysat.examples.rc2 import RC2
@@ -914,7 +929,7 @@ class Encoding:
         if variant is not None:
             add_clauses(self.solver, [[literal] for literal in variant])
             self._final = True
-            base = self.assumptions(with_config=False)  # (the model's facts, in an explain build)
+            base = self.literals[: self.model_facts]  # (the model's facts, in an explain build)
         else:
             base = self.assumptions()
         if not self.solver.solve(assumptions=base):
