@@ -31,7 +31,7 @@ from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, S
 from dataclasses import dataclass
 from itertools import accumulate, chain, repeat
 from types import TracebackType
-from typing import Any
+from typing import Any, NamedTuple
 
 from pysat.solvers import Solver
 
@@ -82,14 +82,14 @@ CONFIG_MODE = "config-mode"
 CONFIG_KINDS = frozenset({CONFIG_SELECTED, CONFIG_DESELECTED, CONFIG_TIME, CONFIG_MODE})
 
 
-@dataclass(frozen=True, slots=True)
-class EncodedFact:
+class EncodedFact(NamedTuple):
     """A model or configuration statement as the encoding holds it: a kind over features.
 
     `a` and `b` are feature indices (-1: none; for group facts `a` is the group's index in
     `FeatureModel.groups`). Its literal in `Encoding.literals` puts it in force: a selector
     over its clauses, or the configuration's literal itself. Explanations put it in words
-    and locate it as an `errors.LocatedFact`.
+    and locate it as an `errors.LocatedFact`. (A named tuple: half a million of them are
+    made for an explanation of a 100,000-feature model, twice as fast as a dataclass.)
     """
 
     kind: str

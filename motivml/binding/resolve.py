@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Collection
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 from ..documents.loader import no_gc
 from ..errors import MotivmlError
@@ -24,9 +25,9 @@ class NoVariant(MotivmlError):
     """The configuration has no valid completion; the diagnostics explain why."""
 
 
-@dataclass(frozen=True)
-class Decision:
-    """One feature of a resolved variant, and who decided each part of it."""
+class Decision(NamedTuple):
+    """One feature of a resolved variant, and who decided each part of it. (A named tuple:
+    `configure` makes one per feature of the model, 100,000 of them.)"""
 
     feature: Feature
     selected: bool
