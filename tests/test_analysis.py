@@ -279,6 +279,31 @@ def test_a_failed_batch_drops_the_targets_its_core_blames_and_is_solved_again() 
         assert hard.cover(targets, with_config=False, batch=True) == [True, True, True, False]
 
 
+def test_a_batch_of_alternatives_gives_up_after_a_few_failed_solves() -> None:
+    """Members of one XOR group of Static features exclude each other: each failed solve's
+    core blames one more of them. After BATCH_FAILURES failed solves the batch gives up
+    and leaves its first target to its own solve (a group of 2,000 members made 31 failed
+    solves a target before), and cover still answers every target."""
+    from motivml.binding import encoding as enc
+
+    raw = feature("r", [feature("g", [feature(f"x{k}", group="XOR") for k in range(12)])])
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        targets = [[hard.s(model.index[f"x{k}"])] for k in range(12)]
+        solves = 0
+        solve = hard.solver.solve
+
+        def counted(*args: Any, **kwargs: Any) -> Any:
+            nonlocal solves
+            solves += 1
+            return solve(*args, **kwargs)
+
+        hard.solver.solve = counted  # type: ignore[method-assign]
+        assert hard._solve_batch(targets, [], list(range(12))) is None
+        assert solves == enc.BATCH_FAILURES
+        assert hard.cover(targets, with_config=False, batch=True, refute=False) == [True] * 12
+
+
 def _allowed(raw: dict[str, Any]) -> dict[str, dict[str, str]]:
     found, stack = {}, [raw]
     while stack:

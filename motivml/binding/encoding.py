@@ -155,6 +155,7 @@ def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
 
 
 VECTOR_FROM = 4096  # open targets (or features): from here cover's checks use numpy arrays
+BATCH_FAILURES = 8  # failed solves of one batch before its first target is left to its own
 BATCH, BATCH_TRIED = 32, 128  # cover's last step: targets solved for together, of the next ones
 
 
@@ -754,7 +755,9 @@ class Encoding:
         and the rest is solved for again; a core within the first target's literals and the
         configuration's says that the first cannot hold. Failed solves are cheap (unit
         propagation finds most conflicts); a successful one assigns every variable (50 ms
-        at 100,000 features), so one for many targets is what saves time.
+        at 100,000 features), so one for many targets is what saves time. After
+        BATCH_FAILURES failed solves the batch gives up (None): alternatives of one XOR
+        group exclude each other, and each core blames one of them only.
         """
         first = targets[pending[0]]
         taken = {abs(literal): literal for literal in [*base, *first]}
@@ -768,7 +771,9 @@ class Encoding:
             if len(members) >= BATCH - 1:
                 break
         innocent = {*base, *first}
-        while members:
+        for _ in range(BATCH_FAILURES):
+            if not members:
+                break
             if self.solver.solve(assumptions=[*base, *first, *chain.from_iterable(members)]):
                 return True
             blamed = set(self.solver.get_core() or ()) - innocent
