@@ -5,7 +5,7 @@ For each N it prints
 * the wall time of `motivml validate MODEL --config CONFIG` in a fresh process (the first
   member selected, the others not; a configuration check does not analyse the model: the
   analysis, dead features and possible bindings, makes one witness per member and is still
-  quadratic in N, 13 s at 2,000 members);
+  quadratic in N, 5 s at 2,000 members);
 * the floor of validate_bench.py: the same CNF as a DIMACS file, read by pysat and
   solved once under the configuration's assumptions in a fresh process, and the ratio;
 * the in-process time to encode the model and solve it once.
