@@ -300,10 +300,14 @@ def impossible_bindings(
         for i, _, value in owners
     ]
     asked = [k for k in range(len(targets)) if not inherited[k]]
+    # Late and Static first: its solve is the one that searches (at 100,000 generated
+    # features 0.7 s as the third hint, 0.4 s as the first, while the saved phases still
+    # select everything). The four took 1.2 s in the order ES, ED, LS, LD and 0.8 s in
+    # this one, and left fewer targets open: the whole analysis went from 10.5 to 10.1 s
+    # and from 12.1 to 10.1 s on the models of seeds 1 and 0 (the answers are the same).
     hints = [
         [lit for i in range(len(model.features)) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
-        for e in (1, -1)
-        for m in (1, -1)
+        for e, m in ((-1, 1), (1, 1), (1, -1), (-1, -1))
     ]
     # s(f) and E(f) propagate to s(parent) and E(parent) (the sub-feature time); the same
     # for Static (the sub-feature mode)
