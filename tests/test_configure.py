@@ -271,8 +271,9 @@ def test_an_encoding_with_its_configuration_for_good_answers_nothing_without_it(
     from motivml.binding import encoding as enc
 
     model, _ = load_model(SIMPLEBOT / "model.json")
-    config, _ = load_configuration(SIMPLEBOT / "variants" / "field.json", model, partial=True) if model else (None, [])
-    assert model is not None and config is not None
+    assert model is not None
+    config, _ = load_configuration(SIMPLEBOT / "variants" / "field.json", model, partial=True)
+    assert config is not None
     with enc.Encoding(model) as encoding:
         encoding.set_configuration(config)
         assert encoding.optimise([]) is not None
