@@ -3,8 +3,9 @@ features, atomic sets, impossible bindings, and exact counts.
 
 Every question but the counts is asked of one hard (selector-free) build of the one
 encoding, on one solver, with `Encoding.cover`: a few solves under polarity hints settle
-most questions at once, unit propagation refutes most of the rest, and what is left is
-solved for in batches. Atomic sets are classes of features that every valid variant
+most questions at once, and what is left is solved for in batches, whose failed solves'
+cores set aside the questions that cannot go together (for the bindings, unit
+propagation first refutes most impossible ones). Atomic sets are classes of features that every valid variant
 selects together: the variants found while answering the other questions split the
 features by what they select, and so do the variants derived from the first few of them
 without a solve (`cuts`: a valid variant less one of its subtrees); the classes left are

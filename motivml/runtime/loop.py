@@ -365,10 +365,9 @@ class Runtime:
     def commit_waiting(self) -> bool:
         """From any thread: apply the queued reconfigurations now if a real-clock loop is
         waiting for its next deadline (between two ticks) with COMMIT_MARGIN (at most half a
-        period) or more to go,
-        instead of at the next tick's start; True if it did. The next tick is the first to
-        run with them either way; what no longer waits for that tick is the request's
-        answer (half a period on average).
+        period) or more to go, instead of at the next tick's start; True if it did. The next
+        tick is the first to run with them either way; what no longer waits for that tick is
+        the request's answer (half a period on average).
 
         Not while a tick runs, nor before the loop starts or after it ends, nor close to a
         deadline (the loop would wait for this thread), nor for a loop at a real-time
@@ -571,8 +570,9 @@ class Runtime:
                     with self._ticking:
                         self._waiting_for = (clock, deadline - margin)
                 began = clock.wait_until(deadline)
-                with self._ticking:  # (a commit being applied ends first)
-                    self._waiting_for = None
+                if others_commit:
+                    with self._ticking:  # (a commit being applied ends first)
+                        self._waiting_for = None
                 self.tick()
                 ended = clock.now()
                 if stats.ticks < kept:
