@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from motivml.cli import main
 from motivml.runtime import waiting
 from motivml.runtime.loop import RealClock, realtime_problem
-from motivml.runtime.waiting import SLICE_NS, TIMER_SLACK_NS
+from motivml.runtime.waiting import SLICE_MAX_NS, SLICE_NS, TIMER_SLACK_NS
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 RUN = ["run", str(SIMPLEBOT), "--variant", "field", "--no-live", "--no-control"]
@@ -86,7 +86,8 @@ def test_the_loop_ticks_under_sched_fifo(monkeypatch: pytest.MonkeyPatch) -> Non
 
 @pytest.mark.skipif(waiting.timer_slack() is None, reason="timer slack is a Linux thread attribute")
 def test_the_loop_thread_wakes_on_time_while_it_ticks_and_gets_its_own_attributes_back() -> None:
-    """Timer slack 1 us, and the shortest slice where the kernel lets an ordinary thread ask."""
+    """Timer slack 1 us, and a short slice (0.5 ms, fitted later) where the kernel lets an
+    ordinary thread ask."""
     clock = RealClock()
     before = (waiting.timer_slack(), waiting.thread_slice())
     assert before[0] is not None and before[0] > TIMER_SLACK_NS  # Linux's default is 50 us
@@ -105,7 +106,7 @@ def test_the_loop_thread_wakes_on_time_while_it_ticks_and_gets_its_own_attribute
     thread.start()
     thread.join()
     slices = before[1] is not None and _kernel() >= (6, 12)  # custom slices for ordinary threads
-    assert seen == [(TIMER_SLACK_NS, SLICE_NS if slices else before[1]), before]
+    assert seen == [(TIMER_SLACK_NS, SLICE_MAX_NS if slices else before[1]), before]
     assert (waiting.timer_slack(), waiting.thread_slice()) == before  # (another thread's are its own)
 
 
@@ -148,7 +149,7 @@ def test_where_linux_is_not_there_is_nothing_to_ask_and_on_time_changes_nothing(
     monkeypatch.setattr(waiting.sys, "platform", "darwin")
     assert waiting.timer_slack() is None and waiting.thread_slice() is None
     assert waiting.set_timer_slack(TIMER_SLACK_NS) is None and waiting.set_thread_slice(SLICE_NS) is None
-    waiting.on_time()()  # set and give back: nothing to do, and no error
+    waiting.on_time().restore()  # set and give back: nothing to do, and no error
 
 
 def test_a_c_library_that_cannot_be_opened_is_no_error(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -170,7 +171,7 @@ def test_calls_the_kernel_refuses_change_nothing_and_are_not_reported_as_done(
     monkeypatch.setattr(waiting, "_libc", _RefusingLibc)
     assert waiting.timer_slack() is None and waiting.set_timer_slack(TIMER_SLACK_NS) is None
     assert waiting.thread_slice() is None and waiting.set_thread_slice(SLICE_NS) is None
-    waiting.on_time()()
+    waiting.on_time().restore()
 
 
 @pytest.mark.skipif(waiting.thread_slice() is None, reason="no sched_getattr here")
@@ -193,3 +194,97 @@ def test_a_slice_the_kernel_will_not_set_is_not_reported_as_set(monkeypatch: pyt
     thread.start()
     thread.join()
     assert seen[0] is None and seen[1] == seen[2]
+
+
+def test_a_fitted_slice_is_twice_the_longest_stretch_awake_in_whole_steps_within_the_kernel_s_bounds() -> None:
+    assert waiting.fitted_slice(0.000_200, SLICE_NS) == 400_000  # 0.2 ms awake outgrew 0.1 ms
+    assert waiting.fitted_slice(0.000_201, SLICE_NS) == 450_000  # (rounded up to a whole step)
+    assert waiting.fitted_slice(0.000_010, SLICE_NS) == SLICE_NS  # never below the shortest
+    assert waiting.fitted_slice(0.002, SLICE_NS) == SLICE_MAX_NS  # never above the longest
+    assert waiting.fitted_slice(0.000_001, SLICE_MAX_NS) == SLICE_NS  # a slice far too long shrinks
+
+
+def test_a_slice_is_kept_while_the_stretch_awake_is_between_a_quarter_and_three_quarters_of_it() -> None:
+    for awake in (0.000_100, 0.000_200, 0.000_300):
+        assert waiting.fitted_slice(awake, 400_000) == 400_000
+    assert waiting.fitted_slice(0.000_301, 400_000) == SLICE_MAX_NS
+    assert waiting.fitted_slice(0.000_099, 400_000) == 200_000
+
+
+@pytest.mark.skipif(waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here")
+def test_on_time_fits_the_thread_s_slice_and_gives_the_thread_s_own_back() -> None:
+    seen: list[int | None] = []
+
+    def ticking() -> None:
+        before = waiting.thread_slice()
+        asked = waiting.on_time()
+        asked.fit(0.000_100)  # under a quarter of the first, 0.5 ms: twice it
+        seen.extend([asked.slice, waiting.thread_slice()])
+        asked.fit(0.000_120)  # within a quarter and three quarters: kept
+        seen.append(waiting.thread_slice())
+        asked.restore()
+        seen.extend([waiting.thread_slice(), before])
+
+    thread = threading.Thread(target=ticking)
+    thread.start()
+    thread.join()
+    assert seen[:3] == [200_000, 200_000, 200_000] and seen[3] == seen[4]
+
+
+class _Asked:
+    """Stands for `waiting.OnTime`: records the fits, each after the sleeps made so far."""
+
+    def __init__(self, events: list[Any]) -> None:
+        self.events = events
+
+    def fit(self, awake: float) -> None:
+        self.events.append(("fit", awake))
+
+    def restore(self) -> None:
+        self.events.append("restore")
+
+
+class _Time:
+    """Stands for the `time` module in the loop: a clock that advances 1 us per reading and
+    by what is slept, with every sleep recorded, and the thread's CPU time as it is set."""
+
+    def __init__(self, events: list[Any]) -> None:
+        self.events, self.now, self.cpu = events, 100.0, 5.0
+
+    def thread_time(self) -> float:
+        return self.cpu
+
+    def perf_counter(self) -> float:
+        self.now += 1e-6
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.events.append("sleep")
+        self.now += seconds
+
+
+def test_the_real_clock_fits_the_slice_just_after_a_wake_up_to_the_longest_stretch_it_ran_awake(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """After FIRST_FIT sleeps, then every FIT_EVERY, with the most CPU time the thread used
+    between two sleeps (time it was preempted is not counted: it uses no slice)."""
+    events: list[Any] = []
+    fake = _Time(events)
+    monkeypatch.setattr(waiting, "on_time", lambda: _Asked(events))
+    monkeypatch.setattr(waiting, "FIT_EVERY", 3)
+    monkeypatch.setattr("motivml.runtime.loop.time", fake)
+    clock = RealClock()
+    clock.enter()
+    for k in range(waiting.FIRST_FIT + 3):
+        fake.cpu += 0.0003 if k == 4 else 0.0001  # the CPU time used awake: once more
+        fake.now += 0.005 if k == 7 else 0.0002  # (once preempted for long)
+        clock.wait_until(fake.now + 0.001)
+    clock.wait_until(fake.now - 0.001)  # (no sleep: a deadline already past)
+    clock.leave()
+    fits = [k for k, e in enumerate(events) if isinstance(e, tuple)]
+    assert len(fits) == 2
+    assert [events[: fits[0]].count("sleep"), events[fits[0] : fits[1]].count("sleep")] == [waiting.FIRST_FIT, 3]
+    assert events[fits[0] - 1] == events[fits[1] - 1] == "sleep"  # (no sleep between a wake-up and its fit)
+    first, second = events[fits[0]][1], events[fits[1]][1]
+    assert (first, second) == (pytest.approx(0.0003), pytest.approx(0.0001))  # the most since the last fit
+    assert events[-1] == "restore" and events.count("sleep") == waiting.FIRST_FIT + 3

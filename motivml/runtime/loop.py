@@ -11,8 +11,8 @@ Two clocks:
   take as long as the computation.
 * `RealClock`: ticks start on a fixed schedule of `1 / rate` seconds (default 1 kHz). It
   sleeps until SPIN before a deadline, with the loop thread's timer slack cut to 1 us and
-  its scheduler slice to 0.1 ms so that it wakes on time on a busy machine
-  (`motivml.runtime.waiting`), and spins the rest, with the cyclic garbage collector
+  its scheduler slice fitted to its ticks (0.1-0.5 ms) so that it wakes on time and is
+  not preempted mid-tick on a busy machine (`motivml.runtime.waiting`), and spins the rest, with the cyclic garbage collector
   paused and a short interpreter switch interval for the run. (It does not spin longer:
   on a busy machine a thread that spins looks CPU-bound to the scheduler, which then
   wakes it late; a thread that sleeps nearly every period is woken at once.) When a tick ends
@@ -249,19 +249,24 @@ class RealClock:
 
     def __init__(self, priority: int | None = None) -> None:
         self.priority = priority
-        self._restore: Callable[[], None] | None = None  # gives back the thread's timer slack and slice
+        self._on_time: waiting.OnTime | None = None  # the thread's timer slack and slice while it ticks
+        self._cpu = 0.0  # s: the thread's CPU time before its last sleep
+        self._longest = 0.0  # s: the most CPU time it used between two sleeps since the last fit
+        self._sleeps = 0  # since the last fit
+        self._fit_at = waiting.FIRST_FIT  # sleeps between two fits
 
     def enter(self) -> None:
         """On the loop's thread, before the first tick: its scheduling (OSError if refused)
-        and its timer slack."""
+        and its timer slack and slice."""
         if self.priority is not None:
             os.sched_setscheduler(0, os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, os.sched_param(self.priority))
-        self._restore = waiting.on_time()
+        self._on_time = waiting.on_time()
+        self._cpu, self._longest, self._sleeps, self._fit_at = time.thread_time(), 0.0, 0, waiting.FIRST_FIT
 
     def leave(self) -> None:
-        if self._restore is not None:
-            self._restore()
-            self._restore = None
+        if self._on_time is not None:
+            self._on_time.restore()
+            self._on_time = None
         if self.priority is not None:
             try:
                 os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
@@ -272,10 +277,21 @@ class RealClock:
         return time.perf_counter()
 
     def wait_until(self, deadline: float) -> float:
-        ahead = deadline - time.perf_counter() - self.spin
-        if ahead > 0:
-            time.sleep(ahead)
         now = time.perf_counter()
+        ahead = deadline - now - self.spin
+        if ahead > 0:
+            cpu = time.thread_time()  # (not the wall clock: the time it was preempted uses no slice)
+            if cpu - self._cpu > self._longest:  # what the thread ran since its last sleep: its slice must cover it
+                self._longest = cpu - self._cpu
+            self._cpu = cpu
+            time.sleep(ahead)
+            now = time.perf_counter()
+            self._sleeps += 1
+            if self._sleeps >= self._fit_at and self._on_time is not None:
+                # (just after a wake-up: a slice changed just before a sleep makes the next wake-up late)
+                self._on_time.fit(self._longest)
+                self._longest, self._sleeps, self._fit_at = 0.0, 0, waiting.FIT_EVERY
+                now = time.perf_counter()
         while now < deadline:
             now = time.perf_counter()
         return now
