@@ -150,42 +150,32 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_", check_names: bool 
     features = [d.feature for d in variant.decisions if d.feature.parent is not None and not d.feature.abstract]
     compiled_in = {d.feature.id for d in variant.selected() if d.binding is Binding.SE}
     name = variant.name if re.fullmatch(r"[\w.-]+", variant.name) else "this variant"  # (inside a C string)
+    # One block of lines per feature and section, each made by one f-string (100,000 features
+    # make 1.2 million lines): the sections' blocks joined as their lines would be.
+    includes, registers, unimplemented = [], [], []
     for f in features:
-        macro = f"{prefix}FEATURE_{f.id.upper()}"
-        header = f"<motivml_features/{f.id}.hpp>"
-        if f.id in compiled_in:  # strict: a Static Early feature is compiled in, or the build fails
-            lines += [
-                f"#if defined({macro})",
-                f"#if __has_include({header})",
-                f"#include {header}",
-                f"#define {prefix}HAS_{f.id.upper()} 1",
-                "#else",
-                f'#error "motivml: {f.id} is Static Early in {name}, so it is compiled in, but its '
-                f"implementation {header} was not found on the include path (write it, or mark {f.id} "
-                f'abstract in the model if nothing implements it)"',
-                "#endif",
-                "#endif",
-            ]
-            continue
-        lines += [
-            f"#if defined({macro}) && __has_include({header})",
-            f"#include {header}",
-            f"#define {prefix}HAS_{f.id.upper()} 1",
-            "#endif",
-        ]
+        ident = f.id
+        up = ident.upper()
+        macro, has = f"{prefix}FEATURE_{up}", f"{prefix}HAS_{up}"
+        header = f"<motivml_features/{ident}.hpp>"
+        if ident in compiled_in:  # strict: a Static Early feature is compiled in, or the build fails
+            includes.append(
+                f"#if defined({macro})\n#if __has_include({header})\n#include {header}\n#define {has} 1\n#else\n"
+                f'#error "motivml: {ident} is Static Early in {name}, so it is compiled in, but its '
+                f"implementation {header} was not found on the include path (write it, or mark {ident} "
+                f'abstract in the model if nothing implements it)"\n#endif\n#endif'
+            )
+        else:
+            includes.append(f"#if defined({macro}) && __has_include({header})\n#include {header}\n#define {has} 1\n#endif")
+        registers.append(f'#ifdef {has}\n  registry.add("{ident}", motivml_features::make_{ident}());\n#endif')
+        unimplemented.append(f'#if defined({macro}) && !defined({has})\n    "{ident}",\n#endif')
+    lines += includes
     lines += ["", "namespace motivml {", "", "/* Register every compiled-in feature, in definition order. */"]
     lines += ["inline void register_static_features(FeatureRegistry& registry) {"]
-    for f in features:
-        lines += [
-            f"#ifdef {prefix}HAS_{f.id.upper()}",
-            f'  registry.add("{f.id}", motivml_features::make_{f.id}());',
-            "#endif",
-        ]
+    lines += registers
     lines += ["}", "", "/* Compiled-in features without an implementation header. */"]
     lines += ["inline const char* const unimplemented_features[] = {"]
-    for f in features:
-        macro = f"{prefix}FEATURE_{f.id.upper()}"
-        lines += [f"#if defined({macro}) && !defined({prefix}HAS_{f.id.upper()})", f'    "{f.id}",', "#endif"]
+    lines += unimplemented
     lines += ["    nullptr};", "", "}  // namespace motivml", "", f"#endif /* {guard} */", ""]
     return "\n".join(lines)
 
