@@ -318,13 +318,14 @@ def _bracket_ends(text: str) -> Callable[[int], int]:
     opening = (chars[brackets] == ord("[")) | (chars[brackets] == ord("{"))
     depth = np.cumsum(np.where(opening, 1, -1))
     level = np.where(opening, depth, depth + 1)  # an open and its close share a level
-    order = np.lexsort((brackets, level))  # by level, then position: open, close, open, ...
-    starts, stops = brackets[order[0::2]], brackets[order[1::2]] + 1
-    by_start = np.argsort(starts)
-    starts, stops = starts[by_start], stops[by_start]
+    if len(level) and level.max() < np.iinfo(np.int16).max:
+        level = level.astype(np.int16)  # (a stable sort of small integers is a radix sort)
+    order = np.argsort(level, kind="stable")  # by level, then position: open, close, open, ...
+    stops = np.empty_like(brackets)  # for each opening bracket, the offset after its closing one
+    stops[order[0::2]] = brackets[order[1::2]] + 1
 
     def end(offset: int) -> int:
-        return int(stops[np.searchsorted(starts, offset)])
+        return int(stops[np.searchsorted(brackets, offset)])
 
     return end
 
