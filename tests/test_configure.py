@@ -534,3 +534,48 @@ def _lock_document(variant: Variant) -> dict[str, Any]:
 
 def _feature(index: int, feature_id: str, parent: int | None) -> Feature:
     return Feature(index, feature_id, feature_id, parent, 0, "", "", False, None, None, None, (), ())
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    clauses=st.lists(st.lists(st.integers(1, 8).flatmap(lambda v: st.sampled_from([v, -v])), min_size=1, max_size=3), max_size=12),
+    soft=st.lists(st.tuples(st.integers(1, 8).flatmap(lambda v: st.sampled_from([v, -v])), st.integers(1, 5)), min_size=1, max_size=10),
+    more=st.lists(st.tuples(st.integers(1, 8), st.integers(1, 5)), max_size=4),
+)
+def test_rc2_with_its_selectors_kept_at_c_speed_is_rc2(
+    clauses: list[list[int]], soft: list[tuple[int, int]], more: list[tuple[int, int]]
+) -> None:
+    """The RC2 that `optimise` uses keeps the same selectors in the same order after every
+    core as pysat's own, with soft literals added between two answers (RC2 appends their
+    selectors; each contradicts the last answer, so the next one takes cores): the same
+    costs, the same models."""
+    from pysat.examples.rc2 import RC2
+    from pysat.formula import WCNF
+
+    from motivml.binding.encoding import _rc2
+
+    formula = WCNF()
+    for clause in clauses:
+        formula.append(clause)
+    for literal, weight in soft:
+        formula.append([literal], weight=weight)
+    seen: dict[type, list[list[int]]] = {}
+    for kind in (RC2, _rc2()):
+
+        class Watched(kind):  # type: ignore[misc, valid-type]
+            watched = kind
+
+            def filter_assumps(self) -> None:
+                super().filter_assumps()
+                seen.setdefault(self.watched, []).append(list(self.sels))
+
+        with Watched(formula, solver="g4") as maxsat:
+            answers = [(maxsat.compute(), maxsat.cost)]
+            for variable, weight in more:  # the last answer's value of a variable, wished otherwise
+                model = answers[-1][0]
+                if model is None:
+                    break
+                maxsat.add_clause([-model[(variable - 1) % len(model)]], weight=weight)
+                answers.append((maxsat.compute(), maxsat.cost))
+        seen.setdefault(kind, []).append(answers)  # type: ignore[arg-type]
+    assert seen[RC2] == seen[_rc2()]
