@@ -196,12 +196,13 @@ def test_a_slice_the_kernel_will_not_set_is_not_reported_as_set(monkeypatch: pyt
     assert seen[0] is None and seen[1] == seen[2]
 
 
-def test_a_fitted_slice_is_twice_the_longest_stretch_awake_in_whole_steps_within_the_kernel_s_bounds() -> None:
+def test_a_fitted_slice_is_twice_the_cpu_time_used_awake_in_whole_steps_within_its_bounds() -> None:
     assert waiting.fitted_slice(0.000_200, SLICE_NS) == 400_000  # 0.2 ms awake outgrew 0.1 ms
     assert waiting.fitted_slice(0.000_201, SLICE_NS) == 450_000  # (rounded up to a whole step)
     assert waiting.fitted_slice(0.000_010, SLICE_NS) == SLICE_NS  # never below the shortest
     assert waiting.fitted_slice(0.002, SLICE_NS) == SLICE_MAX_NS  # never above the longest
     assert waiting.fitted_slice(0.000_001, SLICE_MAX_NS) == SLICE_NS  # a slice far too long shrinks
+    assert waiting.fitted_slice(0.000_300, SLICE_NS, longest=250_000) == 250_000  # (the thread's own)
 
 
 def test_a_slice_is_kept_while_the_stretch_awake_is_between_a_quarter_and_three_quarters_of_it() -> None:
@@ -283,8 +284,64 @@ def test_the_real_clock_fits_the_slice_just_after_a_wake_up_to_the_longest_stret
     clock.leave()
     fits = [k for k, e in enumerate(events) if isinstance(e, tuple)]
     assert len(fits) == 2
-    assert [events[: fits[0]].count("sleep"), events[fits[0] : fits[1]].count("sleep")] == [waiting.FIRST_FIT, 3]
+    sleeps = [events[: fits[0]].count("sleep"), events[fits[0] : fits[1]].count("sleep")]
+    assert sleeps == [waiting.FIRST_FIT, 3]
     assert events[fits[0] - 1] == events[fits[1] - 1] == "sleep"  # (no sleep between a wake-up and its fit)
     first, second = events[fits[0]][1], events[fits[1]][1]
     assert (first, second) == (pytest.approx(0.0003), pytest.approx(0.0001))  # the most since the last fit
     assert events[-1] == "restore" and events.count("sleep") == waiting.FIRST_FIT + 3
+
+
+@pytest.mark.skipif(waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here")
+def test_a_thread_whose_own_slice_is_shorter_keeps_it_as_the_longest() -> None:
+    seen: list[int | None] = []
+
+    def ticking() -> None:
+        waiting.set_thread_slice(200_000)
+        asked = waiting.on_time()
+        seen.append(waiting.thread_slice())
+        asked.fit(0.000_400)  # would be 0.5 ms (0.8 at most otherwise)
+        seen.append(waiting.thread_slice())
+        asked.restore()
+        seen.append(waiting.thread_slice())
+
+    thread = threading.Thread(target=ticking)
+    thread.start()
+    thread.join()
+    assert seen == [200_000, 200_000, 200_000]
+
+
+@pytest.mark.skipif(waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here")
+def test_a_fit_keeps_a_nice_value_the_thread_was_given_while_it_ticks() -> None:
+    seen: list[int | None] = []
+
+    def ticking() -> None:
+        me = threading.get_native_id()
+        asked = waiting.on_time()
+        os.setpriority(os.PRIO_PROCESS, me, os.getpriority(os.PRIO_PROCESS, me) + 1)  # (nicer: no privilege)
+        nice = os.getpriority(os.PRIO_PROCESS, me)
+        asked.fit(0.000_050)  # 0.5 ms -> 0.1 ms
+        seen.extend([waiting.thread_slice(), os.getpriority(os.PRIO_PROCESS, me) - nice])
+        asked.restore()
+
+    thread = threading.Thread(target=ticking)
+    thread.start()
+    thread.join()
+    assert seen == [SLICE_NS, 0]
+
+
+@pytest.mark.skipif(waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here")
+def test_a_fit_keeps_the_thread_s_reset_on_fork_flag() -> None:
+    seen: list[int] = []
+
+    def ticking() -> None:
+        os.sched_setscheduler(0, os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, os.sched_param(0))
+        asked = waiting.on_time()
+        asked.fit(0.000_050)
+        seen.extend([os.sched_getscheduler(0), waiting.thread_slice() or 0])
+        asked.restore()
+
+    thread = threading.Thread(target=ticking)
+    thread.start()
+    thread.join()
+    assert seen == [os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, SLICE_NS]

@@ -160,14 +160,19 @@ def static_loader(variant: Variant, prefix: str = "MOTIVML_", check_names: bool 
         header = f"<motivml_features/{ident}.hpp>"
         if ident in compiled_in:  # strict: a Static Early feature is compiled in, or the build fails
             includes.append(
-                f"#if defined({macro})\n#if __has_include({header})\n#include {header}\n#define {has} 1\n#else\n"
+                f"#if defined({macro})\n#if __has_include({header})\n#include {header}\n"
+                f"#define {has} 1\n#else\n"
                 f'#error "motivml: {ident} is Static Early in {name}, so it is compiled in, but its '
                 f"implementation {header} was not found on the include path (write it, or mark {ident} "
                 f'abstract in the model if nothing implements it)"\n#endif\n#endif'
             )
         else:
-            includes.append(f"#if defined({macro}) && __has_include({header})\n#include {header}\n#define {has} 1\n#endif")
-        registers.append(f'#ifdef {has}\n  registry.add("{ident}", motivml_features::make_{ident}());\n#endif')
+            includes.append(
+                f"#if defined({macro}) && __has_include({header})\n#include {header}\n#define {has} 1\n#endif"
+            )
+        registers.append(
+            f'#ifdef {has}\n  registry.add("{ident}", motivml_features::make_{ident}());\n#endif'
+        )
         unimplemented.append(f'#if defined({macro}) && !defined({has})\n    "{ident}",\n#endif')
     lines += includes
     lines += ["", "namespace motivml {", "", "/* Register every compiled-in feature, in definition order. */"]

@@ -321,7 +321,7 @@ def _bracket_ends(text: str) -> Callable[[int], int]:
     if len(level) and level.max() < np.iinfo(np.int16).max:
         level = level.astype(np.int16)  # (a stable sort of small integers is a radix sort)
     order = np.argsort(level, kind="stable")  # by level, then position: open, close, open, ...
-    stops = np.empty_like(brackets)  # for each opening bracket, the offset after its closing one
+    stops = np.zeros_like(brackets)  # for each opening bracket, the offset after its closing one
     stops[order[0::2]] = brackets[order[1::2]] + 1
 
     def end(offset: int) -> int:

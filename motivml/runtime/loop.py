@@ -11,11 +11,12 @@ Two clocks:
   take as long as the computation.
 * `RealClock`: ticks start on a fixed schedule of `1 / rate` seconds (default 1 kHz). It
   sleeps until SPIN before a deadline, with the loop thread's timer slack cut to 1 us and
-  its scheduler slice fitted to its ticks (0.1-0.5 ms) so that it wakes on time and is
-  not preempted mid-tick on a busy machine (`motivml.runtime.waiting`), and spins the rest, with the cyclic garbage collector
-  paused and a short interpreter switch interval for the run. (It does not spin longer:
-  on a busy machine a thread that spins looks CPU-bound to the scheduler, which then
-  wakes it late; a thread that sleeps nearly every period is woken at once.) When a tick ends
+  its scheduler slice fitted to its ticks (0.1-0.5 ms) so that it wakes on time and is not
+  preempted mid-tick on a busy machine (`motivml.runtime.waiting`), and spins the rest,
+  with the cyclic garbage collector paused and a short interpreter switch interval for the
+  run. (It does not spin longer: on a busy machine a thread that spins looks CPU-bound to
+  the scheduler, which then wakes it late; a thread that sleeps nearly every period is
+  woken at once.) When a tick ends
   after the next deadline, the deadlines it overran are *missed*: no tick starts at them,
   and the loop goes on at the first deadline still ahead (no bunching up). `RunStats` has
   the achieved rate, the jitter (start - deadline) p50/p99/max, the work time per tick and
@@ -281,7 +282,7 @@ class RealClock:
         ahead = deadline - now - self.spin
         if ahead > 0:
             cpu = time.thread_time()  # (not the wall clock: the time it was preempted uses no slice)
-            if cpu - self._cpu > self._longest:  # what the thread ran since its last sleep: its slice must cover it
+            if cpu - self._cpu > self._longest:  # what it ran since its last sleep: its slice must cover it
                 self._longest = cpu - self._cpu
             self._cpu = cpu
             time.sleep(ahead)

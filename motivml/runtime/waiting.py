@@ -15,12 +15,12 @@ given back (both are no-ops where the system lacks them):
   The slice must also cover the CPU time the thread uses between two sleeps: once a thread
   has run its slice, the scheduler may hand the CPU to a busy process at its next tick
   (every 4 ms here), and the loop waits for that process's slice, a missed deadline. So the
-  loop's slice is *fitted* (`OnTime.fit`). It starts at SLICE_MAX_NS, 0.5 ms. After
-  FIRST_FIT sleeps, then every FIT_EVERY sleeps, it becomes twice the most CPU time the
-  thread used between two sleeps in them, within 0.1-0.5 ms. It is kept while that time is
-  between a quarter and three quarters of it: each change costs a late wake-up now and
-  then. The slice is changed just after a wake-up; changed just before a sleep, it made the
-  next wake-up late in 2-13 of 60 changes.
+  loop's slice is *fitted* (`OnTime.fit`). It starts at SLICE_MAX_NS, 0.5 ms (or the
+  thread's own slice, if that is shorter). After FIRST_FIT sleeps, then every FIT_EVERY
+  sleeps, it becomes twice the most CPU time the thread used between two sleeps in them,
+  within 0.1-0.5 ms. It is kept while that time is between a quarter and three quarters of
+  it: each change costs a late wake-up now and then. The slice is changed just after a
+  wake-up; changed just before a sleep, it made the next wake-up late in 2-13 of 60 changes.
 
   The bench's twenty components use 0.15-0.2 ms per tick, and up to 0.5 ms on the busy
   machine. In 12 s there, alternated: 1,499-1,612 missed deadlines with a fixed 0.1 ms
@@ -39,13 +39,15 @@ from typing import Any
 
 TIMER_SLACK_NS = 1000  # the loop thread's timer slack while it ticks
 SLICE_NS = 100_000  # the loop thread's shortest slice while it ticks (the kernel's shortest)
-SLICE_MAX_NS = 500_000  # its longest, and its first: below ordinary threads' slices, or its wake-ups wait for theirs
+SLICE_MAX_NS = 500_000  # its longest, and its first: below ordinary threads' slices (else its
+# wake-ups wait for theirs), and never above the thread's own
 SLICE_STEP_NS = 50_000  # fitted slices are whole steps of this (fewer system calls)
 SLICE_PER_AWAKE = 2.0  # the slice fitted, per the longest stretch the thread ran between two sleeps
 GROW_ABOVE, SHRINK_BELOW = 0.75, 0.25  # a slice is kept while that stretch is within these parts of it
 FIRST_FIT = 10  # sleeps before the first fit
 FIT_EVERY = 250  # sleeps between two fits after it (a quarter of a second at 1 kHz)
 _PR_SET_TIMERSLACK, _PR_GET_TIMERSLACK = 29, 30  # prctl(2) options (linux/prctl.h)
+_SCHED_FLAG_RESET_ON_FORK = 0x01  # (linux/sched.h)
 _SCHED_ATTR_CALLS = {"x86_64": (314, 315), "aarch64": (274, 275)}  # sched_setattr, sched_getattr
 
 
@@ -125,21 +127,24 @@ def set_thread_slice(ns: int) -> int | None:
 
 
 def _ask_slice(found: tuple[Any, int, _SchedAttr], ns: int) -> bool:
-    """One system call: the attributes `found` (the calling thread's) with a slice of `ns`."""
+    """One system call: the attributes `found` (the calling thread's, as just read) with a
+    slice of `ns`; of their flags, only reset-on-fork is kept (the others ask for more)."""
     libc, setattr_call, attr = found
-    attr.size, attr.sched_runtime, attr.sched_flags = ctypes.sizeof(attr), ns, 0
+    attr.size, attr.sched_runtime = ctypes.sizeof(attr), ns
+    attr.sched_flags &= _SCHED_FLAG_RESET_ON_FORK
     return bool(libc.syscall(setattr_call, 0, ctypes.byref(attr), 0) == 0)
 
 
-def fitted_slice(awake: float, current: int) -> int:
-    """The slice (ns) for a thread with slice `current` whose longest stretch between two
-    sleeps was `awake` s: `current` while `awake` is between a quarter and three quarters of
-    it (a changed slice costs a late wake-up now and then), else twice `awake`."""
+def fitted_slice(awake: float, current: int, longest: int = SLICE_MAX_NS) -> int:
+    """The slice (ns) for a thread with slice `current` that used at most `awake` s of CPU
+    between two sleeps: `current` while `awake` is between a quarter and three quarters of
+    it (a changed slice costs a late wake-up now and then), else twice `awake`, within
+    SLICE_NS and `longest`."""
     ns = awake * 1e9
     if current * SHRINK_BELOW <= ns <= current * GROW_ABOVE:
         return current
     steps = math.ceil(SLICE_PER_AWAKE * ns / SLICE_STEP_NS)
-    return min(SLICE_MAX_NS, max(SLICE_NS, steps * SLICE_STEP_NS))
+    return min(longest, max(SLICE_NS, steps * SLICE_STEP_NS))
 
 
 class OnTime:
@@ -147,24 +152,33 @@ class OnTime:
 
     def __init__(self) -> None:
         self._slack = set_timer_slack(TIMER_SLACK_NS)
-        self._old_slice = set_thread_slice(SLICE_MAX_NS)
-        self.slice = SLICE_MAX_NS if self._old_slice is not None else None  # ns: the one asked, if any
-        self._found = _sched_attr() if self._old_slice is not None else None  # (for one system call a fit)
+        own = thread_slice()
+        # never longer than the thread's own: shorter than the others' is the point
+        self._longest = min(SLICE_MAX_NS, own) if own else SLICE_MAX_NS
+        self._old_slice = set_thread_slice(self._longest)
+        self.slice = self._longest if self._old_slice is not None else None  # ns: the one asked, if any
 
     def fit(self, awake: float) -> None:
-        """Fit the slice to `awake`, the longest the thread ran between two sleeps lately (on
-        the same thread; nothing where no slice could be asked)."""
-        if self.slice is None or self._found is None:
+        """Fit the slice to `awake`, the most CPU time the thread used between two sleeps
+        lately (on the same thread; nothing where no slice could be asked). The thread's
+        other attributes are read anew first, so that a change of its nice value or policy
+        meanwhile is kept (a thread made real-time is left alone)."""
+        if self.slice is None:
             return
-        wanted = fitted_slice(awake, self.slice)
-        if wanted != self.slice and _ask_slice(self._found, wanted):
+        wanted = fitted_slice(awake, self.slice, self._longest)
+        if wanted == self.slice:
+            return
+        found = _sched_attr()
+        if found is None or found[2].sched_policy not in (0, 3) or found[2].sched_runtime == 0:
+            return
+        if _ask_slice(found, wanted):
             self.slice = wanted
 
     def restore(self) -> None:
         """Give the thread its own slice and timer slack back (on the same thread)."""
         if self._old_slice is not None:
             set_thread_slice(self._old_slice)
-            self._old_slice = self.slice = self._found = None
+            self._old_slice = self.slice = None
         if self._slack is not None:
             set_timer_slack(self._slack)
             self._slack = None
