@@ -8,7 +8,12 @@ the CLI runs them when a model is validated without a configuration.
 
 from __future__ import annotations
 
+import os
+import pickle
+import signal
+import threading
 from dataclasses import replace
+from typing import BinaryIO, NoReturn
 
 from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
@@ -50,80 +55,220 @@ def _void(encoding: enc.Encoding, explainer: Explainer) -> list[Diagnostic]:
     ]
 
 
-def analyse_model(model: FeatureModel) -> list[Diagnostic]:
-    """A void model (error); dead features and never-possible bindings (warnings)."""
-    with no_gc(), enc.Encoding(model) as hard:
-        if not hard.solve(with_config=False):
-            with enc.Encoding(model, explain=True) as encoding:
-                return _void(encoding, Explainer(encoding, model, None))
-        features = model.features
-        n = len(features)
-        alive = hard.cover(
-            [[hard.s(i)] for i in range(n)],
-            with_config=False,
-            hints=[[hard.s(i) for i in range(n)]],
-            batch=True,  # (most of what the hint leaves open is possible)
-            refute=False,
-        )
-        impossible = impossible_bindings(hard, model, alive)
+def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Diagnostic]:
+    """A void model (error); dead features and never-possible bindings (warnings).
 
-    dead = [f for f in features if not alive[f.index] and (f.parent is None or alive[f.parent])]
-    if not dead and not impossible:
-        return []
-    found: list[Diagnostic] = []
+    The warnings are explained on a second encoding (the explain build). With `parallel`
+    (by default where `os.fork` is there, for models of PARALLEL_FROM features or more), a
+    child process builds it and explains while this one still searches: the dead features
+    as soon as they are known, during the search for impossible bindings. The child asks
+    the same questions of the same encoding in the same order, so the warnings are the
+    same; if it fails in any way, they are explained here instead.
+    """
+    helper = _Helper.start(model) if _parallel(model, parallel) else None
+    try:
+        with no_gc(), enc.Encoding(model) as hard:
+            if not hard.solve(with_config=False):
+                with enc.Encoding(model, explain=True) as encoding:
+                    return _void(encoding, Explainer(encoding, model, None))
+            features = model.features
+            n = len(features)
+            alive = hard.cover(
+                [[hard.s(i)] for i in range(n)],
+                with_config=False,
+                hints=[[hard.s(i) for i in range(n)]],
+                batch=True,  # (most of what the hint leaves open is possible)
+                refute=False,
+            )
+            dead = [f.index for f in features if not alive[f.index] and (f.parent is None or alive[f.parent])]
+            if helper is not None:
+                helper.ask(dead)  # (explained meanwhile)
+            impossible = impossible_bindings(hard, model, alive)
+        if not dead and not impossible:
+            return []
+        if helper is not None:
+            helper.ask(impossible)
+            found = helper.answer()
+            if found is not None:
+                return found
+        with no_gc(), enc.Encoding(model, explain=True) as encoding:
+            explainer = Explainer(encoding, model, None)
+            return _dead_warnings(encoding, explainer, dead) + _binding_warnings(encoding, explainer, impossible)
+    finally:
+        if helper is not None:
+            helper.close()
+
+
+PARALLEL_FROM = 2000  # features: from here `analyse_model` explains in a child process
+
+
+def _parallel(model: FeatureModel, asked: bool | None) -> bool:
+    if asked is not None:
+        return asked and hasattr(os, "fork")
+    # (a fork copies only the calling thread: with others running, one of them may hold a lock)
+    return len(model.features) >= PARALLEL_FROM and hasattr(os, "fork") and threading.active_count() == 1
+
+
+class _Helper:
+    """A child process that builds the explain encoding and explains the warnings it is
+    sent: first the dead features (indices), then the impossible bindings; it answers with
+    their diagnostics, pickled. Each message is a pickle on a pipe."""
+
+    def __init__(self, pid: int, to_child: BinaryIO, from_child: BinaryIO) -> None:
+        self.pid, self._to, self._from = pid, to_child, from_child
+        self._writing: threading.Thread | None = None
+
+    @classmethod
+    def start(cls, model: FeatureModel) -> _Helper | None:
+        """The helper, forked now; None if it cannot be (then nothing is left behind)."""
+        pipes: list[int] = []
+        try:
+            down, up = os.pipe(), os.pipe()
+            pipes = [*down, *up]
+            pid = os.fork()
+        except OSError:
+            for fd in pipes:
+                os.close(fd)
+            return None
+        if pid == 0:
+            _child(model, down, up)
+        os.close(down[0])
+        os.close(up[1])
+        return cls(pid, open(down[1], "wb"), open(up[0], "rb"))
+
+    def ask(self, what: object) -> None:
+        """Send `what`, from a thread: a message larger than the pipe holds would otherwise
+        hold this process up until the child, still building, reads it."""
+        if self._writing is not None:
+            self._writing.join()  # (in order)
+        message = pickle.dumps(what)
+        self._writing = threading.Thread(target=self._write, args=(message,), name="motivml-explain-ask")
+        self._writing.start()
+
+    def _write(self, message: bytes) -> None:
+        try:
+            self._to.write(message)
+            self._to.flush()
+        except (OSError, ValueError):  # (the child has gone, or the pipe was closed: no answer)
+            pass
+
+    def answer(self) -> list[Diagnostic] | None:
+        """The child's diagnostics; None if it ended without them."""
+        if self._writing is not None:
+            self._writing.join()
+        try:
+            found = pickle.load(self._from)
+        except Exception:  # noqa: BLE001 - an unpickling error, end of file, an OSError: no answer
+            return None
+        return found if isinstance(found, list) else None
+
+    def close(self) -> None:
+        """End the child (at once, if it is still at work) and reap it."""
+        try:
+            os.kill(self.pid, signal.SIGKILL)
+        except OSError:
+            pass
+        if self._writing is not None:
+            self._writing.join()  # (a write to a child killed ends at once)
+        for stream in (self._to, self._from):
+            try:
+                stream.close()
+            except OSError:
+                pass
+        try:
+            os.waitpid(self.pid, 0)
+        except OSError:
+            pass
+
+
+def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int]) -> NoReturn:
+    """The helper's process, from the fork to its end (whatever happens, it ends here):
+    requests come on `down`, the answer goes on `up`."""
+    code = 1
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
+        os.close(down[1])
+        os.close(up[0])
+        with open(down[0], "rb") as requests, open(up[1], "wb") as answers:
+            _explain_as_told(model, requests, answers)
+        code = 0
+    except BaseException:  # noqa: BLE001, S110 - the parent explains instead (it sees no answer)
+        pass
+    finally:
+        os._exit(code)
+
+
+def _explain_as_told(model: FeatureModel, requests: BinaryIO, answers: BinaryIO) -> None:
+    """The helper's work (in the child)."""
     with no_gc(), enc.Encoding(model, explain=True) as encoding:
         explainer = Explainer(encoding, model, None)
-        for count, f in enumerate(dead):
-            below = len(model.subtree(f.index)) - 1
-            extra = f" (and so are its {below} sub-features)" if below else ""
-            head = f"{f.id} is dead: no valid variant selects it{extra}"
-            if count >= LISTED_WARNINGS:
-                found.append(_more(dead[count:], model, "model.dead-feature", "dead features"))
-                break
-            if count >= EXPLAINED_WARNINGS:
-                found.append(
-                    warning(explainer.model_location(f.index, "id"), head, "model.dead-feature", f.id)
-                )
-                continue
-            q = encoding.query("query-selected", f.index, encoding.s(f.index))
-            explainer.query_words[q] = f"{f.id} would be selected"
-            (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q])
-            where = explainer.model_location(f.index, "id")
-            found.append(_as_warning(explainer.diagnostic(mus), where, head, "model.dead-feature", f.id))
-        for count, (i, aspect, value) in enumerate(impossible):
-            f = features[i]
-            if count >= LISTED_WARNINGS:
-                rest = [features[j] for j, _, _ in impossible[count:]]
-                found.append(
-                    _more(rest, model, "model.impossible-binding", "bindings allowed but never possible")
-                )
-                break
-            other = {
-                Time.EARLY: Time.LATE,
-                Time.LATE: Time.EARLY,
-                Mode.STATIC: Mode.DYNAMIC,
-                Mode.DYNAMIC: Mode.STATIC,
-            }[value]
-            head = f"{f.id} allows Any binding {aspect} but can never be {value}, only {other}"
-            key = "bindingTimeAllowed" if aspect == "time" else "bindingModeAllowed"
-            where = explainer.model_location(i, "constraints", key)
-            if count >= EXPLAINED_WARNINGS:
-                found.append(warning(where, head, "model.impossible-binding", f.id))
-                continue
-            literal = {
-                Time.EARLY: encoding.E(i),
-                Time.LATE: -encoding.E(i),
-                Mode.STATIC: encoding.S(i),
-                Mode.DYNAMIC: -encoding.S(i),
-            }
-            q1 = encoding.query("query-selected", i, encoding.s(i))
-            q2 = encoding.query("query-binding", i, literal[value])
-            explainer.query_words[q1] = f"{f.id} would be selected"
-            explainer.query_words[q2] = f"{f.id} would be {value}"
-            (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q1, q2])
-            found.append(
-                _as_warning(explainer.diagnostic(mus), where, head, "model.impossible-binding", f.id)
-            )
+        found = _dead_warnings(encoding, explainer, pickle.load(requests))
+        found += _binding_warnings(encoding, explainer, pickle.load(requests))
+    pickle.dump(found, answers)
+    answers.flush()
+
+
+def _dead_warnings(encoding: enc.Encoding, explainer: Explainer, dead: list[int]) -> list[Diagnostic]:
+    """Dead features (indices, each the highest of a dead subtree), the first ones explained."""
+    model = explainer.model
+    features = model.features
+    found: list[Diagnostic] = []
+    for count, i in enumerate(dead):
+        f = features[i]
+        below = len(model.subtree(f.index)) - 1
+        extra = f" (and so are its {below} sub-features)" if below else ""
+        head = f"{f.id} is dead: no valid variant selects it{extra}"
+        if count >= LISTED_WARNINGS:
+            found.append(_more([features[j] for j in dead[count:]], model, "model.dead-feature", "dead features"))
+            break
+        if count >= EXPLAINED_WARNINGS:
+            found.append(warning(explainer.model_location(f.index, "id"), head, "model.dead-feature", f.id))
+            continue
+        q = encoding.query("query-selected", f.index, encoding.s(f.index))
+        explainer.query_words[q] = f"{f.id} would be selected"
+        (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q])
+        where = explainer.model_location(f.index, "id")
+        found.append(_as_warning(explainer.diagnostic(mus), where, head, "model.dead-feature", f.id))
+    return found
+
+
+def _binding_warnings(
+    encoding: enc.Encoding, explainer: Explainer, impossible: list[tuple[int, str, Time | Mode]]
+) -> list[Diagnostic]:
+    """Bindings allowed but never possible, the first ones explained."""
+    model = explainer.model
+    features = model.features
+    found: list[Diagnostic] = []
+    for count, (i, aspect, value) in enumerate(impossible):
+        f = features[i]
+        if count >= LISTED_WARNINGS:
+            rest = [features[j] for j, _, _ in impossible[count:]]
+            found.append(_more(rest, model, "model.impossible-binding", "bindings allowed but never possible"))
+            break
+        other = {
+            Time.EARLY: Time.LATE,
+            Time.LATE: Time.EARLY,
+            Mode.STATIC: Mode.DYNAMIC,
+            Mode.DYNAMIC: Mode.STATIC,
+        }[value]
+        head = f"{f.id} allows Any binding {aspect} but can never be {value}, only {other}"
+        key = "bindingTimeAllowed" if aspect == "time" else "bindingModeAllowed"
+        where = explainer.model_location(i, "constraints", key)
+        if count >= EXPLAINED_WARNINGS:
+            found.append(warning(where, head, "model.impossible-binding", f.id))
+            continue
+        literal = {
+            Time.EARLY: encoding.E(i),
+            Time.LATE: -encoding.E(i),
+            Mode.STATIC: encoding.S(i),
+            Mode.DYNAMIC: -encoding.S(i),
+        }
+        q1 = encoding.query("query-selected", i, encoding.s(i))
+        q2 = encoding.query("query-binding", i, literal[value])
+        explainer.query_words[q1] = f"{f.id} would be selected"
+        explainer.query_words[q2] = f"{f.id} would be {value}"
+        (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q1, q2])
+        found.append(_as_warning(explainer.diagnostic(mus), where, head, "model.impossible-binding", f.id))
     return found
 
 
