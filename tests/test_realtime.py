@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -212,24 +213,33 @@ def test_a_slice_is_kept_while_the_stretch_awake_is_between_a_quarter_and_three_
     assert waiting.fitted_slice(0.000_099, 400_000) == 200_000
 
 
-@pytest.mark.skipif(waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here")
-def test_on_time_fits_the_thread_s_slice_and_gives_the_thread_s_own_back() -> None:
-    seen: list[int | None] = []
+def _on_a_thread_of_its_own(work: Callable[[], list[Any]]) -> list[Any]:
+    """What `work` returns, run on a new thread (its slice and nice value are its own)."""
+    seen: list[list[Any]] = []
+    thread = threading.Thread(target=lambda: seen.append(work()))
+    thread.start()
+    thread.join()
+    return seen[0]
 
-    def ticking() -> None:
+
+custom_slices = pytest.mark.skipif(
+    waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here"
+)
+
+
+@custom_slices
+def test_on_time_fits_the_thread_s_slice_and_gives_the_thread_s_own_back() -> None:
+    def ticking() -> list[Any]:
         before = waiting.thread_slice()
         asked = waiting.on_time()
         asked.fit(0.000_100)  # under a quarter of the first, 0.5 ms: twice it
-        seen.extend([asked.slice, waiting.thread_slice()])
+        seen = [asked.slice, waiting.thread_slice()]
         asked.fit(0.000_120)  # within a quarter and three quarters: kept
         seen.append(waiting.thread_slice())
         asked.restore()
-        seen.extend([waiting.thread_slice(), before])
+        return [*seen, waiting.thread_slice() == before]
 
-    thread = threading.Thread(target=ticking)
-    thread.start()
-    thread.join()
-    assert seen[:3] == [200_000, 200_000, 200_000] and seen[3] == seen[4]
+    assert _on_a_thread_of_its_own(ticking) == [200_000, 200_000, 200_000, True]
 
 
 class _Asked:
@@ -292,56 +302,43 @@ def test_the_real_clock_fits_the_slice_just_after_a_wake_up_to_the_longest_stret
     assert events[-1] == "restore" and events.count("sleep") == waiting.FIRST_FIT + 3
 
 
-@pytest.mark.skipif(waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here")
+@custom_slices
 def test_a_thread_whose_own_slice_is_shorter_keeps_it_as_the_longest() -> None:
-    seen: list[int | None] = []
-
-    def ticking() -> None:
+    def ticking() -> list[Any]:
         waiting.set_thread_slice(200_000)
         asked = waiting.on_time()
-        seen.append(waiting.thread_slice())
+        seen = [waiting.thread_slice()]
         asked.fit(0.000_400)  # would be 0.5 ms (0.8 at most otherwise)
         seen.append(waiting.thread_slice())
         asked.restore()
-        seen.append(waiting.thread_slice())
+        return [*seen, waiting.thread_slice()]
 
-    thread = threading.Thread(target=ticking)
-    thread.start()
-    thread.join()
-    assert seen == [200_000, 200_000, 200_000]
+    assert _on_a_thread_of_its_own(ticking) == [200_000, 200_000, 200_000]
 
 
-@pytest.mark.skipif(waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here")
+@custom_slices
 def test_a_fit_keeps_a_nice_value_the_thread_was_given_while_it_ticks() -> None:
-    seen: list[int | None] = []
-
-    def ticking() -> None:
+    def ticking() -> list[Any]:
         me = threading.get_native_id()
         asked = waiting.on_time()
         os.setpriority(os.PRIO_PROCESS, me, os.getpriority(os.PRIO_PROCESS, me) + 1)  # (nicer: no privilege)
         nice = os.getpriority(os.PRIO_PROCESS, me)
         asked.fit(0.000_050)  # 0.5 ms -> 0.1 ms
-        seen.extend([waiting.thread_slice(), os.getpriority(os.PRIO_PROCESS, me) - nice])
+        seen = [waiting.thread_slice(), os.getpriority(os.PRIO_PROCESS, me) - nice]
         asked.restore()
+        return seen
 
-    thread = threading.Thread(target=ticking)
-    thread.start()
-    thread.join()
-    assert seen == [SLICE_NS, 0]
+    assert _on_a_thread_of_its_own(ticking) == [SLICE_NS, 0]
 
 
-@pytest.mark.skipif(waiting.thread_slice() is None or _kernel() < (6, 12), reason="no custom slices here")
+@custom_slices
 def test_a_fit_keeps_the_thread_s_reset_on_fork_flag() -> None:
-    seen: list[int] = []
-
-    def ticking() -> None:
+    def ticking() -> list[Any]:
         os.sched_setscheduler(0, os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, os.sched_param(0))
         asked = waiting.on_time()
         asked.fit(0.000_050)
-        seen.extend([os.sched_getscheduler(0), waiting.thread_slice() or 0])
+        seen = [os.sched_getscheduler(0), waiting.thread_slice()]
         asked.restore()
+        return seen
 
-    thread = threading.Thread(target=ticking)
-    thread.start()
-    thread.join()
-    assert seen == [os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, SLICE_NS]
+    assert _on_a_thread_of_its_own(ticking) == [os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, SLICE_NS]
