@@ -8,6 +8,8 @@ import json
 import os
 import pickle
 import signal
+import threading
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
@@ -53,11 +55,132 @@ def no_child_left() -> bool:
     return False
 
 
+@pytest.fixture
+def answered(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
+    """Whether each helper's answer came (so that the parent did not explain instead)."""
+    seen: list[bool] = []
+    answer = check._Helper.answer
+
+    def recorded(self: check._Helper) -> Any:
+        found = answer(self)
+        seen.append(found is not None)
+        return found
+
+    monkeypatch.setattr(check._Helper, "answer", recorded)
+    return seen
+
+
 @settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck))
 @given(models(max_features=9))
-def test_the_child_explains_as_this_process_does(raw: dict[str, Any]) -> None:
+def test_the_child_explains_as_this_process_does(answered: list[bool], raw: dict[str, Any]) -> None:
     model = read(raw)
+    answered.clear()
     assert analyse_model(model, parallel=True) == analyse_model(read(raw), parallel=False)
+    assert all(answered)  # (none asked of a model without warnings, or a void one)
+    assert no_child_left()
+
+
+def test_the_child_s_explanations_are_the_ones_shown(answered: list[bool]) -> None:
+    assert analyse_model(warned(), parallel=True) == analyse_model(warned(), parallel=False)
+    assert answered == [True]
+
+
+def many() -> FeatureModel:
+    """Dead features and impossible bindings past what is explained and what is listed."""
+    dead = [feature(f"d{k}", isMandatory=False, time="Any", mode="Any", inc=["x"]) for k in range(5)]
+    fixed = [feature(f"e{k}", isMandatory=False, time="Any", mode="Any") for k in range(5)]
+    return read(
+        feature(
+            "r",
+            [
+                feature("x", isMandatory=False, time="Any", mode="Any", exc=["m"]),
+                feature("m", isMandatory=True, time="Early", mode="Static", inc=[f"e{k}" for k in range(5)]),
+                *dead,
+                *fixed,
+            ],
+        )
+    )
+
+
+def test_past_the_explained_and_the_listed_warnings_the_child_says_what_this_process_says(
+    monkeypatch: pytest.MonkeyPatch, answered: list[bool]
+) -> None:
+    monkeypatch.setattr(check, "EXPLAINED_WARNINGS", 1)  # (the child has them as they are at the fork)
+    monkeypatch.setattr(check, "LISTED_WARNINGS", 3)
+    alone = analyse_model(many(), parallel=False)
+    assert sum("more" in d.message for d in alone) == 2 and sum(bool(d.facts) for d in alone) == 2
+    assert analyse_model(many(), parallel=True) == alone
+    assert answered == [True]
+
+
+def test_a_void_model_ends_its_child_before_it_explains_here(monkeypatch: pytest.MonkeyPatch) -> None:
+    raw = feature("r", [feature("a", isMandatory=True, exc=["b"]), feature("b", isMandatory=True)])
+    expected = analyse_model(read(raw), parallel=False)
+    events: list[str] = []
+    close, void = check._Helper.close, check._void
+    monkeypatch.setattr(check._Helper, "close", lambda self: (events.append("child ended"), close(self))[1])
+    monkeypatch.setattr(check, "_void", lambda *args: (events.append("explained here"), void(*args))[1])
+    found = analyse_model(read(raw), parallel=True)
+    assert found == expected and all(d.message.startswith("the model has no valid variant: ") for d in found)
+    assert events[:2] == ["child ended", "explained here"]
+    assert no_child_left()
+
+
+def test_the_fork_holds_ctrl_c_and_sigterm_back_until_the_helper_is_set_up(monkeypatch: pytest.MonkeyPatch) -> None:
+    held: list[set[signal.Signals]] = []
+    fork = os.fork
+
+    def watched() -> int:
+        held.append(set(signal.pthread_sigmask(signal.SIG_BLOCK, [])))
+        return fork()
+
+    monkeypatch.setattr(check.os, "fork", watched)
+    helper = check._Helper.start(warned())
+    assert helper is not None
+    helper.close()
+    assert {signal.SIGINT, signal.SIGTERM} <= held[0]
+    assert not {signal.SIGINT, signal.SIGTERM} & set(signal.pthread_sigmask(signal.SIG_BLOCK, []))
+    assert no_child_left()
+
+
+def test_a_request_larger_than_the_pipe_holds_does_not_hold_the_parent_up(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The child reads nothing until the parent has sent its first request (a megabyte)
+    and opened a gate: a request written in the parent's own thread would wait forever."""
+    gate = os.pipe()
+
+    def waits(model: FeatureModel, requests: Any, answers: Any) -> None:
+        os.read(gate[0], 1)
+        sizes = [len(pickle.load(requests)), len(pickle.load(requests))]
+        pickle.dump([check.warning(check.Location("m.json"), f"{sizes}", "test")], answers)
+        answers.flush()
+
+    monkeypatch.setattr(check, "_explain_as_told", waits)
+    helper = check._Helper.start(warned())
+    assert helper is not None
+    previous = signal.signal(signal.SIGALRM, lambda *args: pytest.fail("the request held the parent up"))
+    signal.alarm(60)
+    try:
+        helper.ask(list(range(200_000)))  # (about a megabyte pickled)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    os.write(gate[1], b"x")
+    helper.ask([1, 2])
+    found = helper.answer()
+    helper.close()
+    assert found is not None and [d.message for d in found] == ["[200000, 2]"]
+    assert no_child_left()
+
+
+def test_no_thread_to_send_with_leaves_the_parent_to_explain(monkeypatch: pytest.MonkeyPatch) -> None:
+    expected, model = analyse_model(warned(), parallel=False), warned()
+
+    class Refused(threading.Thread):
+        def start(self) -> None:
+            raise RuntimeError("can't start new thread")
+
+    monkeypatch.setattr(check, "threading", SimpleNamespace(Thread=Refused, active_count=threading.active_count))
+    assert analyse_model(model, parallel=True) == expected
     assert no_child_left()
 
 
@@ -88,13 +211,13 @@ def _impossible(model: FeatureModel) -> list[Any]:
         return impossible_bindings(hard, model, alive)
 
 
-@pytest.mark.parametrize("failure", ["raises", "answers nonsense", "dies"])
+@pytest.mark.parametrize("failure", ["raises", "answers nonsense", "answers a list of nonsense", "dies"])
 def test_a_child_that_fails_leaves_the_parent_to_explain(monkeypatch: pytest.MonkeyPatch, failure: str) -> None:
     def fails(model: FeatureModel, requests: Any, answers: Any) -> None:
         if failure == "raises":
             raise RuntimeError("no explanations today")
-        if failure == "answers nonsense":
-            pickle.dump({"not": "a list"}, answers)
+        if failure.startswith("answers"):
+            pickle.dump({"not": "a list"} if failure == "answers nonsense" else ["not", "diagnostics"], answers)
             answers.flush()
             return
         os._exit(3)
@@ -148,7 +271,8 @@ def test_the_child_process_reads_its_requests_answers_and_ends(monkeypatch: pyte
         raise SystemExit(code)
 
     monkeypatch.setattr(check.os, "_exit", ends)
-    monkeypatch.setattr(check.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C)
+    monkeypatch.setattr(check.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C,
+    monkeypatch.setattr(check, "_die_with_parent", lambda: None)  # its parent and its OOM score)
     with pytest.raises(SystemExit) as ended:
         check._child(model, down, up)
     assert ended.value.code == 0
@@ -157,3 +281,8 @@ def test_the_child_process_reads_its_requests_answers_and_ends(monkeypatch: pyte
     with pytest.raises(SystemExit) as failed:  # (nothing to read now: it fails, and says so)
         check._child(model, os.pipe(), os.pipe())
     assert failed.value.code == 1
+
+
+def test_ending_a_helper_that_has_no_process_kills_nothing() -> None:
+    check._end(0)  # (os.kill(0, ...) would kill this process's whole group, this test run with it)
+    check._end(-1)

@@ -8,6 +8,7 @@ the CLI runs them when a model is validated without a configuration.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import pickle
 import signal
@@ -65,10 +66,15 @@ def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Dia
     the same questions of the same encoding in the same order, so the warnings are the
     same; if it fails in any way, they are explained here instead.
     """
-    helper = _Helper.start(model) if _parallel(model, parallel) else None
+    helper: _Helper | None = None
     try:
+        if _parallel(model, parallel):
+            helper = _Helper.start(model)
         with no_gc(), enc.Encoding(model) as hard:
             if not hard.solve(with_config=False):
+                if helper is not None:
+                    helper.close()  # (it builds for warnings; a void model has none)
+                    helper = None
                 with enc.Encoding(model, explain=True) as encoding:
                     return _void(encoding, Explainer(encoding, model, None))
             features = model.features
@@ -120,30 +126,57 @@ class _Helper:
 
     @classmethod
     def start(cls, model: FeatureModel) -> _Helper | None:
-        """The helper, forked now; None if it cannot be (then nothing is left behind)."""
+        """The helper, forked now; None if it cannot be (then nothing is left behind).
+
+        Ctrl-C and SIGTERM are held back from the fork until the helper is set up (or its
+        child ended), so that an interruption never leaves a child unreaped or running
+        this process's own exit path in the child."""
         pipes: list[int] = []
+        held = _HELD & signal.valid_signals()
+        signal.pthread_sigmask(signal.SIG_BLOCK, held)
+        pid = 0
         try:
-            down, up = os.pipe(), os.pipe()
-            pipes = [*down, *up]
-            pid = os.fork()
-        except OSError:
-            for fd in pipes:
-                os.close(fd)
-            return None
-        if pid == 0:
-            _child(model, down, up)
-        os.close(down[0])
-        os.close(up[1])
-        return cls(pid, open(down[1], "wb"), open(up[0], "rb"))
+            try:
+                down, up = os.pipe(), os.pipe()
+                pipes = [*down, *up]
+                pid = os.fork()
+            except OSError:
+                for fd in pipes:
+                    os.close(fd)
+                return None
+            if pid == 0:
+                _child(model, down, up)
+            try:
+                os.close(down[0])
+                os.close(up[1])
+                return cls(pid, open(down[1], "wb"), open(up[0], "rb"))
+            except BaseException:
+                _end(pid)
+                for fd in (down[1], up[0]):
+                    try:
+                        os.close(fd)
+                    except OSError:
+                        pass
+                raise
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
 
     def ask(self, what: object) -> None:
         """Send `what`, from a thread: a message larger than the pipe holds would otherwise
         hold this process up until the child, still building, reads it."""
+        if not self.pid:  # (ended already: nothing to send)
+            return
         if self._writing is not None:
             self._writing.join()  # (in order)
         message = pickle.dumps(what)
-        self._writing = threading.Thread(target=self._write, args=(message,), name="motivml-explain-ask")
-        self._writing.start()
+        writing = threading.Thread(target=self._write, args=(message,), name="motivml-explain-ask")
+        try:
+            writing.start()
+        except RuntimeError:  # (no thread to be had: the child gets nothing, and `answer` says None)
+            _end(self.pid)
+            self.pid = 0
+            return
+        self._writing = writing
 
     def _write(self, message: bytes) -> None:
         try:
@@ -156,18 +189,21 @@ class _Helper:
         """The child's diagnostics; None if it ended without them."""
         if self._writing is not None:
             self._writing.join()
+        if not self.pid:
+            return None
         try:
             found = pickle.load(self._from)
         except Exception:  # noqa: BLE001 - an unpickling error, end of file, an OSError: no answer
             return None
-        return found if isinstance(found, list) else None
+        if not isinstance(found, list) or not all(isinstance(d, Diagnostic) for d in found):
+            return None
+        return found
 
     def close(self) -> None:
         """End the child (at once, if it is still at work) and reap it."""
-        try:
-            os.kill(self.pid, signal.SIGKILL)
-        except OSError:
-            pass
+        if self.pid:
+            _end(self.pid)
+            self.pid = 0
         if self._writing is not None:
             self._writing.join()  # (a write to a child killed ends at once)
         for stream in (self._to, self._from):
@@ -175,10 +211,24 @@ class _Helper:
                 stream.close()
             except OSError:
                 pass
-        try:
-            os.waitpid(self.pid, 0)
-        except OSError:
-            pass
+
+
+_HELD = {signal.SIGINT, signal.SIGTERM}  # held back from a fork (`_Helper.start`)
+_PR_SET_PDEATHSIG = 1  # prctl(2) (linux/prctl.h)
+
+
+def _end(pid: int) -> None:
+    """Kill a helper's process and reap it."""
+    if pid <= 0:  # (0 or -1 would name a whole group of processes)
+        return
+    try:
+        os.kill(pid, signal.SIGKILL)
+    except OSError:
+        pass
+    try:
+        os.waitpid(pid, 0)
+    except OSError:
+        pass
 
 
 def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int]) -> NoReturn:
@@ -187,6 +237,8 @@ def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int]) -> N
     code = 1
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD & signal.valid_signals())
+        _die_with_parent()
         os.close(down[1])
         os.close(up[0])
         with open(down[0], "rb") as requests, open(up[1], "wb") as answers:
@@ -196,6 +248,25 @@ def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int]) -> N
         pass
     finally:
         os._exit(code)
+
+
+def _die_with_parent() -> None:
+    """Linux: this process is killed when its parent ends (a parent killed outright leaves
+    no child at work), and is the first the kernel kills when memory runs out (the parent
+    then explains itself)."""
+    parent = os.getppid()
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:  # (it ended before the request took effect)
+        raise SystemExit(1)
+    try:
+        with open("/proc/self/oom_score_adj", "w") as adjust:
+            adjust.write("1000")
+    except OSError:
+        pass
 
 
 def _explain_as_told(model: FeatureModel, requests: BinaryIO, answers: BinaryIO) -> None:
