@@ -401,6 +401,24 @@ def test_ctrl_c_ends_any_command_with_one_line_and_130(monkeypatch: pytest.Monke
     assert result.exit_code == 130 and result.output == "interrupted\n", result.output
 
 
+@pytest.mark.parametrize("text", ["Caught keyboard interrupt", "something else went wrong"])
+def test_ctrl_c_inside_a_solve_is_an_interruption_too(monkeypatch: pytest.MonkeyPatch, text: str) -> None:
+    """pysat's solvers catch SIGINT themselves while they search, and raise their own error."""
+    import pysolvers  # type: ignore[import-not-found]
+
+    import motivml.validate
+
+    def solving(*args: object, **kwargs: object) -> None:
+        raise pysolvers.error(text)
+
+    monkeypatch.setattr(motivml.validate, "validate_model", solving)
+    result = CliRunner().invoke(main, ["validate", str(SIMPLEBOT / "model.json")])
+    if "keyboard" in text:
+        assert result.exit_code == 130 and result.output == "interrupted\n", result.output
+    else:
+        assert isinstance(result.exception, pysolvers.error)  # (not ours to hide)
+
+
 @pytest.mark.parametrize(
     "args",
     [

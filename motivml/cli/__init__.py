@@ -24,6 +24,7 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 from __future__ import annotations
 
 import importlib
+import sys
 
 import click
 
@@ -88,9 +89,22 @@ class LazyGroup(click.Group):
             from .common import environment_problem, fail
 
             fail(environment_problem(exc))
+        except Exception as exc:
+            if not _solver_interrupted(exc):
+                raise
+            click.echo("interrupted", err=True)  # (as above: pysat turns Ctrl-C in a solve into its own error)
+            raise click.exceptions.Exit(INTERRUPTED) from None
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="motivml")
 def main() -> None:
     """motivml: variability models for robot software (MoTiVML)."""
+
+
+def _solver_interrupted(exc: Exception) -> bool:
+    """Whether `exc` is how pysat's solvers report Ctrl-C during a solve (`pysolvers.error`,
+    "Caught keyboard interrupt"): they catch SIGINT themselves while they search."""
+    pysolvers = sys.modules.get("pysolvers")
+    error = getattr(pysolvers, "error", None)
+    return isinstance(error, type) and isinstance(exc, error) and "keyboard interrupt" in str(exc).lower()
