@@ -215,6 +215,7 @@ class _Helper:
 
 _HELD = {signal.SIGINT, signal.SIGTERM}  # held back from a fork (`_Helper.start`)
 _PR_SET_PDEATHSIG = 1  # prctl(2) (linux/prctl.h)
+_OOM_SCORE = "/proc/self/oom_score_adj"  # (proc(5))
 
 
 def _end(pid: int) -> None:
@@ -263,7 +264,7 @@ def _die_with_parent() -> None:
     if os.getppid() != parent:  # (it ended before the request took effect)
         raise SystemExit(1)
     try:
-        with open("/proc/self/oom_score_adj", "w") as adjust:
+        with open(_OOM_SCORE, "w") as adjust:
             adjust.write("1000")
     except OSError:
         pass
