@@ -202,6 +202,14 @@ class _Targets:
         return literals[first].tolist()  # type: ignore[no-any-return]
 
 
+def solver_interrupted(exc: BaseException) -> bool:
+    """Whether `exc` is how pysat's solvers report Ctrl-C during a solve: they catch SIGINT
+    themselves while they search and raise their C module's `error`, "Caught keyboard
+    interrupt", instead of KeyboardInterrupt."""
+    error = getattr(_glucose_functions(), "error", None)
+    return isinstance(error, type) and isinstance(exc, error) and "keyboard interrupt" in str(exc).lower()
+
+
 def _glucose_functions() -> object:
     """pysat's C extension (None if this pysat has none by that name: pysat's own methods
     are used then)."""

@@ -90,7 +90,11 @@ class LazyGroup(click.Group):
 
             fail(environment_problem(exc))
         except Exception as exc:
-            if not _solver_interrupted(exc):
+            if "pysolvers" not in sys.modules:  # (no solver has run: not a solver's error)
+                raise
+            from ..binding.encoding import solver_interrupted
+
+            if not solver_interrupted(exc):
                 raise
             click.echo("interrupted", err=True)  # (as above: pysat turns Ctrl-C in a solve into its own error)
             raise click.exceptions.Exit(INTERRUPTED) from None
@@ -101,10 +105,3 @@ class LazyGroup(click.Group):
 def main() -> None:
     """motivml: variability models for robot software (MoTiVML)."""
 
-
-def _solver_interrupted(exc: Exception) -> bool:
-    """Whether `exc` is how pysat's solvers report Ctrl-C during a solve (`pysolvers.error`,
-    "Caught keyboard interrupt"): they catch SIGINT themselves while they search."""
-    pysolvers = sys.modules.get("pysolvers")
-    error = getattr(pysolvers, "error", None)
-    return isinstance(error, type) and isinstance(exc, error) and "keyboard interrupt" in str(exc).lower()
