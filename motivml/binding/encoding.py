@@ -28,9 +28,10 @@ from __future__ import annotations
 import functools
 from array import array
 from collections import ChainMap, deque
-from collections.abc import Callable, Collection, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Collection, Container, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from itertools import accumulate, chain, repeat
+from itertools import accumulate, chain, compress, repeat
+from operator import not_
 from types import TracebackType
 from typing import Any, NamedTuple
 
@@ -155,7 +156,7 @@ def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
     deque(map(add, repeat(backend.glucose), clauses), maxlen=0)
 
 
-VECTOR_FROM = 4096  # open targets (or features): from here cover's checks use numpy arrays
+VECTOR_FROM = 50_000  # open targets (or features): from here cover's checks use numpy arrays
 BATCH_FAILURES = 8  # failed solves of one batch before its first target is left to its own
 BATCH, BATCH_TRIED = 32, 128  # cover's last step: targets solved for together, of the next ones
 
@@ -200,6 +201,25 @@ class _Targets:
         literals = literals[literals != 0]
         _, first = np.unique(np.abs(literals), return_index=True)
         return literals[first].tolist()  # type: ignore[no-any-return]
+
+
+class _AllFacts(Collection[int]):
+    """`conflicts`' facts when it is not told which: its queries, the configuration's facts
+    and every model fact, in that order, without a set of them all (480,000 at 100,000
+    features, made anew for each question)."""
+
+    def __init__(self, queries: Sequence[int], model_facts: int, last: int) -> None:
+        self._queries, self._asked = queries, set(queries)
+        self._model_facts, self._last = model_facts, last
+
+    def __contains__(self, k: object) -> bool:
+        return isinstance(k, int) and (0 <= k < self._last or k in self._asked)
+
+    def __iter__(self) -> Iterator[int]:
+        return chain(self._queries, range(self._model_facts, self._last), range(self._model_facts))
+
+    def __len__(self) -> int:
+        return len(self._queries) + self._last
 
 
 def solver_interrupted(exc: BaseException) -> bool:
@@ -609,29 +629,33 @@ class Encoding:
         # Queries and configuration facts first: the solver's core tends to use the earliest.
         literal_of = self.literals.__getitem__
         by_literal: Mapping[int, int]
+        remaining: dict[int, None] | None = None  # the facts left (an ordered set), once one is found
+        considered: Collection[int]
         if order is None:
-            order = [*queries, *range(self.model_facts, last), *range(self.model_facts)]
+            considered = _AllFacts(queries, self.model_facts, last)
             by_literal = self._by_literal([*queries, *range(self.model_facts, last)])
             # (the first assumptions in C: at 100,000 features there are 480,000)
             facts = self.literals
             first = [*fixed, *map(literal_of, queries), *facts[self.model_facts : last], *facts[: self.model_facts]]
         else:
+            considered = order
             by_literal = {}
             for k in order:
                 by_literal.setdefault(self.literals[k], k)
-            first = None
-        remaining = dict.fromkeys(order)  # ordered set
+            remaining = dict.fromkeys(order)
+            first = []  # (the assumptions are made from `remaining`)
         found: list[list[int]] = []
         while len(found) < limit:
-            if first is not None and len(remaining) == len(order):
-                assumptions = first
-            else:
-                assumptions = [*fixed, *map(literal_of, remaining)]
+            assumptions = first if remaining is None else [*fixed, *map(literal_of, remaining)]
             if self.solver.solve(assumptions=assumptions):
                 break
-            core = self._core(by_literal, remaining)
+            core = self._core(by_literal, considered if remaining is None else remaining)
             core = self._minimise(core, fixed)
             found.append(sorted(core))
+            if len(found) == limit:
+                break
+            if remaining is None:  # (made only now: a question asked once, limit=1, needs none)
+                remaining = dict.fromkeys(considered)
             for k in core:
                 remaining.pop(k, None)
         found.sort(key=lambda mus: (len(mus), min(self._first_feature(k) for k in mus)))
@@ -651,12 +675,11 @@ class Encoding:
         return ChainMap(ahead, self._model_by_literal)
 
     def _core(
-        self, by_literal: Mapping[int, int], allowed: Collection[int], solver: Solver | None = None
+        self, by_literal: Mapping[int, int], allowed: Container[int], solver: Solver | None = None
     ) -> list[int]:
         """The facts `allowed` whose literals are in the solver's core, in the core's order."""
-        allowed_set = allowed if isinstance(allowed, (set, dict)) else set(allowed)
         core = (solver or self.solver).get_core() or []
-        return [by_literal[lit] for lit in core if by_literal.get(lit) in allowed_set]
+        return [by_literal[lit] for lit in core if by_literal.get(lit) in allowed]
 
     def _minimise(self, core: list[int], fixed: Sequence[int] = ()) -> list[int]:
         """Deletion-based shrinking of an unsatisfiable set of facts to a minimal one.
@@ -701,7 +724,7 @@ class Encoding:
                 if solver.solve(assumptions=[*fixed, *(literal_of[k] for k in trial)]):
                     i += 1  # needed
                 else:
-                    smaller = set(self._core(by_literal, trial, solver))
+                    smaller = set(self._core(by_literal, set(trial), solver))
                     current = [k for k in trial if k in smaller]
         return current
 
@@ -878,14 +901,11 @@ class Encoding:
             for k in shown:
                 possible[k] = True
             return left
-        left = []
-        targets = table.targets
-        for k in candidates:
-            if all(values[abs(lit) - 1] == lit for lit in targets[k]):
-                possible[k] = True
-            else:
-                left.append(k)
-        return left
+        true = set(values)
+        shown = list(map(true.issuperset, map(table.targets.__getitem__, candidates)))
+        for k in compress(candidates, shown):
+            possible[k] = True
+        return list(compress(candidates, map(not_, shown)))
 
     def optimise(self, soft: Sequence[tuple[int, int]], with_config: bool = True) -> list[int] | None:
         """A valid variant that minimises the weight of the soft literals it leaves false.
