@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
+from operator import neg
 from typing import TYPE_CHECKING, Any
 
 from ..documents.loader import no_gc
@@ -306,10 +307,14 @@ def impossible_bindings(
     # select everything). The four took 1.2 s in the order ES, ED, LS, LD and 0.8 s in
     # this one, and left fewer targets open: the whole analysis went from 10.5 to 10.1 s
     # and from 12.1 to 10.1 s on the models of seeds 1 and 0 (the answers are the same).
-    hints = [
-        [lit for i in range(len(model.features)) for lit in (hard.s(i), e * hard.E(i), m * hard.S(i))]
-        for e, m in ((-1, 1), (1, 1), (1, -1), (-1, -1))
-    ]
+    features = range(len(model.features))
+    selected, early, static = list(map(hard.s, features)), list(map(hard.E, features)), list(map(hard.S, features))
+    late, dynamic = list(map(neg, early)), list(map(neg, static))
+    hints = []
+    for times, modes in ((late, static), (early, static), (early, dynamic), (late, dynamic)):
+        hint = [0] * (3 * len(features))  # per feature: s(f), then its time's literal and its mode's
+        hint[0::3], hint[1::3], hint[2::3] = selected, times, modes
+        hints.append(hint)
     # s(f) and E(f) propagate to s(parent) and E(parent) (the sub-feature time); the same
     # for Static (the sub-feature mode)
     position = {owners[k]: at for at, k in enumerate(asked)}

@@ -90,10 +90,11 @@ def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Dia
             if helper is not None:
                 helper.ask(dead)  # (explained meanwhile)
             impossible = impossible_bindings(hard, model, alive)
+            if helper is not None and (dead or impossible):
+                helper.ask(impossible)  # (before this solver is deleted: that takes a while)
         if not dead and not impossible:
             return []
         if helper is not None:
-            helper.ask(impossible)
             found = helper.answer()
             if found is not None:
                 return found
@@ -276,8 +277,8 @@ def _explain_as_told(model: FeatureModel, requests: BinaryIO, answers: BinaryIO)
         explainer = Explainer(encoding, model, None)
         found = _dead_warnings(encoding, explainer, pickle.load(requests))
         found += _binding_warnings(encoding, explainer, pickle.load(requests))
-    pickle.dump(found, answers)
-    answers.flush()
+        pickle.dump(found, answers)  # (before the solver is deleted: that takes a while, and waits for none)
+        answers.flush()
 
 
 def _dead_warnings(encoding: enc.Encoding, explainer: Explainer, dead: list[int]) -> list[Diagnostic]:
