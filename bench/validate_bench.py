@@ -12,7 +12,8 @@ cross-tree constraints, mixed bindings) with a valid full configuration it print
   assumptions in a fresh process (what any SAT-based checker must pay at least), with its
   peak memory (the median time of --repeat runs);
 * `motivml validate MODEL` alone (the model analyses: void, dead features, bindings
-  allowed but never possible, the first 20 of each explained), against the same floor.
+  allowed but never possible, the first 20 of each explained), against the same floor:
+  the median of --repeat runs, alternated with the others, and the larger peak memory.
 
     python bench/validate_bench.py [--sizes 1000 10000 100000] [--repeat 5]
 
@@ -153,7 +154,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000])
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--repeat", type=int, default=5, help="runs of --config and of the floor (medians)")
+    parser.add_argument("--repeat", type=int, default=5, help="runs of --config, MODEL and the floor (medians)")
     parser.add_argument("--stages", nargs=4, help=argparse.SUPPRESS)  # (measured_stages' child)
     args = parser.parse_args()
     if args.stages:
@@ -176,17 +177,18 @@ def main() -> None:
             size = os.path.getsize(model_path) / 1e6
             cnf_path, assumptions_path = os.path.join(folder, "f.cnf"), os.path.join(folder, "a.txt")
             parts = measured_stages(model_path, config_path, cnf_path, assumptions_path)
-            # --config and its floor alternated, --repeat times each: the medians (a run of
-            # a few tenths of a second varies by a tenth between runs)
-            checks, floors = [], []
+            # --config, its floor and MODEL alone alternated, --repeat times each: the medians
+            # (a run of a few tenths of a second varies by a tenth between runs)
+            checks, floors, analyses = [], [], []
             for _ in range(args.repeat):
                 checks.append(run_measured([motivml, "validate", model_path, "--config", config_path]))
                 assert checks[-1][2].startswith("valid: "), checks[-1][2]
                 floors.append(run_measured([sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER]))
+                analyses.append(run_measured([motivml, "validate", model_path]))
+                assert "valid: " in analyses[-1][2], analyses[-1][2]
             wall, peak = statistics.median(c[0] for c in checks), max(c[1] for c in checks)
             floor_wall, floor_peak = statistics.median(f[0] for f in floors), max(f[1] for f in floors)
-            alone, alone_peak, output = run_measured([motivml, "validate", model_path])
-            assert "valid: " in output, output
+            alone, alone_peak = statistics.median(a[0] for a in analyses), max(a[1] for a in analyses)
             detail = ", ".join(f"{k} {v:.2f}" for k, v in parts)
             config_target, model_target = TARGETS.get(n, (None, None))
             print(

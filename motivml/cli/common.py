@@ -34,26 +34,36 @@ def environment_problem(exc: OSError) -> EnvironmentProblem:
 
 def print_diagnostic(d: Diagnostic, repairs: bool = True) -> None:
     """One diagnostic: the located message, its facts, and (with `repairs`) its repairs."""
-    colour = "red" if d.severity is Severity.ERROR else "yellow"
-    out.print(
-        f"[bold]{escape(str(d.location))}[/]: {escape(d.location.path)}: "
-        f"[{colour}]{d.severity.value}[/]: {escape(d.message)}"
-    )
-    for fact in d.facts:
-        out.print(f"    [dim]{escape(str(fact.location))}: {escape(fact.text)}[/]")
-    if repairs and d.repairs:
-        many = len(d.repairs) > 1
-        out.print(f"    [cyan]to repair{', one of' if many else ''}:[/]")
-        for repair in d.repairs:
-            out.print(f"      [cyan]- {escape(repair_text(repair))}[/]")
+    out.print("\n".join(_diagnostic_lines(d, repairs)))
 
 
 def print_diagnostics(diagnostics: Sequence[Diagnostic]) -> None:
     """Diagnostics in order. Conflicts of one configuration share its repairs (each repair
-    fixes the whole configuration): they are printed once, under the last of them."""
+    fixes the whole configuration): they are printed once, under the last of them.
+
+    All in one print: rich's own work per call is most of the time (16 ms for 104
+    diagnostics of 222 lines, one call a line)."""
+    lines: list[str] = []
     for k, d in enumerate(diagnostics):
         following = diagnostics[k + 1] if k + 1 < len(diagnostics) else None
-        print_diagnostic(d, repairs=following is None or following.repairs != d.repairs)
+        lines += _diagnostic_lines(d, repairs=following is None or following.repairs != d.repairs)
+    if lines:
+        out.print("\n".join(lines))
+
+
+def _diagnostic_lines(d: Diagnostic, repairs: bool) -> list[str]:
+    """A diagnostic's lines, in rich markup."""
+    colour = "red" if d.severity is Severity.ERROR else "yellow"
+    lines = [
+        f"[bold]{escape(str(d.location))}[/]: {escape(d.location.path)}: "
+        f"[{colour}]{d.severity.value}[/]: {escape(d.message)}"
+    ]
+    lines += (f"    [dim]{escape(str(fact.location))}: {escape(fact.text)}[/]" for fact in d.facts)
+    if repairs and d.repairs:
+        many = len(d.repairs) > 1
+        lines.append(f"    [cyan]to repair{', one of' if many else ''}:[/]")
+        lines += (f"      [cyan]- {escape(repair_text(repair))}[/]" for repair in d.repairs)
+    return lines
 
 
 def targets(target: str, config: str | None, variant: str | None) -> tuple[Path, list[Path], bool]:
