@@ -610,3 +610,126 @@ def _brute_force_impossible(raw: dict[str, Any]) -> list[tuple[str, str, str]]:
                 if not any(f in v and v[f][index] == flag for v in variants):
                     found.append((f, aspect, value))
     return found
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=8))
+def test_live_features_and_impossible_bindings_in_one_cover_equal_brute_force(raw: dict[str, Any]) -> None:
+    """validate's one search: the features some variant selects, and the bindings a live
+    feature allows (Any) but no variant gives it; the first answer told once, as soon as
+    it is known, and the same as returned."""
+    from motivml.binding import encoding as enc
+
+    variants = list(ref.valid_variants(raw, None))
+    if not variants:
+        return
+    model = read(raw)
+    told: list[list[bool]] = []
+    with enc.Encoding(model) as hard:
+        assert hard.solve(with_config=False)
+        alive, impossible = analysis_module.live_features_and_impossible_bindings(hard, model, told.append)
+    order = ids_in_order(raw)
+    assert told == [alive]
+    assert [f for f in order if alive[order.index(f)]] == [f for f in order if any(f in v for v in variants)]
+    taken = {
+        (f, aspect, value)
+        for v in variants
+        for f, (early, static) in v.items()
+        for aspect, value in (("time", "Early" if early else "Late"), ("mode", "Static" if static else "Dynamic"))
+    }
+    allowed = _allowed(raw)
+    assert {(model.features[i].id, aspect, str(value)) for i, aspect, value in impossible} == {
+        (f, aspect, value)
+        for f in order
+        if any(f in v for v in variants)
+        for aspect, values in (("time", ("Early", "Late")), ("mode", ("Static", "Dynamic")))
+        if allowed[f][aspect] == "Any"
+        for value in values
+        if (f, aspect, value) not in taken
+    }
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=8))
+def test_cover_with_requirements_answers_as_without(raw: dict[str, Any]) -> None:
+    """Targets that require an earlier one (a binding its feature's selection), propagated
+    only where `refute` says: every answer is the one of cover without them, and the first
+    answers are told once, as they are."""
+    from motivml.binding import encoding as enc
+
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        if not hard.solve(with_config=False):
+            return
+        n = len(model.features)
+        targets: list[list[int]] = [[hard.s(i)] for i in range(n)]
+        requires: list[int | None] = [None] * n
+        for i in range(n):
+            for literal in (hard.E(i), -hard.E(i), hard.S(i), -hard.S(i)):
+                targets.append([hard.s(i), literal])
+                requires.append(i)
+        plain = hard.cover(targets, with_config=False)
+        told: list[list[bool]] = []
+        for refute in (True, False, [k >= n for k in range(len(targets))]):
+            answers = hard.cover(
+                targets, with_config=False, batch=True, refute=refute, requires=requires, settled=(n, told.append)
+            )
+            assert answers == plain
+    assert told == [plain[:n]] * 3
+
+
+def test_the_first_answers_are_told_before_a_later_target_is_solved_for() -> None:
+    """a is dead, but neither the first variant nor unit propagation says so (see the test
+    of batches above); u is possible. With refute=False the answer for u is told, then a is
+    solved for."""
+    from motivml.binding import encoding as enc
+
+    raw = feature(
+        "r",
+        [
+            feature("a", [feature("x", group="XOR"), feature("y", group="XOR")], isMandatory=False),
+            feature("p", [feature("u", group="XOR"), feature("v", group="XOR")], isMandatory=False),
+        ],
+        formulas=["x <=> y"],
+    )
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        s = {f.id: hard.s(f.index) for f in model.features}
+        solves: list[bool] = []
+        solve = hard.solver.solve
+
+        def counted(assumptions: list[int]) -> bool:
+            solves.append(bool(solve(assumptions=assumptions)))
+            return solves[-1]
+
+        hard.solver.solve = counted  # type: ignore[method-assign]
+        told: list[tuple[list[bool], int]] = []
+        answers = hard.cover(
+            [[s["u"]], [s["a"]]], with_config=False, refute=False, settled=(1, lambda a: told.append((a, len(solves))))
+        )
+    assert answers == [True, False]
+    assert told == [([True], told[0][1])] and solves[told[0][1] :] == [False]  # (a's solve came after)
+
+
+def test_a_target_is_not_propagated_before_the_one_it_requires_is_shown() -> None:
+    """a is dead but not refuted by propagation (above): its binding, which requires it,
+    is impossible without being propagated or solved for."""
+    from motivml.binding import encoding as enc
+
+    raw = feature(
+        "r",
+        [feature("a", [feature("x", group="XOR"), feature("y", group="XOR")], isMandatory=False, time="Any")],
+        formulas=["x <=> y"],
+    )
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        a = model.index["a"]
+        asked: list[list[int]] = []
+        propagate, solve = hard.solver.propagate, hard.solver.solve
+        hard.solver.propagate = lambda assumptions: (asked.append(assumptions), propagate(assumptions=assumptions))[1]  # type: ignore[method-assign]
+        hard.solver.solve = lambda assumptions: (asked.append(assumptions), solve(assumptions=assumptions))[1]  # type: ignore[method-assign]
+        answers = hard.cover(
+            [[hard.s(a)], [hard.s(a), hard.E(a)]], with_config=False, refute=[False, True], requires=[None, 0]
+        )
+    assert answers == [False, False]
+    assert not any(hard.E(a) in assumptions for assumptions in asked)

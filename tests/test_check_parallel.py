@@ -229,10 +229,12 @@ def test_a_child_that_fails_leaves_the_parent_to_explain(monkeypatch: pytest.Mon
 
 
 def test_an_interrupted_analysis_ends_its_child(monkeypatch: pytest.MonkeyPatch) -> None:
-    def interrupted(*args: Any) -> Any:
+    def interrupted(hard: Any, model: FeatureModel, on_alive: Any = None) -> Any:
+        if on_alive is not None:
+            on_alive([True] * len(model.features))  # (the child is at work: no dead feature to explain)
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(check, "impossible_bindings", interrupted)
+    monkeypatch.setattr(check, "live_features_and_impossible_bindings", interrupted)
     with pytest.raises(KeyboardInterrupt):
         analyse_model(warned(), parallel=True)
     assert no_child_left()

@@ -220,21 +220,24 @@ def _paths(value: Any, prefix: tuple[Any, ...] = ()) -> Iterator[tuple[Any, ...]
 
 
 @settings(max_examples=300, deadline=None)
-@given(json_values, st.sampled_from([None, 0, 1, 2]), st.booleans(), st.booleans())
+@given(json_values, st.sampled_from([None, 0, 1, 2]), st.booleans(), st.booleans(), st.booleans())
 def test_a_location_found_by_scanning_is_the_located_parsers(
-    value: Any, indent: int | None, ascii: bool, big: bool
+    value: Any, indent: int | None, ascii: bool, big: bool, ready: bool
 ) -> None:
     """Locations in a document the C decoder read are found by scanning only the containers
     on their path; each is where the located parser (which reads everything) puts it. (`big`:
-    brackets matched as for a big document, with numpy.)"""
+    brackets matched as for a big document, with numpy; `ready`: matched beforehand.)"""
     with pytest.MonkeyPatch.context() as patch:
         if big:
             patch.setattr(loader, "_BIG", 0)
-        _check_scanned_locations(value, json.dumps(value, indent=indent, ensure_ascii=ascii))
+        _check_scanned_locations(value, json.dumps(value, indent=indent, ensure_ascii=ascii), ready)
 
 
-def _check_scanned_locations(value: Any, text: str) -> None:
+def _check_scanned_locations(value: Any, text: str, ready: bool = False) -> None:
     scanned, indexed = parse(text), Document("<string>", value, text, _index(text))
+    if ready:
+        scanned.ready_to_locate()
+        assert scanned._ends is not None or scanned._index is not None  # (the located parser indexed it all)
     paths = list(_paths(value))
     for path in paths:
         for key in (False, True):

@@ -295,39 +295,87 @@ def impossible_bindings(
     finds 9,626 of the 9,743 impossible bindings, which otherwise cost one propagation
     each (0.2 ms apiece at 100,000 features).
     """
-    never_early, never_static = _inherited(model)
-    targets, owners = _binding_targets(hard, model, alive)
-    inherited = [
-        (value is Time.EARLY and never_early[i]) or (value is Mode.STATIC and never_static[i])
-        for i, _, value in owners
-    ]
-    asked = [k for k in range(len(targets)) if not inherited[k]]
-    # Late and Static first: its solve is the one that searches (at 100,000 generated
-    # features 0.7 s as the third hint, 0.4 s as the first, while the saved phases still
-    # select everything). The four took 1.2 s in the order ES, ED, LS, LD and 0.8 s in
-    # this one, and left fewer targets open: the whole analysis went from 10.5 to 10.1 s
-    # and from 12.1 to 10.1 s on the models of seeds 1 and 0 (the answers are the same).
-    features = range(len(model.features))
-    selected, early, static = list(map(hard.s, features)), list(map(hard.E, features)), list(map(hard.S, features))
-    late, dynamic = list(map(neg, early)), list(map(neg, static))
-    hints = []
-    for times, modes in ((late, static), (early, static), (early, dynamic), (late, dynamic)):
-        hint = [0] * (3 * len(features))  # per feature: s(f), then its time's literal and its mode's
-        hint[0::3], hint[1::3], hint[2::3] = selected, times, modes
-        hints.append(hint)
-    # s(f) and E(f) propagate to s(parent) and E(parent) (the sub-feature time); the same
-    # for Static (the sub-feature mode)
-    position = {owners[k]: at for at, k in enumerate(asked)}
-    parents = [model.features[owners[k][0]].parent for k in asked]
-    implied = [
-        position.get((p, owners[k][1], owners[k][2])) if p is not None and owners[k][2] in _UPWARD else None
-        for k, p in zip(asked, parents, strict=True)
-    ]
+    question = _Bindings(hard, model, alive)
     possible = hard.cover(
-        [targets[k] for k in asked], with_config=False, hints=hints, implied=implied, batch=True
+        question.asked_targets, with_config=False, hints=question.hints, implied=question.implied, batch=True
     )
-    impossible = set(k for k, can in zip(asked, possible, strict=True) if not can)
-    return [owners[k] for k in range(len(targets)) if inherited[k] or k in impossible]
+    return question.impossible(possible)
+
+
+def live_features_and_impossible_bindings(
+    hard: enc.Encoding, model: FeatureModel, on_alive: Callable[[list[bool]], None] | None = None
+) -> tuple[list[bool], list[tuple[int, str, Time | Mode]]]:
+    """Which features some valid variant selects, and `impossible_bindings` of those, in
+    one `cover`: a variant that shows a binding shows its feature selected, so the
+    bindings' solves settle most selections too. `on_alive`, if given, is called with the
+    first answer as soon as it is known, while the bindings are still searched.
+
+    Each feature's selection is a target, before those of every feature's bindings (each
+    `requires` its feature's selection: a dead feature's bindings are impossible without a
+    solve, and are not propagated). At 100,000 generated features this took 3.9 s where
+    a cover of the selections and then one of the live features' bindings took 5.5 s.
+    """
+    n = len(model.features)
+    question = _Bindings(hard, model, None)
+    asked = question.asked
+    targets = [[hard.s(i)] for i in range(n)] + question.asked_targets
+    implied = [f.parent for f in model.features] + [None if j is None else n + j for j in question.implied]
+    possible = hard.cover(
+        targets,
+        with_config=False,
+        hints=question.hints,
+        implied=implied,
+        batch=True,
+        refute=[False] * n + [True] * len(asked),  # (the selections: as for dead features alone)
+        requires=[None] * n + [question.owners[k][0] for k in asked],
+        settled=(n, on_alive) if on_alive is not None else None,
+    )
+    alive = possible[:n]
+    return alive, [b for b in question.impossible(possible[n:]) if alive[b[0]]]
+
+
+class _Bindings:
+    """The question of `impossible_bindings` about the live features (`alive`; None: every
+    feature): per feature allowing Any time or mode, "selected and bound so" per value
+    (`owners` says which), those that inheritance does not already rule out (`asked`),
+    the polarity hints and the implications (`cover`'s) to ask them with."""
+
+    def __init__(self, hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool] | None) -> None:
+        never_early, never_static = _inherited(model)
+        targets, self.owners = _binding_targets(hard, model, alive)
+        owners = self.owners
+        self.inherited = [
+            (value is Time.EARLY and never_early[i]) or (value is Mode.STATIC and never_static[i])
+            for i, _, value in owners
+        ]
+        self.asked = asked = [k for k in range(len(targets)) if not self.inherited[k]]
+        self.asked_targets = [targets[k] for k in asked]
+        # Late and Static first: its solve is the one that searches (at 100,000 generated
+        # features 0.7 s as the third hint, 0.4 s as the first, while the saved phases still
+        # select everything). The four took 1.2 s in the order ES, ED, LS, LD and 0.8 s in
+        # this one, and left fewer targets open: the whole analysis went from 10.5 to 10.1 s
+        # and from 12.1 to 10.1 s on the models of seeds 1 and 0 (the answers are the same).
+        features = range(len(model.features))
+        selected, early, static = list(map(hard.s, features)), list(map(hard.E, features)), list(map(hard.S, features))
+        late, dynamic = list(map(neg, early)), list(map(neg, static))
+        self.hints: list[list[int]] = []
+        for times, modes in ((late, static), (early, static), (early, dynamic), (late, dynamic)):
+            hint = [0] * (3 * len(features))  # per feature: s(f), then its time's literal and its mode's
+            hint[0::3], hint[1::3], hint[2::3] = selected, times, modes
+            self.hints.append(hint)
+        # s(f) and E(f) propagate to s(parent) and E(parent) (the sub-feature time); the same
+        # for Static (the sub-feature mode)
+        position = {owners[k]: at for at, k in enumerate(asked)}
+        parents = [model.features[owners[k][0]].parent for k in asked]
+        self.implied = [
+            position.get((p, owners[k][1], owners[k][2])) if p is not None and owners[k][2] in _UPWARD else None
+            for k, p in zip(asked, parents, strict=True)
+        ]
+
+    def impossible(self, possible: Sequence[bool]) -> list[tuple[int, str, Time | Mode]]:
+        """The bindings never taken, given which of those asked are `possible`."""
+        ruled_out = set(k for k, can in zip(self.asked, possible, strict=True) if not can)
+        return [owner for k, owner in enumerate(self.owners) if self.inherited[k] or k in ruled_out]
 
 
 _UPWARD = (Time.EARLY, Mode.STATIC)  # the values a feature can take only if its parent does
@@ -347,13 +395,14 @@ def _inherited(model: FeatureModel) -> tuple[list[bool], list[bool]]:
 
 
 def _binding_targets(
-    hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool]
+    hard: enc.Encoding, model: FeatureModel, alive: Sequence[bool] | None
 ) -> tuple[list[list[int]], list[tuple[int, str, Time | Mode]]]:
-    """For each live feature allowing Any time or mode, "selected and bound so" per value."""
+    """For each live feature (None: every one) allowing Any time or mode, "selected and
+    bound so" per value."""
     targets: list[list[int]] = []
     owners: list[tuple[int, str, Time | Mode]] = []
     for f in model.features:
-        if not alive[f.index]:
+        if alive is not None and not alive[f.index]:
             continue
         i = f.index
         if f.time_allowed is None:

@@ -20,7 +20,7 @@ from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
 from . import encoding as enc
-from .analysis import impossible_bindings
+from .analysis import live_features_and_impossible_bindings
 from .explain import Explainer
 from .repair import configuration_repairs
 
@@ -61,10 +61,11 @@ def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Dia
 
     The warnings are explained on a second encoding (the explain build). With `parallel`
     (by default where `os.fork` is there, for models of PARALLEL_FROM features or more), a
-    child process builds it and explains while this one still searches: the dead features
-    as soon as they are known, during the search for impossible bindings. The child asks
-    the same questions of the same encoding in the same order, so the warnings are the
-    same; if it fails in any way, they are explained here instead.
+    child process builds it, and gets ready to locate messages, while this one searches;
+    it explains the dead features as soon as they are known, while the bindings are still
+    searched, then the impossible bindings. The child asks the same questions of the same
+    encoding in the same order, so the warnings are the same; if it fails in any way, they
+    are explained here instead.
     """
     helper: _Helper | None = None
     try:
@@ -77,20 +78,15 @@ def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Dia
                     helper = None
                 with enc.Encoding(model, explain=True) as encoding:
                     return _void(encoding, Explainer(encoding, model, None))
-            features = model.features
-            n = len(features)
-            alive = hard.cover(
-                [[hard.s(i)] for i in range(n)],
-                with_config=False,
-                hints=[[hard.s(i) for i in range(n)]],
-                batch=True,  # (most of what the hint leaves open is possible)
-                refute=False,
+            def explain_dead(alive: list[bool]) -> None:  # (explained while the bindings are searched)
+                if helper is not None:
+                    helper.ask(_dead(model, alive))
+
+            alive, impossible = live_features_and_impossible_bindings(
+                hard, model, explain_dead if helper is not None else None
             )
-            dead = [f.index for f in features if not alive[f.index] and (f.parent is None or alive[f.parent])]
+            dead = _dead(model, alive)
             if helper is not None:
-                helper.ask(dead)  # (explained meanwhile)
-            impossible = impossible_bindings(hard, model, alive)
-            if helper is not None and (dead or impossible):
                 helper.ask(impossible)  # (before this solver is deleted: that takes a while)
         if not dead and not impossible:
             return []
@@ -104,6 +100,11 @@ def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Dia
     finally:
         if helper is not None:
             helper.close()
+
+
+def _dead(model: FeatureModel, alive: list[bool]) -> list[int]:
+    """The dead features (no valid variant selects them) each highest of its dead subtree."""
+    return [f.index for f in model.features if not alive[f.index] and (f.parent is None or alive[f.parent])]
 
 
 PARALLEL_FROM = 2000  # features: from here `analyse_model` explains in a child process
@@ -275,6 +276,8 @@ def _explain_as_told(model: FeatureModel, requests: BinaryIO, answers: BinaryIO)
     """The helper's work (in the child)."""
     with no_gc(), enc.Encoding(model, explain=True) as encoding:
         explainer = Explainer(encoding, model, None)
+        if model.source is not None:
+            model.source.ready_to_locate()  # (while the parent still searches)
         found = _dead_warnings(encoding, explainer, pickle.load(requests))
         found += _binding_warnings(encoding, explainer, pickle.load(requests))
         pickle.dump(found, answers)  # (before the solver is deleted: that takes a while, and waits for none)

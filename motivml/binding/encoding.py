@@ -752,7 +752,9 @@ class Encoding:
         witness: Callable[[list[int]], None] | None = None,
         implied: Sequence[int | None] | None = None,
         batch: bool = False,
-        refute: bool = True,
+        refute: bool | Sequence[bool] = True,
+        requires: Sequence[int | None] | None = None,
+        settled: tuple[int, Callable[[list[bool]], None]] | None = None,
     ) -> list[bool]:
         """Which conjunctions of literals hold in some valid variant.
 
@@ -760,14 +762,21 @@ class Encoding:
         solver's assignment), so that a caller can learn more from them (atomic sets).
         `implied`, if given, names for each target an earlier one (or None) whose literals
         unit propagation derives from it: a feature's "selected" target names its parent's.
+        `requires`, if given, names for each target an earlier one (or None) that holds
+        whenever it does (a binding of a feature needs the feature's selection): a target
+        whose required one is impossible is impossible too, without a solve, and step 2
+        propagates a target only once the one it requires is shown possible.
+        `settled=(m, tell)`: `tell` is called once with the answers for the first m targets
+        as soon as they are known (step 3 settles the targets in their order), before the
+        others are.
         `batch`: solve for several open targets at once in step 3 (where most of what is
         left is possible, as for bindings; where most is not, the batches mostly fail).
-        `refute=False` skips step 2, where it would refute almost nothing and cost one
-        propagation per open target (0.25 ms each at 100,000 features, more for targets
-        that imply much): for targets that unit propagation has already failed to refute
-        one literal at a time (atomic sets' first round), and for features' selections
-        (dead features), which batches settle. An impossible target is still found so, by
-        a solve in step 3.
+        `refute=False` (or False for a target) skips step 2, where it would refute almost
+        nothing and cost one propagation per open target (0.25 ms each at 100,000
+        features, more for targets that imply much): for targets that unit propagation has
+        already failed to refute one literal at a time (atomic sets' first round), and for
+        features' selections (dead features), which batches settle. An impossible target
+        is still found so, by a solve in step 3.
 
         1. Solves under polarity hints (each of `hints`, then towards the targets still
            open, again while a witness settles at least WITNESS_GAIN of them) find
@@ -779,26 +788,49 @@ class Encoding:
            towards every open target, so its witness settles others too.
         """
         possible = [False] * len(targets)
+        first, tell = settled if settled is not None else (0, None)
+
+        def answered() -> list[bool]:  # (the first ones too, if not told yet)
+            if tell is not None:
+                tell(possible[:first])
+            return possible
+
         base = self.assumptions(with_config)
         pending: list[int] = list(range(len(targets)))
         table = _Targets(targets)
         for hint in hints:
             self.solver.set_phases(list(hint))
             if not self.solver.solve(assumptions=base):
-                return possible
+                return answered()
             pending = self._mark(table, possible, pending, witness)
         while pending:
             self._prefer(table, pending)
             if not self.solver.solve(assumptions=base):
-                return possible
+                return answered()
             before = len(pending)
             pending = self._mark(table, possible, pending, witness)
             if before - len(pending) < WITNESS_GAIN:
                 break
-        if refute:
+        if refute is True and requires is None:
             pending = self._propagating(targets, base, pending, implied)
+        elif refute is not False:
+            asked = [
+                k
+                for k in pending
+                if (refute is True or refute[k]) and (requires is None or (r := requires[k]) is None or possible[r])
+            ]
+            refuted = set(asked).difference(self._propagating(targets, base, asked, implied))
+            pending = [k for k in pending if k not in refuted]
         while pending:
             k = pending[0]
+            if tell is not None and k >= first:
+                tell(possible[:first])
+                tell = None
+            if requires is not None and (r := requires[k]) is not None and not possible[r]:
+                # (every target before k is settled: so is r, as impossible; and so is each
+                # open target that requires one of those)
+                pending = [j for j in pending if (q := requires[j]) is None or q >= k or possible[q]]
+                continue
             self._prefer(table, pending)
             shown = self._solve_batch(targets, base, pending) if batch else None
             if shown is None:
@@ -807,7 +839,7 @@ class Encoding:
                 pending = self._mark(table, possible, pending, witness)  # (k among them)
             else:
                 pending = pending[1:]
-        return possible
+        return answered()
 
     def _solve_batch(
         self, targets: Sequence[Sequence[int]], base: list[int], pending: list[int]

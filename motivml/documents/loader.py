@@ -99,6 +99,14 @@ class Document:
             self._index = _index(self.text, self.file, MAX_DEPTH + 1)
         return self._index
 
+    def ready_to_locate(self) -> None:
+        """Do now what the first located message would do (index the brackets of a big
+        text, which imports numpy; find the line starts): for a process with time to spare
+        before its messages are asked for."""
+        if self._index is None and self._ends is None:  # (the C decoder read it: valid JSON)
+            self._ends = _bracket_ends(self.text)
+        self.position(0)
+
     def position(self, offset: int) -> tuple[int, int]:
         """1-based (line, column) of a character offset."""
         if self._line_starts is None:
