@@ -1,5 +1,5 @@
 """python -m motivml: the motivml command (also where no console script is on PATH)."""
 
-from .cli import main
+from .cli import console
 
-main(prog_name="motivml")
+console()

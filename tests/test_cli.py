@@ -538,3 +538,85 @@ def test_a_large_xor_group_is_explained_as_one_statement(tmp_path: Path) -> None
         "a time (rules 2.2 and 3.3)" in output
     ), output
     assert f"    {model}:1:69: the 70 members of r's XOR group are alternatives" in output
+
+
+class _Ended(Exception):
+    """os._exit, in a test: the code the process would have ended with."""
+
+
+@pytest.fixture
+def ending(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """console() without ending this process: os._exit raises _Ended, and what ran at exit
+    is listed."""
+    import atexit
+
+    import motivml.cli as cli
+
+    done: list[str] = []
+
+    def end(code: int) -> None:
+        done.append(f"ended {code}")
+        raise _Ended(code)
+
+    monkeypatch.setattr(os, "_exit", end)
+    monkeypatch.setattr(atexit, "_run_exitfuncs", lambda: done.append("atexit"))
+    return done
+
+
+def test_a_command_that_does_one_job_ends_the_process_once_done(
+    ending: list[str], monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import motivml.cli as cli
+
+    for argv, code in ((["validate", str(SIMPLEBOT / "model.json")], 0), (["validate", "no/such/model.json"], 3)):
+        monkeypatch.setattr("sys.argv", ["motivml", *argv])
+        with pytest.raises(_Ended):
+            cli.console()
+        assert ending[-2:] == ["atexit", f"ended {code}"]
+    assert "valid: " in capsys.readouterr().out
+
+
+def test_help_a_long_running_command_or_another_thread_end_the_process_as_python_does(
+    ending: list[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import threading
+
+    import motivml.cli as cli
+
+    monkeypatch.setattr("sys.argv", ["motivml", "--help"])  # (no command is resolved)
+    with pytest.raises(SystemExit):
+        cli.console()
+    monkeypatch.setattr("sys.argv", ["motivml", "run", "no/such/robot", "--variant", "v"])
+    with pytest.raises(SystemExit):
+        cli.console()
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)
+    other.start()
+    try:
+        monkeypatch.setattr("sys.argv", ["motivml", "validate", str(SIMPLEBOT / "model.json")])
+        with pytest.raises(SystemExit):
+            cli.console()
+    finally:
+        stop.set()
+        other.join()
+    assert ending == []
+
+
+def test_output_that_cannot_be_flushed_leaves_the_end_to_python(
+    ending: list[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import motivml.cli as cli
+
+    class Closed:
+        def flush(self) -> None:
+            raise BrokenPipeError(32, "Broken pipe")
+
+    def one_job_done(prog_name: str) -> None:
+        cli._one_job = True
+        raise SystemExit(0)
+
+    monkeypatch.setattr(cli, "main", one_job_done)
+    monkeypatch.setattr("sys.stdout", Closed())
+    with pytest.raises(SystemExit):
+        cli.console()
+    assert ending == []

@@ -50,7 +50,7 @@ def test_wheel_contains_schemas_cmake_package_extension_and_console_script(wheel
     assert "motivml/cmake/motivmlConfig.cmake" in names and "motivml/include/motivml/feature.hpp" in names
     assert any(n.endswith("dist-info/licenses/LICENSE") or n.endswith("dist-info/LICENSE") for n in names)
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
-    assert "motivml = motivml.cli:main" in zipfile.ZipFile(wheel).read(entry_points).decode()
+    assert "motivml = motivml.cli:console" in zipfile.ZipFile(wheel).read(entry_points).decode()
     extension = [n for n in names if re.fullmatch(r"motivml/_cpp_plugins\..*\.so", n)]
     assert len(extension) == (1 if CPP_READY else 0)
     if CPP_READY:

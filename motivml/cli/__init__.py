@@ -23,8 +23,11 @@ when it runs, so that `motivml validate` pays for neither numpy nor sismic:
 
 from __future__ import annotations
 
+import atexit
 import importlib
+import os
 import sys
+import threading
 
 import click
 
@@ -76,6 +79,8 @@ class LazyGroup(click.Group):
             from ..documents.loader import one_command
 
             ctx.with_resource(one_command())
+            global _one_job
+            _one_job = True
         return name, command, rest
 
     def invoke(self, ctx: click.Context) -> object:
@@ -104,4 +109,44 @@ class LazyGroup(click.Group):
 @click.version_option(__version__, prog_name="motivml")
 def main() -> None:
     """motivml: variability models for robot software (MoTiVML)."""
+
+
+_one_job = False  # a command that does one job and ends (not run, ctl or menuconfig) was started
+
+
+def console() -> None:
+    """The `motivml` program (its installed script, and `python -m motivml`): `main`, and
+    then, after a command that does one job, the process ends at once, its output flushed
+    and its atexit handlers run, without freeing what the command built object by object
+    (as mypy does): at 100,000 features that took 0.1 s of a 1.8 s `validate --config`.
+
+    Where another thread still runs, or the output cannot be flushed (a closed pipe), the
+    process ends as Python ends it. Callers in this process (tests, scripts) use `main`.
+    """
+    global _one_job
+    _one_job = False
+    try:
+        main(prog_name="motivml")
+    except SystemExit as exc:
+        code = exc.code
+        if _one_job and (code is None or isinstance(code, int)) and threading.active_count() == 1:
+            _end_now(code or 0)
+        raise
+
+
+def _end_now(code: int) -> None:
+    """Flush, run the atexit handlers, flush again and end the process with `code`; return
+    (ending nothing) when the output cannot be flushed."""
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except (OSError, ValueError):  # (Python's own exit says what became of the output)
+        return
+    atexit._run_exitfuncs()
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except (OSError, ValueError):
+        code = code or 1
+    os._exit(code)
 
