@@ -4,13 +4,14 @@ For n = 1,000, 10,000 and 100,000 features (generate.py) the valid full configur
 becomes a decisions file with many open decisions (generate.open_decisions: a tenth of the
 entries left out, each remaining selected feature's time and mode `Any` with probability
 1/2), so the solver (MaxSAT, RC2) decides a tenth of the selections and half the bindings. Prints wall time and peak memory of
-`motivml configure ROBOT --variant full -o OUT` in a fresh process.
+`motivml configure ROBOT --variant full -o OUT` in a fresh process (the median of --repeat
+runs, each into a new folder, alternated with the floor's).
 
-    python bench/configure_bench.py [--sizes 1000 10000 100000]
+    python bench/configure_bench.py [--sizes 1000 10000 100000] [--repeat 5]
 
 Beside it, the floor of validate_bench.py measured in the same run: the same model and
 configuration as one CNF (the hard encoding and the configuration's assumptions), read by
-pysat and solved once in a fresh process, and the ratio.
+pysat and solved once in a fresh process (the median of --repeat runs), and the ratio.
 
 Targets: (issue 3) 10,000 features under 2 s; (issue 14) at most 3x the floor at 100k.
 """
@@ -20,6 +21,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import sys
 import tempfile
 from pathlib import Path
@@ -35,6 +37,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10_000, 100_000])
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--repeat", type=int, default=5, help="runs of configure and of the floor (medians)")
     args = parser.parse_args()
     from motivml.binding.encoding import SOLVER
 
@@ -52,15 +55,17 @@ def main() -> None:
                 config, left_out, opened = open_decisions(json.load(handle), args.seed)
             with open(config_path, "w") as handle:
                 json.dump(config, handle)
-            wall, peak, output = run_measured(
-                [motivml, "configure", folder, "--variant", "full", "-o", f"{folder}/out"]
-            )
-            assert any(line.startswith("variant full:") for line in output.splitlines()), output
             cnf_path, assumptions_path = os.path.join(folder, "f.cnf"), os.path.join(folder, "a.txt")
             measured_stages(os.path.join(folder, "model.json"), config_path, cnf_path, assumptions_path)
-            floor_wall, floor_peak, _ = run_measured(
-                [sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER]
-            )
+            # configure (into a new folder each time: it writes every file) and the floor
+            # alternated, --repeat times each: the medians, the larger peaks
+            runs, floors = [], []
+            for k in range(args.repeat):
+                runs.append(run_measured([motivml, "configure", folder, "--variant", "full", "-o", f"{folder}/out{k}"]))
+                assert any(line.startswith("variant full:") for line in runs[-1][2].splitlines()), runs[-1][2]
+                floors.append(run_measured([sys.executable, "-c", FLOOR, cnf_path, assumptions_path, SOLVER]))
+            wall, peak = statistics.median(r[0] for r in runs), max(r[1] for r in runs)
+            floor_wall, floor_peak = statistics.median(f[0] for f in floors), max(f[1] for f in floors)
             ratio = wall / floor_wall
             print(
                 f"{n:>9,} {left_out:>15,} {opened:>13,} {floor_wall:>8.2f} {floor_peak:>5} | {wall:>11.2f} {ratio:>5.1f}"

@@ -220,14 +220,24 @@ def _paths(value: Any, prefix: tuple[Any, ...] = ()) -> Iterator[tuple[Any, ...]
 
 
 @settings(max_examples=300, deadline=None)
-@given(json_values, st.sampled_from([None, 0, 1, 2]), st.booleans(), st.booleans(), st.booleans())
+@given(
+    json_values,
+    st.sampled_from([None, 0, 1, 2]),
+    st.booleans(),
+    st.booleans(),
+    st.booleans(),
+    st.sampled_from([0, 40, loader.READ_BUDGET]),
+)
 def test_a_location_found_by_scanning_is_the_located_parsers(
-    value: Any, indent: int | None, ascii: bool, big: bool, ready: bool
+    value: Any, indent: int | None, ascii: bool, big: bool, ready: bool, budget: int
 ) -> None:
     """Locations in a document the C decoder read are found by scanning only the containers
     on their path; each is where the located parser (which reads everything) puts it. (`big`:
-    brackets matched as for a big document, with numpy; `ready`: matched beforehand.)"""
+    brackets matched as for a big document, with numpy; `ready`: matched beforehand;
+    `budget`: containers read to their end until that many characters were read, then all
+    brackets matched.)"""
     with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(loader, "READ_BUDGET", budget)
         if big:
             patch.setattr(loader, "_BIG", 0)
         _check_scanned_locations(value, json.dumps(value, indent=indent, ensure_ascii=ascii), ready)
@@ -325,3 +335,15 @@ def test_a_walk_that_stopped_early_is_gone_on_from_only_as_far_as_it_went() -> N
     for key in (False, True):
         for path in paths:
             assert document.locate(path, key) == parse(text).locate(path, key), (path, key)
+
+
+def test_containers_are_read_to_their_end_until_the_budget_is_spent_then_all_brackets_matched(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    text = json.dumps({"first": [[k] for k in range(100)], "second": {"a": [1]}})
+    where = parse(text).locate(["second", "a"])
+    near = parse(text)
+    assert near.locate(["second", "a"]) == where and near._ends is None  # (read: 800 characters)
+    monkeypatch.setattr(loader, "READ_BUDGET", 100)
+    far = parse(text)
+    assert far.locate(["second", "a"]) == where and far._ends is not None

@@ -91,6 +91,7 @@ class Document:
         # messages read only the containers on their paths, not the whole document
         self._scans: dict[int, _Scan] = {}
         self._ends: Callable[[int], int] | None = None  # a container's offset -> the offset after it
+        self._budget = READ_BUDGET  # characters `_read_to_end` may still read
         # the last path walked through the values and the values on it (`_scanned_offset`)
         self._walk: tuple[JSONPath, list[Any]] | None = None
 
@@ -218,9 +219,33 @@ class Document:
             return int(_scanstring(text, start + 1, True)[1])
         if first in "[{":
             if self._ends is None:
+                end = self._read_to_end(start)
+                if end is not None:
+                    return end
                 self._ends = _bracket_ends(text)
             return self._ends(start)
         return _SCALAR_END.match(text, start).end()  # type: ignore[union-attr]
+
+    def _read_to_end(self, start: int) -> int | None:
+        """The offset just after the container that begins at `start`, found by reading its
+        text, while the document's reading budget (READ_BUDGET characters in all) lasts;
+        None once it is spent (all brackets are then matched at once, `_bracket_ends`).
+        Messages about the first part of a big document so cost no index of all of it (at
+        100,000 features, 0.1 s and the import of numpy)."""
+        depth, budget = 0, self._budget
+        for match in _SKIPPED.finditer(self.text, start):
+            if match.start() - start > budget:
+                break
+            token = match.group()
+            if token in "[{":
+                depth += 1
+            elif token in "]}":
+                depth -= 1
+                if not depth:
+                    self._budget -= match.end() - start
+                    return match.end()
+        self._budget = 0
+        return None
 
     def locate(self, path: JSONPath, key: bool = False) -> Location:
         """Location of the value at `path` (or of its key, with `key=True`).
@@ -285,6 +310,7 @@ _SCALAR_END = re.compile(r"[^,\]} \t\n\r]*")
 _scanstring = json.decoder.scanstring  # type: ignore[attr-defined]
 
 
+READ_BUDGET = 1 << 18  # characters read to skip containers before all brackets are matched
 _BIG = 1 << 20  # characters: above this, brackets are matched with numpy
 
 
