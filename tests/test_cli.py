@@ -10,6 +10,8 @@ import pytest
 from click.testing import CliRunner
 
 from motivml.cli import main
+from motivml.documents import loader
+from motivml.language import reader
 
 ROOT = Path(__file__).resolve().parent.parent
 SIMPLEBOT = ROOT / "feature_models" / "simplebot"
@@ -550,7 +552,6 @@ def ending(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     is listed."""
     import atexit
 
-    import motivml.cli as cli
 
     done: list[str] = []
 
@@ -560,20 +561,39 @@ def ending(monkeypatch: pytest.MonkeyPatch) -> list[str]:
 
     monkeypatch.setattr(os, "_exit", end)
     monkeypatch.setattr(atexit, "_run_exitfuncs", lambda: done.append("atexit"))
+    monkeypatch.setattr(loader, "_process_ends", False)  # (console says it: not for the tests after)
     return done
 
 
 def test_a_command_that_does_one_job_ends_the_process_once_done(
     ending: list[str], monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    """...and leaves its solvers to the end of the process, which frees them at no cost."""
     import motivml.cli as cli
+    from motivml.binding import encoding as enc
 
+    monkeypatch.setattr(enc, "_LEFT_TILL_EXIT", [])
     for argv, code in ((["validate", str(SIMPLEBOT / "model.json")], 0), (["validate", "no/such/model.json"], 3)):
         monkeypatch.setattr("sys.argv", ["motivml", *argv])
         with pytest.raises(_Ended):
             cli.console()
         assert ending[-2:] == ["atexit", f"ended {code}"]
     assert "valid: " in capsys.readouterr().out
+    assert enc._LEFT_TILL_EXIT and loader._process_ends
+
+
+def test_solvers_are_deleted_when_the_process_goes_on_after_the_command() -> None:
+    from motivml.binding import encoding as enc
+
+    result = CliRunner().invoke(main, ["validate", str(SIMPLEBOT / "model.json")])
+    assert result.exit_code == 0 and not loader._process_ends and not enc._LEFT_TILL_EXIT
+    model = reader.load_model(SIMPLEBOT / "model.json")[0]
+    assert model is not None
+    with loader.one_command():
+        loader_ends = loader._process_ends
+        with enc.Encoding(model) as encoding:
+            pass
+    assert not loader_ends and encoding.solver.solver is None  # (deleted)
 
 
 def test_help_a_long_running_command_or_another_thread_end_the_process_as_python_does(

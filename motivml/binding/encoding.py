@@ -37,6 +37,7 @@ from typing import Any, NamedTuple
 
 from pysat.solvers import Solver
 
+from ..documents.loader import keep_till_exit
 from ..language.formula import AND, IFF, IMPLIES, OR, Formula, Var, fold
 from ..language.model import Configuration, FeatureModel, Mode, Time
 
@@ -1061,7 +1062,10 @@ class Encoding:
 
     # --------------------------------------------------------------- lifecycle
     def close(self) -> None:
-        self.solver.delete()
+        if keep_till_exit():  # (the process ends soon, and frees it at no cost)
+            _LEFT_TILL_EXIT.append(self.solver)
+        else:
+            self.solver.delete()
 
     def __enter__(self) -> Encoding:
         return self
@@ -1070,6 +1074,9 @@ class Encoding:
         self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
     ) -> None:
         self.close()
+
+
+_LEFT_TILL_EXIT: list[Solver] = []  # solvers of closed encodings, left for the process's end
 
 
 @dataclass(frozen=True, slots=True)

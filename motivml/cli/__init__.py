@@ -123,8 +123,11 @@ def console() -> None:
     Where another thread still runs, or the output cannot be flushed (a closed pipe), the
     process ends as Python ends it. Callers in this process (tests, scripts) use `main`.
     """
+    from ..documents.loader import ending_with_the_command
+
     global _one_job
     _one_job = False
+    ending_with_the_command()
     try:
         main(prog_name="motivml")
     except SystemExit as exc:

@@ -646,6 +646,23 @@ def no_gc() -> Iterator[None]:
             gc.enable()
 
 
+_process_ends = False  # this process ends when its one command does (`ending_with_the_command`)
+
+
+def ending_with_the_command() -> None:
+    """Say that this process ends when its command does (the motivml program, whose
+    one-job commands end it at once): inside `one_command`, what the end of the process
+    frees anyway need not be freed before (`keep_till_exit`)."""
+    global _process_ends
+    _process_ends = True
+
+
+def keep_till_exit() -> bool:
+    """Whether a large object no longer needed (a solver: 0.1 s to delete at 100,000
+    features) may be left for the end of the process, which is near."""
+    return _process_ends and _freezing
+
+
 @contextlib.contextmanager
 def one_command() -> Iterator[None]:
     """The time of one command of a process that does little else (the CLI's validate,
