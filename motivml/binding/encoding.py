@@ -565,23 +565,25 @@ class Encoding:
         first = len(self.facts)
         index = self.model.index
         early_time, static_mode = Time.EARLY, Mode.STATIC
+        s, E, S = self.s, self.E, self.S  # noqa: N806 - the spec's names
+        fact, literal = self.facts.append, self.literals.append  # (a call less per fact: 100,000s)
         for entry in config.entries.values():
             i = index.get(entry.id)
             if i is None:
                 continue
             if not entry.selected:
-                self._config_fact(CONFIG_DESELECTED, i, -self.s(i))
+                fact(EncodedFact(CONFIG_DESELECTED, i))
+                literal(-s(i))
                 continue
-            self._config_fact(CONFIG_SELECTED, i, self.s(i))
+            fact(EncodedFact(CONFIG_SELECTED, i))
+            literal(s(i))
             if entry.time is not None:
-                self._config_fact(CONFIG_TIME, i, self.E(i) if entry.time is early_time else -self.E(i))
+                fact(EncodedFact(CONFIG_TIME, i))
+                literal(E(i) if entry.time is early_time else -E(i))
             if entry.mode is not None:
-                self._config_fact(CONFIG_MODE, i, self.S(i) if entry.mode is static_mode else -self.S(i))
+                fact(EncodedFact(CONFIG_MODE, i))
+                literal(S(i) if entry.mode is static_mode else -S(i))
         self._config_fact_range = (first, len(self.facts))
-
-    def _config_fact(self, kind: str, i: int, literal: int) -> None:
-        self.facts.append(EncodedFact(kind, i))
-        self.literals.append(literal)
 
     # ----------------------------------------------------------------- queries
     def assumptions(self, with_config: bool = True) -> list[int]:

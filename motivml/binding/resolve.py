@@ -83,38 +83,50 @@ def _variant(encoding: enc.Encoding, model: FeatureModel, config: Configuration,
     for f in model.features:
         entry = entries.get(f.id)
         i = f.index
+        root = f.parent is None
+        # a time or mode the configuration leaves open is the model's if it allows one only
+        # (or for the root), else the solver's
         decisions.append(
             Decision(
                 f,
                 values[s(i) - 1] > 0,
                 from_flags(values[E(i) - 1] > 0, values[S(i) - 1] > 0),
-                "model" if f.parent is None else "configuration" if entry is not None else "solver",
-                "configuration" if entry is not None and entry.time is not None else _model_or_solver(f, "time"),
-                "configuration" if entry is not None and entry.mode is not None else _model_or_solver(f, "mode"),
+                "model" if root else "configuration" if entry is not None else "solver",
+                "configuration"
+                if entry is not None and entry.time is not None
+                else "model"
+                if root or f.time_allowed is not None
+                else "solver",
+                "configuration"
+                if entry is not None and entry.mode is not None
+                else "model"
+                if root or f.mode_allowed is not None
+                else "solver",
             )
         )
     return Variant(model, config.name, tuple(decisions))
-
-
-def _model_or_solver(feature: Feature, aspect: str) -> str:
-    allowed = feature.time_allowed if aspect == "time" else feature.mode_allowed
-    return "model" if allowed is not None or feature.parent is None else "solver"
 
 
 def _preferences(
     encoding: enc.Encoding, model: FeatureModel, config: Configuration, prefer: set[str]
 ) -> list[tuple[int, int]]:
     """Soft literals, weighted so that each wish outweighs all the ones after it."""
-    undecided, times, modes = [], [], []
+    undecided: list[int] = []
+    times: list[int] = []
+    modes: list[int] = []
+    s, E, S = encoding.s, encoding.E, encoding.S  # noqa: N806 - the spec's names
+    towards_time = -1 if "late" in prefer else 1  # (Early unless Late is preferred)
+    towards_mode = -1 if "dynamic" in prefer else 1  # (Static unless Dynamic is preferred)
+    entry_of = config.entries.get
     for f in model.features[1:]:
-        entry = config.entries.get(f.id)
+        entry = entry_of(f.id)
         i = f.index
         if entry is None:
-            undecided.append(-encoding.s(i))
+            undecided.append(-s(i))
         if entry is None or entry.time is None:
-            times.append(-encoding.E(i) if "late" in prefer else encoding.E(i))
+            times.append(towards_time * E(i))
         if entry is None or entry.mode is None:
-            modes.append(-encoding.S(i) if "dynamic" in prefer else encoding.S(i))
+            modes.append(towards_mode * S(i))
     mode_weight = 1
     time_weight = len(modes) + 1
     selection_weight = time_weight * (len(times) + 1)
