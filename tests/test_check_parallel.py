@@ -274,7 +274,7 @@ def test_the_child_process_reads_its_requests_answers_and_ends(monkeypatch: pyte
 
     monkeypatch.setattr(check.os, "_exit", ends)
     monkeypatch.setattr(check.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C,
-    monkeypatch.setattr(check, "_die_with_parent", lambda: None)  # its parent and its OOM score)
+    monkeypatch.setattr(check, "die_with_parent", lambda: None)  # its parent and its OOM score)
     with pytest.raises(SystemExit) as ended:
         check._child(model, down, up)
     assert ended.value.code == 0
@@ -283,37 +283,6 @@ def test_the_child_process_reads_its_requests_answers_and_ends(monkeypatch: pyte
     with pytest.raises(SystemExit) as failed:  # (nothing to read now: it fails, and says so)
         check._child(model, os.pipe(), os.pipe())
     assert failed.value.code == 1
-
-
-def test_ending_a_helper_that_has_no_process_kills_nothing() -> None:
-    check._end(0)  # (os.kill(0, ...) would kill this process's whole group, this test run with it)
-    check._end(-1)
-
-
-class _Libc:
-    def __init__(self) -> None:
-        self.calls: list[tuple[int, ...]] = []
-
-    def prctl(self, *args: int) -> int:
-        self.calls.append(args)
-        return 0
-
-
-def test_the_child_asks_to_die_with_its_parent_and_to_go_first_when_memory_runs_out(
-    monkeypatch: pytest.MonkeyPatch, tmp_path: Any
-) -> None:
-    libc, score = _Libc(), tmp_path / "oom_score_adj"
-    monkeypatch.setattr(check.ctypes, "CDLL", lambda *args, **kwargs: libc)
-    monkeypatch.setattr(check, "_OOM_SCORE", str(score))
-    check._die_with_parent()
-    assert libc.calls == [(check._PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)]
-    assert score.read_text() == "1000"
-    monkeypatch.setattr(check, "_OOM_SCORE", str(tmp_path / "no such folder" / "oom_score_adj"))
-    check._die_with_parent()  # (a system without it: nothing to ask)
-    parents = iter([41, 1])  # (the parent ended before the request took effect: so does the child)
-    monkeypatch.setattr(check.os, "getppid", lambda: next(parents))
-    with pytest.raises(SystemExit):
-        check._die_with_parent()
 
 
 def test_a_helper_that_cannot_be_set_up_after_the_fork_leaves_no_child(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -8,7 +8,6 @@ the CLI runs them when a model is validated without a configuration.
 
 from __future__ import annotations
 
-import ctypes
 import os
 import pickle
 import signal
@@ -16,6 +15,7 @@ import threading
 from dataclasses import replace
 from typing import BinaryIO, NoReturn
 
+from ..documents.forked import HELD, can_fork, die_with_parent, end
 from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
@@ -114,7 +114,7 @@ def _parallel(model: FeatureModel, asked: bool | None) -> bool:
     if asked is not None:
         return asked and hasattr(os, "fork")
     # (a fork copies only the calling thread: with others running, one of them may hold a lock)
-    return len(model.features) >= PARALLEL_FROM and hasattr(os, "fork") and threading.active_count() == 1
+    return len(model.features) >= PARALLEL_FROM and can_fork()
 
 
 class _Helper:
@@ -134,7 +134,7 @@ class _Helper:
         child ended), so that an interruption never leaves a child unreaped or running
         this process's own exit path in the child."""
         pipes: list[int] = []
-        held = _HELD & signal.valid_signals()
+        held = HELD & signal.valid_signals()
         signal.pthread_sigmask(signal.SIG_BLOCK, held)
         pid = 0
         try:
@@ -153,7 +153,7 @@ class _Helper:
                 os.close(up[1])
                 return cls(pid, open(down[1], "wb"), open(up[0], "rb"))
             except BaseException:
-                _end(pid)
+                end(pid)
                 for fd in (down[1], up[0]):
                     try:
                         os.close(fd)
@@ -175,7 +175,7 @@ class _Helper:
         try:
             writing.start()
         except RuntimeError:  # (no thread to be had: the child gets nothing, and `answer` says None)
-            _end(self.pid)
+            end(self.pid)
             self.pid = 0
             return
         self._writing = writing
@@ -204,7 +204,7 @@ class _Helper:
     def close(self) -> None:
         """End the child (at once, if it is still at work) and reap it."""
         if self.pid:
-            _end(self.pid)
+            end(self.pid)
             self.pid = 0
         if self._writing is not None:
             self._writing.join()  # (a write to a child killed ends at once)
@@ -215,33 +215,14 @@ class _Helper:
                 pass
 
 
-_HELD = {signal.SIGINT, signal.SIGTERM}  # held back from a fork (`_Helper.start`)
-_PR_SET_PDEATHSIG = 1  # prctl(2) (linux/prctl.h)
-_OOM_SCORE = "/proc/self/oom_score_adj"  # (proc(5))
-
-
-def _end(pid: int) -> None:
-    """Kill a helper's process and reap it."""
-    if pid <= 0:  # (0 or -1 would name a whole group of processes)
-        return
-    try:
-        os.kill(pid, signal.SIGKILL)
-    except OSError:
-        pass
-    try:
-        os.waitpid(pid, 0)
-    except OSError:
-        pass
-
-
 def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int]) -> NoReturn:
     """The helper's process, from the fork to its end (whatever happens, it ends here):
     requests come on `down`, the answer goes on `up`."""
     code = 1
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, _HELD & signal.valid_signals())
-        _die_with_parent()
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD & signal.valid_signals())
+        die_with_parent()
         os.close(down[1])
         os.close(up[0])
         with open(down[0], "rb") as requests, open(up[1], "wb") as answers:
@@ -251,25 +232,6 @@ def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int]) -> N
         pass
     finally:
         os._exit(code)
-
-
-def _die_with_parent() -> None:
-    """Linux: this process is killed when its parent ends (a parent killed outright leaves
-    no child at work), and is the first the kernel kills when memory runs out (the parent
-    then explains itself)."""
-    parent = os.getppid()
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() != parent:  # (it ended before the request took effect)
-        raise SystemExit(1)
-    try:
-        with open(_OOM_SCORE, "w") as adjust:
-            adjust.write("1000")
-    except OSError:
-        pass
 
 
 def _explain_as_told(model: FeatureModel, requests: BinaryIO, answers: BinaryIO) -> None:

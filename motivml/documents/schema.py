@@ -21,15 +21,18 @@ import json
 from collections.abc import Callable, Iterator
 from importlib import resources
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
 from .fastschema import Check, Unsupported, compile_schema
+from .forked import Failed, InChild, can_fork
 from .loader import Document, JSONPath, load_file, no_gc
 
 if TYPE_CHECKING:  # imported where a document is invalid: it takes ~60 ms to import
     from jsonschema import Draft202012Validator
     from jsonschema.exceptions import ValidationError
+
+R = TypeVar("R")
 
 FEATURE_MODEL = "feature-model.schema.json"
 CONFIGURATION = "configuration.schema.json"
@@ -356,6 +359,57 @@ def read_checked(
     """
     doc, problems = read_with_problems(path, schema_check)
     return (None, problems) if problems else (doc, [])
+
+
+BESIDE_FROM = 1 << 20  # characters: from here `read_checked_then` checks in a child, beside `then`
+
+
+def read_checked_then(
+    path: str | Path, schema_check: Callable[[Document], list[Diagnostic]], then: Callable[[Document], R]
+) -> tuple[Document | None, list[Diagnostic], R | None]:
+    """`read_checked`, then `then(doc)` on the sound document: (the document, [], what
+    `then` returned); (None, why, None) when it is unusable.
+
+    A document of BESIDE_FROM characters or more is checked in a child process (where one
+    can be forked: `forked.can_fork`) while `then` runs here on it, not yet known sound:
+    what `then` returns, or raises, counts only once the check has found nothing. The
+    check and the reading of a model of 100,000 features take 0.27 s each. If the child
+    fails, the check runs here after all.
+    """
+    try:
+        doc = load_file(path)
+    except MotivmlError as exc:
+        if exc.exit_code != 1:
+            raise
+        return None, exc.diagnostics, None
+    beside = InChild.start(functools.partial(_checked, schema_check, doc)) if _big(doc) and can_fork() else None
+    if beside is None:
+        problems = _checked(schema_check, doc)
+        return (None, problems, None) if problems else (doc, [], then(doc))
+    failure: Exception | None = None
+    try:
+        try:
+            outcome: R | None = then(doc)
+        except Exception as exc:  # noqa: BLE001 - on a document the check may yet refuse: said below
+            outcome, failure = None, exc
+        found = beside.result()
+    finally:
+        beside.close()
+    problems = _checked(schema_check, doc) if isinstance(found, Failed) else found
+    if problems:
+        return None, problems, None
+    if failure is not None:
+        raise failure
+    return doc, [], outcome
+
+
+def _big(doc: Document) -> bool:
+    return len(doc.text) >= BESIDE_FROM
+
+
+def _checked(schema_check: Callable[[Document], list[Diagnostic]], doc: Document) -> list[Diagnostic]:
+    with no_gc():
+        return schema_check(doc)
 
 
 def read_with_problems(

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..documents.loader import Document, no_gc
-from ..documents.schema import check_configuration, check_feature_model, read_checked, read_with_problems
+from ..documents.schema import check_configuration, check_feature_model, read_checked_then, read_with_problems
 from ..errors import Diagnostic, Severity, error, warning
 from .formula import FormulaError, parse
 from .model import ANY, Configuration, Entry, Feature, FeatureModel, Group, Mode, Time
@@ -338,12 +338,16 @@ def _usable(diagnostics: list[Diagnostic]) -> bool:
 
 def load_model(path: str | Path) -> tuple[FeatureModel | None, list[Diagnostic]]:
     """Read a feature model file; None when it cannot be used (the diagnostics say why)."""
-    doc, problems = read_checked(path, check_feature_model)
-    if doc is None:
+    doc, problems, read = read_checked_then(path, check_feature_model, _read_model)
+    if doc is None or read is None:
         return None, problems
-    with no_gc():
-        model, diagnostics = read_model(doc)
+    model, diagnostics = read
     return (model if _usable(diagnostics) else None), diagnostics
+
+
+def _read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
+    with no_gc():
+        return read_model(doc)
 
 
 def load_configuration(

@@ -1,0 +1,146 @@
+"""One job in a second process: a child forked from this one does it while this one goes on,
+and sends its result back, pickled (`InChild`); and what every such child does to stay
+harmless (`die_with_parent`, `end`).
+
+Big documents are checked this way beside what the caller does with them meanwhile (a
+model's schema check while the model is read), and `binding.check` explains a model's
+warnings so while it searches. Only where `os.fork` exists and this process runs no other
+thread (a fork copies the calling thread alone: another one may hold a lock the child
+needs); elsewhere, and whenever the child fails, the caller does the job itself.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import pickle
+import signal
+import threading
+from collections.abc import Callable
+from typing import BinaryIO, Generic, NoReturn, TypeVar
+
+T = TypeVar("T")
+
+HELD = {signal.SIGINT, signal.SIGTERM}  # held back from a fork until the child is set up
+_PR_SET_PDEATHSIG = 1  # prctl(2) (linux/prctl.h)
+_OOM_SCORE = "/proc/self/oom_score_adj"  # (proc(5))
+
+
+def can_fork() -> bool:
+    """Whether a child may be forked here now (`os.fork` exists, no other thread runs)."""
+    return hasattr(os, "fork") and threading.active_count() == 1
+
+
+class Failed:
+    """What `InChild.result` gives when the child sent no result (it raised, died, or sent
+    something unreadable)."""
+
+
+FAILED = Failed()
+
+
+class InChild(Generic[T]):
+    """`job()` run in a child process forked by `start`; `result()` is what it returned."""
+
+    def __init__(self, pid: int, answers: BinaryIO) -> None:
+        self.pid, self._answers = pid, answers
+
+    @classmethod
+    def start(cls, job: Callable[[], T]) -> InChild[T] | None:
+        """The child, forked now and at work; None if it cannot be (nothing is left behind).
+
+        Ctrl-C and SIGTERM are held back from the fork until the child is set up (or
+        ended), so that an interruption never leaves it unreaped or running this process's
+        own exit path."""
+        held = HELD & signal.valid_signals()
+        signal.pthread_sigmask(signal.SIG_BLOCK, held)
+        try:
+            try:
+                reading, writing = os.pipe()
+            except OSError:
+                return None
+            try:
+                pid = os.fork()
+            except OSError:
+                os.close(reading)
+                os.close(writing)
+                return None
+            if pid == 0:
+                os.close(reading)
+                _child(job, writing)
+            os.close(writing)
+            try:
+                return cls(pid, open(reading, "rb"))
+            except BaseException:
+                end(pid)
+                os.close(reading)
+                raise
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
+
+    def result(self) -> T | Failed:
+        """What the job returned (waiting for it); FAILED if the child sent nothing usable."""
+        try:
+            found: T = pickle.load(self._answers)
+        except Exception:  # noqa: BLE001 - an unpickling error, end of file, an OSError: no result
+            return FAILED
+        return found
+
+    def close(self) -> None:
+        """End the child (at once, if it is still at work) and reap it."""
+        if self.pid:
+            end(self.pid)
+            self.pid = 0
+        try:
+            self._answers.close()
+        except OSError:
+            pass
+
+
+def _child(job: Callable[[], object], answers: int) -> NoReturn:
+    """The child's life, from the fork to its end (whatever happens, it ends here)."""
+    code = 1
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD & signal.valid_signals())
+        die_with_parent()
+        with open(answers, "wb") as sent:
+            pickle.dump(job(), sent)
+        code = 0
+    except BaseException:  # noqa: BLE001, S110 - the parent does the job instead (it sees no result)
+        pass
+    finally:
+        os._exit(code)
+
+
+def die_with_parent() -> None:
+    """Linux: this process is killed when its parent ends (a parent killed outright leaves
+    no child at work), and is the first the kernel kills when memory runs out (the parent
+    then does the job itself)."""
+    parent = os.getppid()
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:  # (it ended before the request took effect)
+        raise SystemExit(1)
+    try:
+        with open(_OOM_SCORE, "w") as adjust:
+            adjust.write("1000")
+    except OSError:
+        pass
+
+
+def end(pid: int) -> None:
+    """Kill a child and reap it."""
+    if pid <= 0:  # (0 or -1 would name a whole group of processes)
+        return
+    try:
+        os.kill(pid, signal.SIGKILL)
+    except OSError:
+        pass
+    try:
+        os.waitpid(pid, 0)
+    except OSError:
+        pass

@@ -1,0 +1,194 @@
+"""documents.forked (one job in a forked child) and the schema check it runs beside the
+reading of a big model (schema.read_checked_then)."""
+
+from __future__ import annotations
+
+import os
+import signal
+from pathlib import Path
+from typing import Any
+
+import pytest
+from test_corpus import corpus
+
+from motivml.documents import forked, schema
+from motivml.documents.forked import FAILED, InChild
+from motivml.language.reader import load_model
+
+
+def no_child_left() -> bool:
+    try:
+        os.waitpid(-1, os.WNOHANG)
+    except ChildProcessError:
+        return True
+    return False
+
+
+def test_a_child_s_job_comes_back_as_it_returned() -> None:
+    child = InChild.start(lambda: {"answer": [42, "x"]})
+    assert child is not None
+    try:
+        assert child.result() == {"answer": [42, "x"]}
+    finally:
+        child.close()
+    assert no_child_left()
+
+
+@pytest.mark.parametrize("how", ["raises", "dies", "returns what cannot be pickled"])
+def test_a_child_that_fails_gives_failed(how: str) -> None:
+    def job() -> Any:
+        if how == "raises":
+            raise RuntimeError("not today")
+        if how == "dies":
+            os._exit(3)
+        return lambda: None
+
+    child = InChild.start(job)
+    assert child is not None
+    try:
+        assert child.result() is FAILED
+    finally:
+        child.close()
+    assert no_child_left()
+
+
+def test_closing_ends_a_child_still_at_work() -> None:
+    reading, writing = os.pipe()
+    child = InChild.start(lambda: os.read(reading, 1))  # (nothing is ever written: it waits)
+    assert child is not None
+    child.close()
+    os.close(reading)
+    os.close(writing)
+    assert no_child_left()
+
+
+def test_a_fork_refused_gives_no_child(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refused() -> int:
+        raise OSError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(forked.os, "fork", refused)
+    assert InChild.start(lambda: 1) is None
+    assert not {signal.SIGINT, signal.SIGTERM} & set(signal.pthread_sigmask(signal.SIG_BLOCK, []))
+
+
+def test_no_child_is_forked_beside_another_thread(monkeypatch: pytest.MonkeyPatch) -> None:
+    assert forked.can_fork()
+    monkeypatch.setattr(forked.threading, "active_count", lambda: 2)
+    assert not forked.can_fork()
+
+
+def test_ending_a_child_that_has_no_process_kills_nothing() -> None:
+    forked.end(0)  # (os.kill(0, ...) would kill this process's whole group, this test run with it)
+    forked.end(-1)
+
+
+class _Libc:
+    def __init__(self) -> None:
+        self.calls: list[tuple[int, ...]] = []
+
+    def prctl(self, *args: int) -> int:
+        self.calls.append(args)
+        return 0
+
+
+def test_the_child_asks_to_die_with_its_parent_and_to_go_first_when_memory_runs_out(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    libc, score = _Libc(), tmp_path / "oom_score_adj"
+    monkeypatch.setattr(forked.ctypes, "CDLL", lambda *args, **kwargs: libc)
+    monkeypatch.setattr(forked, "_OOM_SCORE", str(score))
+    forked.die_with_parent()
+    assert libc.calls == [(forked._PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)]
+    assert score.read_text() == "1000"
+    monkeypatch.setattr(forked, "_OOM_SCORE", str(tmp_path / "no such folder" / "oom_score_adj"))
+    forked.die_with_parent()  # (a system without it: nothing to ask)
+    parents = iter([41, 1])  # (the parent ended before the request took effect: so does the child)
+    monkeypatch.setattr(forked.os, "getppid", lambda: next(parents))
+    with pytest.raises(SystemExit):
+        forked.die_with_parent()
+
+
+def test_the_child_s_life_ends_in_the_child_whatever_its_job_does(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`_child` in this process: its result on the pipe and exit code 0, or exit code 1."""
+    import pickle
+
+    def ends(code: int) -> None:
+        raise SystemExit(code)
+
+    monkeypatch.setattr(forked.os, "_exit", ends)
+    monkeypatch.setattr(forked.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C,
+    monkeypatch.setattr(forked, "die_with_parent", lambda: None)  # its parent and its OOM score)
+    for job, code in ((lambda: [1, 2], 0), (lambda: 1 / 0, 1)):
+        reading, writing = os.pipe()
+        with pytest.raises(SystemExit) as ended:
+            forked._child(job, writing)
+        assert ended.value.code == code
+        with open(reading, "rb") as answer:
+            data = answer.read()
+        assert (pickle.loads(data) if code == 0 else data) == ([1, 2] if code == 0 else b"")
+
+
+def test_a_big_model_is_read_as_a_small_one_is_whatever_is_wrong_with_it(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Each mutated model of the robustness corpus, read with its schema checked in a child
+    beside the reading, gives the model and the diagnostics of the reading in one process."""
+    path = tmp_path / "model.json"
+    forks = 0
+    start = InChild.start
+
+    def counted(job: Any) -> Any:
+        nonlocal forks
+        forks += 1
+        return start(job)
+
+    monkeypatch.setattr(schema.InChild, "start", counted)
+    for number, data in corpus("model"):
+        path.write_bytes(data)
+        alone = _read(path)
+        with monkeypatch.context() as big:
+            big.setattr(schema, "BESIDE_FROM", 0)
+            assert _read(path) == alone, number
+    assert forks > 100 and no_child_left()  # (those the loader refuses fork nothing)
+
+
+def _read(path: Path) -> tuple[Any, ...]:
+    model, diagnostics = load_model(path)
+    ids = [f.id for f in model.features] if model is not None else None
+    return ids, [(str(d.location), d.message, d.rule) for d in diagnostics]
+
+
+def test_a_child_that_fails_leaves_the_check_to_this_process(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    class Broken:
+        def result(self) -> Any:
+            return FAILED
+
+        def close(self) -> None:
+            pass
+
+    path = tmp_path / "model.json"
+    path.write_text('{"id": "r", "name": "R", "sub": [{"id": "a", "name": "A", "isMandatory": 3}]}')
+    expected = _read(path)
+    assert expected[0] is None and expected[1]  # (a schema error)
+    monkeypatch.setattr(schema, "BESIDE_FROM", 0)
+    monkeypatch.setattr(schema.InChild, "start", lambda job: Broken())
+    assert _read(path) == expected
+
+
+def test_what_the_reading_raises_counts_only_for_a_sound_document(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    def fails(doc: Any) -> Any:
+        raise RuntimeError("a reader's bug")
+
+    monkeypatch.setattr(schema, "BESIDE_FROM", 0)
+    unsound, sound = tmp_path / "unsound.json", tmp_path / "sound.json"
+    unsound.write_text('{"id": "r", "name": "R", "sub": 3}')
+    sound.write_text('{"id": "r", "name": "R"}')
+    doc, problems, outcome = schema.read_checked_then(unsound, schema.check_feature_model, fails)
+    assert doc is None and problems and outcome is None
+    with pytest.raises(RuntimeError, match="a reader's bug"):
+        schema.read_checked_then(sound, schema.check_feature_model, fails)
+    assert no_child_left()
