@@ -229,6 +229,18 @@ def test_atomic_set_rounds_find_equal_members_that_are_not_neighbours() -> None:
     assert _atomic_sets_from_rounds_alone(raw) == expected
 
 
+# a is dead (its XOR group wants exactly one of x and y, the formula both or neither), yet
+# unit propagation does not refute it; p's alternatives u and v are both possible
+_DEAD_UNREFUTED = feature(
+    "r",
+    [
+        feature("a", [feature("x", group="XOR"), feature("y", group="XOR")], isMandatory=False),
+        feature("p", [feature("u", group="XOR"), feature("v", group="XOR")], isMandatory=False),
+    ],
+    formulas=["x <=> y"],
+)
+
+
 def test_a_batch_that_fails_leaves_its_first_target_to_a_solve_of_its_own() -> None:
     """a is dead (its XOR group wants exactly one of x and y, the formula both or neither),
     yet unit propagation does not refute it; v is possible but not in the first variant,
@@ -236,15 +248,7 @@ def test_a_batch_that_fails_leaves_its_first_target_to_a_solve_of_its_own() -> N
     a alone: a is then asked alone (impossible), and v after it (possible)."""
     from motivml.binding import encoding as enc
 
-    raw = feature(
-        "r",
-        [
-            feature("a", [feature("x", group="XOR"), feature("y", group="XOR")], isMandatory=False),
-            feature("p", [feature("u", group="XOR"), feature("v", group="XOR")], isMandatory=False),
-        ],
-        formulas=["x <=> y"],
-    )
-    model = read(raw)
+    model = read(_DEAD_UNREFUTED)
     with enc.Encoding(model) as hard:
         s = {f.id: hard.s(f.index) for f in model.features}
         targets = [[s["a"]], [s["u"]], [s["v"]]]
@@ -684,15 +688,7 @@ def test_the_first_answers_are_told_before_a_later_target_is_solved_for() -> Non
     solved for."""
     from motivml.binding import encoding as enc
 
-    raw = feature(
-        "r",
-        [
-            feature("a", [feature("x", group="XOR"), feature("y", group="XOR")], isMandatory=False),
-            feature("p", [feature("u", group="XOR"), feature("v", group="XOR")], isMandatory=False),
-        ],
-        formulas=["x <=> y"],
-    )
-    model = read(raw)
+    model = read(_DEAD_UNREFUTED)
     with enc.Encoding(model) as hard:
         s = {f.id: hard.s(f.index) for f in model.features}
         solves: list[bool] = []

@@ -9,19 +9,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from test_check_parallel import no_child_left
 from test_corpus import corpus
 
 from motivml.documents import forked, schema
 from motivml.documents.forked import FAILED, InChild
 from motivml.language.reader import load_model
-
-
-def no_child_left() -> bool:
-    try:
-        os.waitpid(-1, os.WNOHANG)
-    except ChildProcessError:
-        return True
-    return False
 
 
 def test_a_child_s_job_comes_back_as_it_returned() -> None:
