@@ -274,14 +274,14 @@ def test_the_child_process_reads_its_requests_answers_and_ends(monkeypatch: pyte
 
     monkeypatch.setattr(check.os, "_exit", ends)
     monkeypatch.setattr(check.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C,
-    monkeypatch.setattr(check, "die_with_parent", lambda: None)  # its parent and its OOM score)
+    monkeypatch.setattr(check, "die_with_parent", lambda parent: None)  # its parent and its OOM score)
     with pytest.raises(SystemExit) as ended:
-        check._child(model, down, up)
+        check._child(model, down, up, os.getppid())
     assert ended.value.code == 0
     with open(reader, "rb") as answer:
         assert pickle.load(answer) == expected
     with pytest.raises(SystemExit) as failed:  # (nothing to read now: it fails, and says so)
-        check._child(model, os.pipe(), os.pipe())
+        check._child(model, os.pipe(), os.pipe(), os.getppid())
     assert failed.value.code == 1
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from motivml.binding import encoding as enc
 from motivml.cli import main
 from motivml.documents import loader
 from motivml.language import reader
@@ -562,6 +563,7 @@ def ending(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     monkeypatch.setattr(os, "_exit", end)
     monkeypatch.setattr(atexit, "_run_exitfuncs", lambda: done.append("atexit"))
     monkeypatch.setattr(loader, "_process_ends", False)  # (console says it: not for the tests after)
+    monkeypatch.setattr(enc, "_LEFT_TILL_EXIT", [])  # (and what it keeps is not theirs either)
     return done
 
 
@@ -570,9 +572,7 @@ def test_a_command_that_does_one_job_ends_the_process_once_done(
 ) -> None:
     """...and leaves its solvers to the end of the process, which frees them at no cost."""
     import motivml.cli as cli
-    from motivml.binding import encoding as enc
 
-    monkeypatch.setattr(enc, "_LEFT_TILL_EXIT", [])
     for argv, code in ((["validate", str(SIMPLEBOT / "model.json")], 0), (["validate", "no/such/model.json"], 3)):
         monkeypatch.setattr("sys.argv", ["motivml", *argv])
         with pytest.raises(_Ended):
@@ -582,9 +582,20 @@ def test_a_command_that_does_one_job_ends_the_process_once_done(
     assert enc._LEFT_TILL_EXIT and loader._process_ends
 
 
-def test_solvers_are_deleted_when_the_process_goes_on_after_the_command() -> None:
-    from motivml.binding import encoding as enc
+def test_a_command_of_many_encodings_keeps_the_last_solver_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(loader, "_process_ends", True)
+    monkeypatch.setattr(enc, "_LEFT_TILL_EXIT", [])
+    model = reader.load_model(SIMPLEBOT / "model.json")[0]
+    assert model is not None
+    with loader.one_command():
+        with enc.Encoding(model) as first:
+            pass
+        with enc.Encoding(model) as second:
+            pass
+        assert enc._LEFT_TILL_EXIT == [second.solver] and first.solver.solver is None  # (deleted)
 
+
+def test_solvers_are_deleted_when_the_process_goes_on_after_the_command() -> None:
     result = CliRunner().invoke(main, ["validate", str(SIMPLEBOT / "model.json")])
     assert result.exit_code == 0 and not loader._process_ends and not enc._LEFT_TILL_EXIT
     model = reader.load_model(SIMPLEBOT / "model.json")[0]

@@ -64,6 +64,25 @@ def test_a_fork_refused_gives_no_child(monkeypatch: pytest.MonkeyPatch) -> None:
     assert not {signal.SIGINT, signal.SIGTERM} & set(signal.pthread_sigmask(signal.SIG_BLOCK, []))
 
 
+def test_a_ctrl_c_held_back_from_the_fork_ends_the_child_it_interrupts(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C pressed during the fork is raised when the signals are let through again:
+    the child just made is ended and reaped first."""
+    mask = signal.pthread_sigmask
+
+    def interrupted(how: int, signals: Any) -> Any:
+        mask(how, signals)
+        if how == signal.SIG_UNBLOCK:
+            raise KeyboardInterrupt
+
+    reading, writing = os.pipe()
+    monkeypatch.setattr(forked.signal, "pthread_sigmask", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        InChild.start(lambda: os.read(reading, 1))  # (it would wait for ever)
+    os.close(reading)
+    os.close(writing)
+    assert no_child_left()
+
+
 def test_no_child_is_forked_beside_another_thread(monkeypatch: pytest.MonkeyPatch) -> None:
     assert forked.can_fork()
     monkeypatch.setattr(forked.threading, "active_count", lambda: 2)
@@ -90,15 +109,13 @@ def test_the_child_asks_to_die_with_its_parent_and_to_go_first_when_memory_runs_
     libc, score = _Libc(), tmp_path / "oom_score_adj"
     monkeypatch.setattr(forked.ctypes, "CDLL", lambda *args, **kwargs: libc)
     monkeypatch.setattr(forked, "_OOM_SCORE", str(score))
-    forked.die_with_parent()
+    forked.die_with_parent(os.getppid())
     assert libc.calls == [(forked._PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)]
     assert score.read_text() == "1000"
     monkeypatch.setattr(forked, "_OOM_SCORE", str(tmp_path / "no such folder" / "oom_score_adj"))
-    forked.die_with_parent()  # (a system without it: nothing to ask)
-    parents = iter([41, 1])  # (the parent ended before the request took effect: so does the child)
-    monkeypatch.setattr(forked.os, "getppid", lambda: next(parents))
-    with pytest.raises(SystemExit):
-        forked.die_with_parent()
+    forked.die_with_parent(os.getppid())  # (a system without it: nothing to ask)
+    with pytest.raises(SystemExit):  # (the parent ended before the request took effect: so does the child)
+        forked.die_with_parent(os.getppid() + 1)
 
 
 def test_the_child_s_life_ends_in_the_child_whatever_its_job_does(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -110,11 +127,11 @@ def test_the_child_s_life_ends_in_the_child_whatever_its_job_does(monkeypatch: p
 
     monkeypatch.setattr(forked.os, "_exit", ends)
     monkeypatch.setattr(forked.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C,
-    monkeypatch.setattr(forked, "die_with_parent", lambda: None)  # its parent and its OOM score)
+    monkeypatch.setattr(forked, "die_with_parent", lambda parent: None)  # its parent and its OOM score)
     for job, code in ((lambda: [1, 2], 0), (lambda: 1 / 0, 1)):
         reading, writing = os.pipe()
         with pytest.raises(SystemExit) as ended:
-            forked._child(job, writing)
+            forked._child(job, writing, os.getppid())
         assert ended.value.code == code
         with open(reading, "rb") as answer:
             data = answer.read()
@@ -176,6 +193,14 @@ def test_what_the_reading_raises_counts_only_for_a_sound_document(
     def fails(doc: Any) -> Any:
         raise RuntimeError("a reader's bug")
 
+    forks: list[Any] = []
+    start = InChild.start
+
+    def counted(job: Any) -> Any:
+        forks.append(job)
+        return start(job)
+
+    monkeypatch.setattr(schema.InChild, "start", counted)
     monkeypatch.setattr(schema, "BESIDE_FROM", 0)
     unsound, sound = tmp_path / "unsound.json", tmp_path / "sound.json"
     unsound.write_text('{"id": "r", "name": "R", "sub": 3}')
@@ -184,4 +209,24 @@ def test_what_the_reading_raises_counts_only_for_a_sound_document(
     assert doc is None and problems and outcome is None
     with pytest.raises(RuntimeError, match="a reader's bug"):
         schema.read_checked_then(sound, schema.check_feature_model, fails)
-    assert no_child_left()
+    assert len(forks) == 2 and no_child_left()
+
+
+def test_a_string_or_an_object_where_a_list_belongs_is_read_as_no_members(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """Read beside the schema check, before it has refused such a model: a string of
+    formulas or of included ids is not read character by character."""
+    from motivml.language import reader
+
+    parsed: list[str] = []
+    parse = reader.parse
+    monkeypatch.setattr(reader, "parse", lambda text, position: parsed.append(text) or parse(text, position))
+    doc = '{"id": "r", "name": "R", "formulas": "' + "a" * 50 + '", "sub": [{"id": "a", "name": "A", '
+    doc += '"constraints": {"featuresIncluded": "' + "b" * 50 + '", "featuresExcluded": {"c": 1}}}]}'
+    path = tmp_path / "model.json"
+    path.write_text(doc)
+    model, problems = reader.read_model(schema.load_file(path))
+    assert parsed == [] and model.features[1].includes == () and model.features[1].excludes == ()
+    assert not [d for d in problems if d.rule in ("model.unknown-id", "2.4")]
+    assert load_model(path)[0] is None  # (the schema refuses it)

@@ -105,13 +105,17 @@ SAMPLED = 200  # sets drawn instead, where there are more
 
 
 def smaller_sets(items: Sequence[T], below: int, data: st.DataObject) -> Iterable[tuple[T, ...]]:
-    """Every subset of `items` with fewer than `below` members, or SAMPLED of them drawn
-    where there are more than EXHAUSTIVE (a first repair of 6 of 27 facts leaves 100,000
-    smaller sets: checking them all took minutes)."""
+    """Every subset of `items` with fewer than `below` members, or SAMPLED of them drawn,
+    sizes evenly, where there are more than EXHAUSTIVE (a first repair of 6 of 27 facts
+    leaves 100,000 smaller sets: checking them all took minutes)."""
     if sum(comb(len(items), size) for size in range(below)) <= EXHAUSTIVE:
         return (part for size in range(below) for part in combinations(items, size))
-    picks = st.lists(st.integers(0, len(items) - 1), max_size=below - 1, unique=True)
-    return [tuple(items[k] for k in data.draw(picks)) for _ in range(SAMPLED)]
+    parts = []
+    for _ in range(SAMPLED):  # (each size as likely as any other: most sets are of the largest)
+        size = data.draw(st.integers(0, below - 1))
+        chosen = data.draw(st.lists(st.integers(0, len(items) - 1), min_size=size, max_size=size, unique=True))
+        parts.append(tuple(items[k] for k in chosen))
+    return parts
 
 
 def test_a_feature_deselected_by_a_repair_takes_its_selected_sub_features_with_it() -> None:

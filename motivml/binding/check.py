@@ -15,7 +15,7 @@ import threading
 from dataclasses import replace
 from typing import BinaryIO, NoReturn
 
-from ..documents.forked import HELD, can_fork, die_with_parent, end
+from ..documents.forked import HELD, can_fork, die_with_parent, end, unblock
 from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
@@ -135,6 +135,8 @@ class _Helper:
         this process's own exit path in the child."""
         pipes: list[int] = []
         held = HELD & signal.valid_signals()
+        parent = os.getpid()
+        made: _Helper | None = None
         signal.pthread_sigmask(signal.SIG_BLOCK, held)
         pid = 0
         try:
@@ -147,11 +149,11 @@ class _Helper:
                     os.close(fd)
                 return None
             if pid == 0:
-                _child(model, down, up)
+                _child(model, down, up, parent)
             try:
                 os.close(down[0])
                 os.close(up[1])
-                return cls(pid, open(down[1], "wb"), open(up[0], "rb"))
+                made = cls(pid, open(down[1], "wb"), open(up[0], "rb"))
             except BaseException:
                 end(pid)
                 for fd in (down[1], up[0]):
@@ -161,7 +163,8 @@ class _Helper:
                         pass
                 raise
         finally:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
+            unblock(held, made)
+        return made
 
     def ask(self, what: object) -> None:
         """Send `what`, from a thread: a message larger than the pipe holds would otherwise
@@ -215,14 +218,14 @@ class _Helper:
                 pass
 
 
-def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int]) -> NoReturn:
+def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int], parent: int) -> NoReturn:
     """The helper's process, from the fork to its end (whatever happens, it ends here):
     requests come on `down`, the answer goes on `up`."""
     code = 1
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD & signal.valid_signals())
-        die_with_parent()
+        die_with_parent(parent)
         os.close(down[1])
         os.close(up[0])
         with open(down[0], "rb") as requests, open(up[1], "wb") as answers:

@@ -1064,8 +1064,10 @@ class Encoding:
 
     # --------------------------------------------------------------- lifecycle
     def close(self) -> None:
-        if keep_till_exit():  # (the process ends soon, and frees it at no cost)
+        if keep_till_exit():  # (the process ends soon, and frees the last one at no cost)
             _LEFT_TILL_EXIT.append(self.solver)
+            while len(_LEFT_TILL_EXIT) > 1:  # (a command of many encodings keeps one at most)
+                _LEFT_TILL_EXIT.pop(0).delete()
         else:
             self.solver.delete()
 
@@ -1078,7 +1080,7 @@ class Encoding:
         self.close()
 
 
-_LEFT_TILL_EXIT: list[Solver] = []  # solvers of closed encodings, left for the process's end
+_LEFT_TILL_EXIT: list[Solver] = []  # the last closed encoding's solver, left for the process's end
 
 
 @dataclass(frozen=True, slots=True)

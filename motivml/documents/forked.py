@@ -17,7 +17,7 @@ import pickle
 import signal
 import threading
 from collections.abc import Callable
-from typing import BinaryIO, Generic, NoReturn, TypeVar
+from typing import Any, BinaryIO, Generic, NoReturn, Protocol, TypeVar
 
 T = TypeVar("T")
 
@@ -53,6 +53,8 @@ class InChild(Generic[T]):
         ended), so that an interruption never leaves it unreaped or running this process's
         own exit path."""
         held = HELD & signal.valid_signals()
+        parent = os.getpid()
+        made: InChild[T] | None = None
         signal.pthread_sigmask(signal.SIG_BLOCK, held)
         try:
             try:
@@ -67,16 +69,17 @@ class InChild(Generic[T]):
                 return None
             if pid == 0:
                 os.close(reading)
-                _child(job, writing)
+                _child(job, writing, parent)
             os.close(writing)
             try:
-                return cls(pid, open(reading, "rb"))
+                made = cls(pid, open(reading, "rb"))
             except BaseException:
                 end(pid)
                 os.close(reading)
                 raise
         finally:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
+            unblock(held, made)
+        return made
 
     def result(self) -> T | Failed:
         """What the job returned (waiting for it); FAILED if the child sent nothing usable."""
@@ -97,13 +100,28 @@ class InChild(Generic[T]):
             pass
 
 
-def _child(job: Callable[[], object], answers: int) -> NoReturn:
+def unblock(held: set[signal.Signals], made: InChild[Any] | _Closable | None) -> None:
+    """Let the signals held back from a fork through; a Ctrl-C waiting among them (raised
+    here) first ends the child just made, so that none is left unreaped."""
+    try:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, held)
+    except BaseException:
+        if made is not None:
+            made.close()
+        raise
+
+
+class _Closable(Protocol):
+    def close(self) -> None: ...
+
+
+def _child(job: Callable[[], object], answers: int, parent: int) -> NoReturn:
     """The child's life, from the fork to its end (whatever happens, it ends here)."""
     code = 1
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD & signal.valid_signals())
-        die_with_parent()
+        die_with_parent(parent)
         with open(answers, "wb") as sent:
             pickle.dump(job(), sent)
         code = 0
@@ -113,17 +131,16 @@ def _child(job: Callable[[], object], answers: int) -> NoReturn:
         os._exit(code)
 
 
-def die_with_parent() -> None:
-    """Linux: this process is killed when its parent ends (a parent killed outright leaves
-    no child at work), and is the first the kernel kills when memory runs out (the parent
-    then does the job itself)."""
-    parent = os.getppid()
+def die_with_parent(parent: int) -> None:
+    """Linux: this process is killed when its parent (`parent`, its pid from before the
+    fork) ends, so that a parent killed outright leaves no child at work, and is the first
+    the kernel kills when memory runs out (the parent then does the job itself)."""
     try:
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
     except (OSError, AttributeError):
         pass
-    if os.getppid() != parent:  # (it ended before the request took effect)
+    if os.getppid() != parent:  # (it ended before the request took effect, or before the fork)
         raise SystemExit(1)
     try:
         with open(_OOM_SCORE, "w") as adjust:

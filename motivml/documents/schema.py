@@ -382,19 +382,22 @@ def read_checked_then(
         if exc.exit_code != 1:
             raise
         return None, exc.diagnostics, None
-    beside = InChild.start(functools.partial(_checked, schema_check, doc)) if _big(doc) and can_fork() else None
-    if beside is None:
-        problems = _checked(schema_check, doc)
-        return (None, problems, None) if problems else (doc, [], then(doc))
+    beside: InChild[list[Diagnostic]] | None = None
     failure: Exception | None = None
     try:
+        if _big(doc) and can_fork():
+            beside = InChild.start(functools.partial(_checked, schema_check, doc))
+        if beside is None:
+            problems = _checked(schema_check, doc)
+            return (None, problems, None) if problems else (doc, [], then(doc))
         try:
             outcome: R | None = then(doc)
         except Exception as exc:  # noqa: BLE001 - on a document the check may yet refuse: said below
             outcome, failure = None, exc
         found = beside.result()
     finally:
-        beside.close()
+        if beside is not None:
+            beside.close()
     problems = _checked(schema_check, doc) if isinstance(found, Failed) else found
     if problems:
         return None, problems, None

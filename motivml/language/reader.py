@@ -76,8 +76,8 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
             node.get("isMandatory"),  # declared_mandatory
             _TIMES[constraints.get("bindingTimeAllowed", _DEFAULT_TIME)],
             _MODES[constraints.get("bindingModeAllowed", _DEFAULT_MODE)],
-            tuple(constraints.get("featuresIncluded", ())),
-            tuple(constraints.get("featuresExcluded", ())),
+            _listed(constraints.get("featuresIncluded")),
+            _listed(constraints.get("featuresExcluded")),
             [],  # children
             node.get("abstract", False) is True,
         )
@@ -147,8 +147,9 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
             continue
         for key, targets in (("featuresIncluded", feature.includes), ("featuresExcluded", feature.excludes)):
             verb = "includes" if key == "featuresIncluded" else "excludes"
+            named: dict[str, int] = {}  # target -> where it is first named
             for position_, target in enumerate(targets):
-                if targets.index(target) != position_:
+                if named.setdefault(target, position_) != position_:
                     diagnostics.append(
                         warning(
                             doc.locate(model.path(feature.index, "constraints", key, position_)),
@@ -220,9 +221,16 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
     return model, diagnostics
 
 
+def _listed(value: Any) -> tuple[Any, ...]:
+    """A list's members; nothing for any other value. (The schema says what the list must
+    be; a big model is read while the schema is checked, and a string or an object where a
+    list belongs must not be read as thousands of members meanwhile.)"""
+    return tuple(value) if isinstance(value, list) else ()
+
+
 def _read_formulas(doc: Document, model: FeatureModel, diagnostics: list[Diagnostic], suggest: _Suggestions) -> None:
     """The root's `formulas` (rule 2.4): each parsed, each id known, errors at the character."""
-    for position, text in enumerate(doc.root.get("formulas", ())):
+    for position, text in enumerate(_listed(doc.root.get("formulas"))):
         path = ("formulas", position)
         try:
             formula = parse(text, position)
