@@ -230,3 +230,43 @@ def test_a_string_or_an_object_where_a_list_belongs_is_read_as_no_members(
     assert parsed == [] and model.features[1].includes == () and model.features[1].excludes == ()
     assert not [d for d in problems if d.rule in ("model.unknown-id", "2.4")]
     assert load_model(path)[0] is None  # (the schema refuses it)
+
+
+def test_no_pipe_gives_no_child(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refused() -> tuple[int, int]:
+        raise OSError(24, "Too many open files")
+
+    monkeypatch.setattr(forked.os, "pipe", refused)
+    assert InChild.start(lambda: 1) is None
+
+
+def test_a_child_that_cannot_be_set_up_after_the_fork_is_ended(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refused(*args: Any, **kwargs: Any) -> Any:
+        raise OSError(24, "Too many open files")
+
+    monkeypatch.setattr(forked, "open", refused, raising=False)  # (the child cannot open its pipe either)
+    with pytest.raises(OSError, match="Too many open files"):
+        InChild.start(lambda: 1)
+    assert no_child_left()
+
+
+def test_closing_a_stream_that_fails_or_a_process_that_is_gone_raises_nothing(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    class Failing:
+        def close(self) -> None:
+            raise OSError(5, "Input/output error")
+
+    InChild(0, Failing()).close()  # type: ignore[arg-type]
+    forked.end(2**22 + 1)  # (above any pid Linux gives: no such process to kill or reap)
+
+
+def test_a_system_without_prctl_still_sets_the_oom_score(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    def missing(*args: Any, **kwargs: Any) -> Any:
+        raise OSError("no C library here")
+
+    score = tmp_path / "oom_score_adj"
+    monkeypatch.setattr(forked.ctypes, "CDLL", missing)
+    monkeypatch.setattr(forked, "_OOM_SCORE", str(score))
+    forked.die_with_parent(os.getppid())
+    assert score.read_text() == "1000"

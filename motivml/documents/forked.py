@@ -67,7 +67,7 @@ class InChild(Generic[T]):
                 os.close(reading)
                 os.close(writing)
                 return None
-            if pid == 0:
+            if pid == 0:  # pragma: no cover - the child (coverage does not follow a fork): `_child` is tested here
                 os.close(reading)
                 _child(job, writing, parent)
             os.close(writing)
