@@ -500,7 +500,7 @@ def report(args: argparse.Namespace, ros: dict[str, Any], missed_alone: int) -> 
             f"target <= {bound:6.2f} ms: {'met' if measured <= bound else 'MISSED'}"
         )
     print(
-        f"  max  call to answer {swaps.max() * ms:7.2f} ms   floor {floor.max() * ms:6.2f} ms "
+        f"  max  call to answer {swaps.max() * ms:7.2f} ms (swap {int(swaps.argmax())})   floor {floor.max() * ms:6.2f} ms "
         f"(floor: the same 4 ChangeState round trips per swap, made directly by the same client, "
         f"while the robot runs with its detection unloaded)"
     )
