@@ -814,9 +814,7 @@ class Encoding:
             pending = self._mark(table, possible, pending, witness)
             if before - len(pending) < WITNESS_GAIN:
                 break
-        if refute is True and requires is None:
-            pending = self._propagating(targets, base, pending, implied)
-        elif refute is not False:
+        if refute is not False:
             asked = [
                 k
                 for k in pending

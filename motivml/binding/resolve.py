@@ -86,25 +86,18 @@ def _variant(encoding: enc.Encoding, model: FeatureModel, config: Configuration,
         root = f.parent is None
         # a time or mode the configuration leaves open is the model's if it allows one only
         # (or for the root), else the solver's
-        decisions.append(
-            Decision(
-                f,
-                values[s(i) - 1] > 0,
-                from_flags(values[E(i) - 1] > 0, values[S(i) - 1] > 0),
-                "model" if root else "configuration" if entry is not None else "solver",
-                "configuration"
-                if entry is not None and entry.time is not None
-                else "model"
-                if root or f.time_allowed is not None
-                else "solver",
-                "configuration"
-                if entry is not None and entry.mode is not None
-                else "model"
-                if root or f.mode_allowed is not None
-                else "solver",
-            )
-        )
+        time_by = _DECIDER[root or f.time_allowed is not None]
+        mode_by = _DECIDER[root or f.mode_allowed is not None]
+        if entry is not None:
+            time_by = "configuration" if entry.time is not None else time_by
+            mode_by = "configuration" if entry.mode is not None else mode_by
+        selection_by = "model" if root else "configuration" if entry is not None else "solver"
+        selected, binding = values[s(i) - 1] > 0, from_flags(values[E(i) - 1] > 0, values[S(i) - 1] > 0)
+        decisions.append(Decision(f, selected, binding, selection_by, time_by, mode_by))
     return Variant(model, config.name, tuple(decisions))
+
+
+_DECIDER = {True: "model", False: "solver"}  # who decides what a configuration leaves open: the model?
 
 
 def _preferences(

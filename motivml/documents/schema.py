@@ -376,16 +376,13 @@ def read_checked_then(
     check and the reading of a model of 100,000 features take 0.27 s each. If the child
     fails, the check runs here after all.
     """
-    try:
-        doc = load_file(path)
-    except MotivmlError as exc:
-        if exc.exit_code != 1:
-            raise
-        return None, exc.diagnostics, None
+    doc, unusable = _loaded(path)
+    if doc is None:
+        return None, unusable, None
     beside: InChild[list[Diagnostic]] | None = None
     failure: Exception | None = None
     try:
-        if _big(doc) and can_fork():
+        if len(doc.text) >= BESIDE_FROM and can_fork():
             beside = InChild.start(functools.partial(_checked, schema_check, doc))
         if beside is None:
             problems = _checked(schema_check, doc)
@@ -406,10 +403,6 @@ def read_checked_then(
     return doc, [], outcome
 
 
-def _big(doc: Document) -> bool:
-    return len(doc.text) >= BESIDE_FROM
-
-
 def _checked(schema_check: Callable[[Document], list[Diagnostic]], doc: Document) -> list[Diagnostic]:
     with no_gc():
         return schema_check(doc)
@@ -420,12 +413,16 @@ def read_with_problems(
 ) -> tuple[Document | None, list[Diagnostic]]:
     """Like `read_checked`, but the document comes back with its schema errors (None only when
     it cannot be loaded at all), for a reader that checks its sound parts all the same."""
+    doc, unusable = _loaded(path)
+    return (doc, _checked(schema_check, doc)) if doc is not None else (None, unusable)
+
+
+def _loaded(path: str | Path) -> tuple[Document | None, list[Diagnostic]]:
+    """The document; None and why when it is invalid JSON (environment problems, a missing
+    file, propagate: the caller's exit code says so)."""
     try:
-        doc = load_file(path)
+        return load_file(path), []
     except MotivmlError as exc:
         if exc.exit_code != 1:
             raise
         return None, exc.diagnostics
-    with no_gc():
-        problems = schema_check(doc)
-    return doc, problems

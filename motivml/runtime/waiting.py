@@ -119,11 +119,17 @@ def set_thread_slice(ns: int) -> int | None:
     if found is None:
         return None
     before = int(found[2].sched_runtime)
-    if found[2].sched_policy not in (0, 3) or before == 0:  # SCHED_OTHER, SCHED_BATCH only
+    if not _ordinary(found[2]):
         return None
     if not _ask_slice(found, ns):
         return None
     return before if thread_slice() == ns else None
+
+
+def _ordinary(attr: _SchedAttr) -> bool:
+    """Whether a slice may be asked for a thread of these attributes: SCHED_OTHER or
+    SCHED_BATCH, with a slice of its own (a real-time thread has none)."""
+    return attr.sched_policy in (0, 3) and attr.sched_runtime != 0
 
 
 def _ask_slice(found: tuple[Any, int, _SchedAttr], ns: int) -> bool:
@@ -169,7 +175,7 @@ class OnTime:
         if wanted == self.slice:
             return
         found = _sched_attr()
-        if found is None or found[2].sched_policy not in (0, 3) or found[2].sched_runtime == 0:
+        if found is None or not _ordinary(found[2]):
             return
         if _ask_slice(found, wanted):
             self.slice = wanted
