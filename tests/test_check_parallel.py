@@ -3,6 +3,7 @@ and whatever the child does, the parent still answers and leaves no process behi
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import os
@@ -19,6 +20,8 @@ from test_property_sat import models
 
 from motivml.binding import check
 from motivml.binding.check import analyse_model
+from motivml.documents import forked
+from motivml.documents.forked import InChild
 from motivml.documents.loader import parse
 from motivml.language.model import FeatureModel
 from motivml.language.reader import read_model
@@ -59,14 +62,14 @@ def no_child_left() -> bool:
 def answered(monkeypatch: pytest.MonkeyPatch) -> list[bool]:
     """Whether each helper's answer came (so that the parent did not explain instead)."""
     seen: list[bool] = []
-    answer = check._Helper.answer
+    result = InChild.result
 
-    def recorded(self: check._Helper) -> Any:
-        found = answer(self)
-        seen.append(found is not None)
+    def recorded(self: InChild[Any]) -> Any:
+        found = result(self)
+        seen.append(isinstance(found, list))
         return found
 
-    monkeypatch.setattr(check._Helper, "answer", recorded)
+    monkeypatch.setattr(InChild, "result", recorded)
     return seen
 
 
@@ -117,8 +120,8 @@ def test_a_void_model_ends_its_child_before_it_explains_here(monkeypatch: pytest
     raw = feature("r", [feature("a", isMandatory=True, exc=["b"]), feature("b", isMandatory=True)])
     expected = analyse_model(read(raw), parallel=False)
     events: list[str] = []
-    close, void = check._Helper.close, check._void
-    monkeypatch.setattr(check._Helper, "close", lambda self: (events.append("child ended"), close(self))[1])
+    close, void = InChild.close, check._void
+    monkeypatch.setattr(InChild, "close", lambda self: (events.append("child ended"), close(self))[1])
     monkeypatch.setattr(check, "_void", lambda *args: (events.append("explained here"), void(*args))[1])
     found = analyse_model(read(raw), parallel=True)
     assert found == expected and all(d.message.startswith("the model has no valid variant: ") for d in found)
@@ -126,7 +129,7 @@ def test_a_void_model_ends_its_child_before_it_explains_here(monkeypatch: pytest
     assert no_child_left()
 
 
-def test_the_fork_holds_ctrl_c_and_sigterm_back_until_the_helper_is_set_up(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_fork_holds_ctrl_c_and_sigterm_back_until_the_child_is_set_up(monkeypatch: pytest.MonkeyPatch) -> None:
     held: list[set[signal.Signals]] = []
     fork = os.fork
 
@@ -134,8 +137,8 @@ def test_the_fork_holds_ctrl_c_and_sigterm_back_until_the_helper_is_set_up(monke
         held.append(set(signal.pthread_sigmask(signal.SIG_BLOCK, [])))
         return fork()
 
-    monkeypatch.setattr(check.os, "fork", watched)
-    helper = check._Helper.start(warned())
+    monkeypatch.setattr(forked.os, "fork", watched)
+    helper = InChild.start(functools.partial(check._explain_as_told, warned()))
     assert helper is not None
     helper.close()
     assert {signal.SIGINT, signal.SIGTERM} <= held[0]
@@ -148,14 +151,12 @@ def test_a_request_larger_than_the_pipe_holds_does_not_hold_the_parent_up(monkey
     and opened a gate: a request written in the parent's own thread would wait forever."""
     gate = os.pipe()
 
-    def waits(model: FeatureModel, requests: Any, answers: Any) -> None:
+    def waits(requests: Any) -> list[Any]:
         os.read(gate[0], 1)
         sizes = [len(pickle.load(requests)), len(pickle.load(requests))]
-        pickle.dump([check.warning(check.Location("m.json"), f"{sizes}", "test")], answers)
-        answers.flush()
+        return [check.warning(check.Location("m.json"), f"{sizes}", "test")]
 
-    monkeypatch.setattr(check, "_explain_as_told", waits)
-    helper = check._Helper.start(warned())
+    helper = InChild.start(waits)
     assert helper is not None
     previous = signal.signal(signal.SIGALRM, lambda *args: pytest.fail("the request held the parent up"))
     signal.alarm(60)
@@ -166,9 +167,9 @@ def test_a_request_larger_than_the_pipe_holds_does_not_hold_the_parent_up(monkey
         signal.signal(signal.SIGALRM, previous)
     os.write(gate[1], b"x")
     helper.ask([1, 2])
-    found = helper.answer()
+    found = helper.result()
     helper.close()
-    assert found is not None and [d.message for d in found] == ["[200000, 2]"]
+    assert isinstance(found, list) and [d.message for d in found] == ["[200000, 2]"]
     assert no_child_left()
 
 
@@ -179,7 +180,7 @@ def test_no_thread_to_send_with_leaves_the_parent_to_explain(monkeypatch: pytest
         def start(self) -> None:
             raise RuntimeError("can't start new thread")
 
-    monkeypatch.setattr(check, "threading", SimpleNamespace(Thread=Refused, active_count=threading.active_count))
+    monkeypatch.setattr(forked, "threading", SimpleNamespace(Thread=Refused, active_count=threading.active_count))
     assert analyse_model(model, parallel=True) == expected
     assert no_child_left()
 
@@ -195,11 +196,10 @@ def test_the_child_s_work_gives_what_this_process_would() -> None:
     expected = analyse_model(warned(), parallel=False)
     dead = [f.index for f in model.features if f.id in {"a", "c"}]
     impossible = [(i, aspect, value) for i, aspect, value in _impossible(model)]
-    requests, answers = io.BytesIO(pickle.dumps(dead) + pickle.dumps(impossible)), io.BytesIO()
+    requests = io.BytesIO(pickle.dumps(dead) + pickle.dumps(impossible))
     handler = signal.getsignal(signal.SIGINT)
-    check._explain_as_told(model, requests, answers)
-    assert pickle.loads(answers.getvalue()) == expected
-    assert signal.getsignal(signal.SIGINT) is handler  # (the child's own Ctrl-C handling is `_child`'s)
+    assert check._explain_as_told(model, requests) == expected
+    assert signal.getsignal(signal.SIGINT) is handler  # (the child's own Ctrl-C handling is `forked._child`'s)
 
 
 def _impossible(model: FeatureModel) -> list[Any]:
@@ -213,13 +213,11 @@ def _impossible(model: FeatureModel) -> list[Any]:
 
 @pytest.mark.parametrize("failure", ["raises", "answers nonsense", "answers a list of nonsense", "dies"])
 def test_a_child_that_fails_leaves_the_parent_to_explain(monkeypatch: pytest.MonkeyPatch, failure: str) -> None:
-    def fails(model: FeatureModel, requests: Any, answers: Any) -> None:
+    def fails(model: FeatureModel, requests: Any) -> Any:
         if failure == "raises":
             raise RuntimeError("no explanations today")
         if failure.startswith("answers"):
-            pickle.dump({"not": "a list"} if failure == "answers nonsense" else ["not", "diagnostics"], answers)
-            answers.flush()
-            return
+            return {"not": "a list"} if failure == "answers nonsense" else ["not", "diagnostics"]
         os._exit(3)
 
     expected = analyse_model(warned(), parallel=False)
@@ -255,43 +253,3 @@ def test_big_models_are_analysed_in_two_processes_and_small_ones_in_one(monkeypa
     monkeypatch.setattr(check, "PARALLEL_FROM", 5)
     assert check._parallel(model, None) is True
     assert check._parallel(model, False) is False
-
-
-def test_the_child_process_reads_its_requests_answers_and_ends(monkeypatch: pytest.MonkeyPatch) -> None:
-    """`_child` as the forked process runs it, here (its end, `os._exit`, made an exception)."""
-    model = warned()
-    expected = analyse_model(warned(), parallel=False)
-    down, up = os.pipe(), os.pipe()
-    with open(down[1], "wb") as requests:
-        requests.write(pickle.dumps([f.index for f in model.features if f.id in {"a", "c"}]))
-        requests.write(pickle.dumps(_impossible(model)))
-    # `_child` closes the ends that are not its own: here, copies (one is closed, one is read)
-    down, reader = (down[0], os.dup(down[0])), up[0]
-    up = (os.dup(up[0]), up[1])
-
-    def ends(code: int) -> None:
-        raise SystemExit(code)
-
-    monkeypatch.setattr(check.os, "_exit", ends)
-    monkeypatch.setattr(check.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C,
-    monkeypatch.setattr(check, "die_with_parent", lambda parent: None)  # its parent and its OOM score)
-    with pytest.raises(SystemExit) as ended:
-        check._child(model, down, up, os.getppid())
-    assert ended.value.code == 0
-    with open(reader, "rb") as answer:
-        assert pickle.load(answer) == expected
-    with pytest.raises(SystemExit) as failed:  # (nothing to read now: it fails, and says so)
-        check._child(model, os.pipe(), os.pipe(), os.getppid())
-    assert failed.value.code == 1
-
-
-def test_a_helper_that_cannot_be_set_up_after_the_fork_leaves_no_child(monkeypatch: pytest.MonkeyPatch) -> None:
-    def refused(*args: Any, **kwargs: Any) -> Any:
-        raise OSError(24, "Too many open files")
-
-    model = warned()
-    monkeypatch.setattr(check, "open", refused, raising=False)  # (the child cannot open its pipes either)
-    with pytest.raises(OSError, match="Too many open files"):
-        check._Helper.start(model)
-    assert no_child_left()
-    assert not {signal.SIGINT, signal.SIGTERM} & set(signal.pthread_sigmask(signal.SIG_BLOCK, []))

@@ -18,7 +18,7 @@ from motivml.language.reader import load_model
 
 
 def test_a_child_s_job_comes_back_as_it_returned() -> None:
-    child = InChild.start(lambda: {"answer": [42, "x"]})
+    child = InChild.start(lambda requests: {"answer": [42, "x"]})
     assert child is not None
     try:
         assert child.result() == {"answer": [42, "x"]}
@@ -29,7 +29,7 @@ def test_a_child_s_job_comes_back_as_it_returned() -> None:
 
 @pytest.mark.parametrize("how", ["raises", "dies", "returns what cannot be pickled"])
 def test_a_child_that_fails_gives_failed(how: str) -> None:
-    def job() -> Any:
+    def job(requests: Any) -> Any:
         if how == "raises":
             raise RuntimeError("not today")
         if how == "dies":
@@ -47,7 +47,7 @@ def test_a_child_that_fails_gives_failed(how: str) -> None:
 
 def test_closing_ends_a_child_still_at_work() -> None:
     reading, writing = os.pipe()
-    child = InChild.start(lambda: os.read(reading, 1))  # (nothing is ever written: it waits)
+    child = InChild.start(lambda requests: os.read(reading, 1))  # (nothing is ever written: it waits)
     assert child is not None
     child.close()
     os.close(reading)
@@ -60,7 +60,7 @@ def test_a_fork_refused_gives_no_child(monkeypatch: pytest.MonkeyPatch) -> None:
         raise OSError(11, "Resource temporarily unavailable")
 
     monkeypatch.setattr(forked.os, "fork", refused)
-    assert InChild.start(lambda: 1) is None
+    assert InChild.start(lambda requests: 1) is None
     assert not {signal.SIGINT, signal.SIGTERM} & set(signal.pthread_sigmask(signal.SIG_BLOCK, []))
 
 
@@ -77,7 +77,7 @@ def test_a_ctrl_c_held_back_from_the_fork_ends_the_child_it_interrupts(monkeypat
     reading, writing = os.pipe()
     monkeypatch.setattr(forked.signal, "pthread_sigmask", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        InChild.start(lambda: os.read(reading, 1))  # (it would wait for ever)
+        InChild.start(lambda requests: os.read(reading, 1))  # (it would wait for ever)
     os.close(reading)
     os.close(writing)
     assert no_child_left()
@@ -119,7 +119,8 @@ def test_the_child_asks_to_die_with_its_parent_and_to_go_first_when_memory_runs_
 
 
 def test_the_child_s_life_ends_in_the_child_whatever_its_job_does(monkeypatch: pytest.MonkeyPatch) -> None:
-    """`_child` in this process: its result on the pipe and exit code 0, or exit code 1."""
+    """`_child` in this process: the job reads its requests, its result goes on the pipe
+    and the exit code is 0; or the exit code is 1 and nothing is sent."""
     import pickle
 
     def ends(code: int) -> None:
@@ -128,12 +129,14 @@ def test_the_child_s_life_ends_in_the_child_whatever_its_job_does(monkeypatch: p
     monkeypatch.setattr(forked.os, "_exit", ends)
     monkeypatch.setattr(forked.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C,
     monkeypatch.setattr(forked, "die_with_parent", lambda parent: None)  # its parent and its OOM score)
-    for job, code in ((lambda: [1, 2], 0), (lambda: 1 / 0, 1)):
-        reading, writing = os.pipe()
+    for job, code in ((lambda asked: [pickle.load(asked), 2], 0), (lambda asked: 1 / 0, 1)):
+        down, up = os.pipe(), os.pipe()
+        with open(down[1], "wb") as requests:
+            requests.write(pickle.dumps(1))
         with pytest.raises(SystemExit) as ended:
-            forked._child(job, writing, os.getppid())
+            forked._child(job, down[0], up[1], os.getppid())
         assert ended.value.code == code
-        with open(reading, "rb") as answer:
+        with open(up[0], "rb") as answer:
             data = answer.read()
         assert (pickle.loads(data) if code == 0 else data) == ([1, 2] if code == 0 else b"")
 
@@ -237,7 +240,7 @@ def test_no_pipe_gives_no_child(monkeypatch: pytest.MonkeyPatch) -> None:
         raise OSError(24, "Too many open files")
 
     monkeypatch.setattr(forked.os, "pipe", refused)
-    assert InChild.start(lambda: 1) is None
+    assert InChild.start(lambda requests: 1) is None
 
 
 def test_a_child_that_cannot_be_set_up_after_the_fork_is_ended(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -246,8 +249,9 @@ def test_a_child_that_cannot_be_set_up_after_the_fork_is_ended(monkeypatch: pyte
 
     monkeypatch.setattr(forked, "open", refused, raising=False)  # (the child cannot open its pipe either)
     with pytest.raises(OSError, match="Too many open files"):
-        InChild.start(lambda: 1)
+        InChild.start(lambda requests: 1)
     assert no_child_left()
+    assert not {signal.SIGINT, signal.SIGTERM} & set(signal.pthread_sigmask(signal.SIG_BLOCK, []))
 
 
 def test_closing_a_stream_that_fails_or_a_process_that_is_gone_raises_nothing(
@@ -257,7 +261,7 @@ def test_closing_a_stream_that_fails_or_a_process_that_is_gone_raises_nothing(
         def close(self) -> None:
             raise OSError(5, "Input/output error")
 
-    InChild(0, Failing()).close()  # type: ignore[arg-type]
+    InChild(0, Failing(), Failing()).close()  # type: ignore[arg-type]
     forked.end(2**22 + 1)  # (above any pid Linux gives: no such process to kill or reap)
 
 

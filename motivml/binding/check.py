@@ -8,14 +8,13 @@ the CLI runs them when a model is validated without a configuration.
 
 from __future__ import annotations
 
+import functools
 import os
 import pickle
-import signal
-import threading
 from dataclasses import replace
-from typing import BinaryIO, NoReturn
+from typing import BinaryIO
 
-from ..documents.forked import HELD, can_fork, die_with_parent, end, unblock
+from ..documents.forked import InChild, can_fork
 from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
@@ -67,10 +66,10 @@ def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Dia
     encoding in the same order, so the warnings are the same; if it fails in any way, they
     are explained here instead.
     """
-    helper: _Helper | None = None
+    helper: InChild[list[Diagnostic]] | None = None
     try:
         if _parallel(model, parallel):
-            helper = _Helper.start(model)
+            helper = InChild.start(functools.partial(_explain_as_told, model))
         with no_gc(), enc.Encoding(model) as hard:
             if not hard.solve(with_config=False):
                 if helper is not None:
@@ -91,8 +90,8 @@ def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Dia
         if not dead and not impossible:
             return []
         if helper is not None:
-            found = helper.answer()
-            if found is not None:
+            found = helper.result()
+            if isinstance(found, list) and all(isinstance(d, Diagnostic) for d in found):
                 return found
         with no_gc(), enc.Encoding(model, explain=True) as encoding:
             explainer = Explainer(encoding, model, None)
@@ -117,136 +116,15 @@ def _parallel(model: FeatureModel, asked: bool | None) -> bool:
     return len(model.features) >= PARALLEL_FROM and can_fork()
 
 
-class _Helper:
-    """A child process that builds the explain encoding and explains the warnings it is
-    sent: first the dead features (indices), then the impossible bindings; it answers with
-    their diagnostics, pickled. Each message is a pickle on a pipe."""
-
-    def __init__(self, pid: int, to_child: BinaryIO, from_child: BinaryIO) -> None:
-        self.pid, self._to, self._from = pid, to_child, from_child
-        self._writing: threading.Thread | None = None
-
-    @classmethod
-    def start(cls, model: FeatureModel) -> _Helper | None:
-        """The helper, forked now; None if it cannot be (then nothing is left behind).
-
-        Ctrl-C and SIGTERM are held back from the fork until the helper is set up (or its
-        child ended), so that an interruption never leaves a child unreaped or running
-        this process's own exit path in the child."""
-        pipes: list[int] = []
-        held = HELD & signal.valid_signals()
-        parent = os.getpid()
-        made: _Helper | None = None
-        signal.pthread_sigmask(signal.SIG_BLOCK, held)
-        pid = 0
-        try:
-            try:
-                down, up = os.pipe(), os.pipe()
-                pipes = [*down, *up]
-                pid = os.fork()
-            except OSError:
-                for fd in pipes:
-                    os.close(fd)
-                return None
-            if pid == 0:
-                _child(model, down, up, parent)
-            try:
-                os.close(down[0])
-                os.close(up[1])
-                made = cls(pid, open(down[1], "wb"), open(up[0], "rb"))
-            except BaseException:
-                end(pid)
-                for fd in (down[1], up[0]):
-                    try:
-                        os.close(fd)
-                    except OSError:
-                        pass
-                raise
-        finally:
-            unblock(held, made)
-        return made
-
-    def ask(self, what: object) -> None:
-        """Send `what`, from a thread: a message larger than the pipe holds would otherwise
-        hold this process up until the child, still building, reads it."""
-        if not self.pid:  # (ended already: nothing to send)
-            return
-        if self._writing is not None:
-            self._writing.join()  # (in order)
-        message = pickle.dumps(what)
-        writing = threading.Thread(target=self._write, args=(message,), name="motivml-explain-ask")
-        try:
-            writing.start()
-        except RuntimeError:  # (no thread to be had: the child gets nothing, and `answer` says None)
-            end(self.pid)
-            self.pid = 0
-            return
-        self._writing = writing
-
-    def _write(self, message: bytes) -> None:
-        try:
-            self._to.write(message)
-            self._to.flush()
-        except (OSError, ValueError):  # (the child has gone, or the pipe was closed: no answer)
-            pass
-
-    def answer(self) -> list[Diagnostic] | None:
-        """The child's diagnostics; None if it ended without them."""
-        if self._writing is not None:
-            self._writing.join()
-        if not self.pid:
-            return None
-        try:
-            found = pickle.load(self._from)
-        except Exception:  # noqa: BLE001 - an unpickling error, end of file, an OSError: no answer
-            return None
-        if not isinstance(found, list) or not all(isinstance(d, Diagnostic) for d in found):
-            return None
-        return found
-
-    def close(self) -> None:
-        """End the child (at once, if it is still at work) and reap it."""
-        if self.pid:
-            end(self.pid)
-            self.pid = 0
-        if self._writing is not None:
-            self._writing.join()  # (a write to a child killed ends at once)
-        for stream in (self._to, self._from):
-            try:
-                stream.close()
-            except OSError:
-                pass
-
-
-def _child(model: FeatureModel, down: tuple[int, int], up: tuple[int, int], parent: int) -> NoReturn:
-    """The helper's process, from the fork to its end (whatever happens, it ends here):
-    requests come on `down`, the answer goes on `up`."""
-    code = 1
-    try:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD & signal.valid_signals())
-        die_with_parent(parent)
-        os.close(down[1])
-        os.close(up[0])
-        with open(down[0], "rb") as requests, open(up[1], "wb") as answers:
-            _explain_as_told(model, requests, answers)
-        code = 0
-    except BaseException:  # noqa: BLE001, S110 - the parent explains instead (it sees no answer)
-        pass
-    finally:
-        os._exit(code)
-
-
-def _explain_as_told(model: FeatureModel, requests: BinaryIO, answers: BinaryIO) -> None:
-    """The helper's work (in the child)."""
+def _explain_as_told(model: FeatureModel, requests: BinaryIO) -> list[Diagnostic]:
+    """The explaining child's job: the warnings of the dead features (indices) and then of
+    the impossible bindings it is sent, explained on an explain build made meanwhile."""
     with no_gc(), enc.Encoding(model, explain=True) as encoding:
         explainer = Explainer(encoding, model, None)
         if model.source is not None:
             model.source.ready_to_locate()  # (while the parent still searches)
         found = _dead_warnings(encoding, explainer, pickle.load(requests))
-        found += _binding_warnings(encoding, explainer, pickle.load(requests))
-        pickle.dump(found, answers)  # (before the solver is deleted: that takes a while, and waits for none)
-        answers.flush()
+        return found + _binding_warnings(encoding, explainer, pickle.load(requests))
 
 
 def _dead_warnings(encoding: enc.Encoding, explainer: Explainer, dead: list[int]) -> list[Diagnostic]:

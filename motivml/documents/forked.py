@@ -17,7 +17,7 @@ import pickle
 import signal
 import threading
 from collections.abc import Callable
-from typing import Any, BinaryIO, Generic, NoReturn, Protocol, TypeVar
+from typing import Any, BinaryIO, Generic, NoReturn, TypeVar
 
 T = TypeVar("T")
 
@@ -40,13 +40,15 @@ FAILED = Failed()
 
 
 class InChild(Generic[T]):
-    """`job()` run in a child process forked by `start`; `result()` is what it returned."""
+    """`job(requests)` run in a child process forked by `start`; `ask` sends it requests,
+    each a pickle on `requests`, and `result()` is what the job returned."""
 
-    def __init__(self, pid: int, answers: BinaryIO) -> None:
-        self.pid, self._answers = pid, answers
+    def __init__(self, pid: int, requests: BinaryIO, answers: BinaryIO) -> None:
+        self.pid, self._requests, self._answers = pid, requests, answers
+        self._writing: threading.Thread | None = None
 
     @classmethod
-    def start(cls, job: Callable[[], T]) -> InChild[T] | None:
+    def start(cls, job: Callable[[BinaryIO], T]) -> InChild[T] | None:
         """The child, forked now and at work; None if it cannot be (nothing is left behind).
 
         Ctrl-C and SIGTERM are held back from the fork until the child is set up (or
@@ -55,34 +57,66 @@ class InChild(Generic[T]):
         held = HELD & signal.valid_signals()
         parent = os.getpid()
         made: InChild[T] | None = None
+        pipes: list[int] = []
         signal.pthread_sigmask(signal.SIG_BLOCK, held)
         try:
             try:
-                reading, writing = os.pipe()
-            except OSError:
-                return None
-            try:
+                down, up = os.pipe(), os.pipe()
+                pipes = [*down, *up]
                 pid = os.fork()
             except OSError:
-                os.close(reading)
-                os.close(writing)
+                for fd in pipes:
+                    os.close(fd)
                 return None
             if pid == 0:  # pragma: no cover - the child (coverage does not follow a fork): `_child` is tested here
-                os.close(reading)
-                _child(job, writing, parent)
-            os.close(writing)
+                os.close(down[1])
+                os.close(up[0])
+                _child(job, down[0], up[1], parent)
+            os.close(down[0])
+            os.close(up[1])
             try:
-                made = cls(pid, open(reading, "rb"))
+                made = cls(pid, open(down[1], "wb"), open(up[0], "rb"))
             except BaseException:
                 end(pid)
-                os.close(reading)
+                for fd in (down[1], up[0]):
+                    try:
+                        os.close(fd)
+                    except OSError:
+                        pass
                 raise
         finally:
             unblock(held, made)
         return made
 
+    def ask(self, what: object) -> None:
+        """Send `what`, from a thread: a request larger than the pipe holds would otherwise
+        hold this process up until the child, still at other work, reads it."""
+        if not self.pid:  # (ended already: nothing to send)
+            return
+        if self._writing is not None:
+            self._writing.join()  # (in order)
+        writing = threading.Thread(target=self._write, args=(pickle.dumps(what),), name="motivml-child-ask")
+        try:
+            writing.start()
+        except RuntimeError:  # (no thread to be had: the child gets nothing, and `result` is FAILED)
+            end(self.pid)
+            self.pid = 0
+            return
+        self._writing = writing
+
+    def _write(self, message: bytes) -> None:
+        try:
+            self._requests.write(message)
+            self._requests.flush()
+        except (OSError, ValueError):  # (the child has gone, or the pipe was closed: no result)
+            pass
+
     def result(self) -> T | Failed:
         """What the job returned (waiting for it); FAILED if the child sent nothing usable."""
+        if self._writing is not None:
+            self._writing.join()
+        if not self.pid:
+            return FAILED
         try:
             found: T = pickle.load(self._answers)
         except Exception:  # noqa: BLE001 - an unpickling error, end of file, an OSError: no result
@@ -94,13 +128,16 @@ class InChild(Generic[T]):
         if self.pid:
             end(self.pid)
             self.pid = 0
-        try:
-            self._answers.close()
-        except OSError:
-            pass
+        if self._writing is not None:
+            self._writing.join()  # (a write to a child killed ends at once)
+        for stream in (self._requests, self._answers):
+            try:
+                stream.close()
+            except OSError:
+                pass
 
 
-def unblock(held: set[signal.Signals], made: InChild[Any] | _Closable | None) -> None:
+def unblock(held: set[signal.Signals], made: InChild[Any] | None) -> None:
     """Let the signals held back from a fork through; a Ctrl-C waiting among them (raised
     here) first ends the child just made, so that none is left unreaped."""
     try:
@@ -111,19 +148,15 @@ def unblock(held: set[signal.Signals], made: InChild[Any] | _Closable | None) ->
         raise
 
 
-class _Closable(Protocol):
-    def close(self) -> None: ...
-
-
-def _child(job: Callable[[], object], answers: int, parent: int) -> NoReturn:
+def _child(job: Callable[[BinaryIO], object], requests: int, answers: int, parent: int) -> NoReturn:
     """The child's life, from the fork to its end (whatever happens, it ends here)."""
     code = 1
     try:
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD & signal.valid_signals())
         die_with_parent(parent)
-        with open(answers, "wb") as sent:
-            pickle.dump(job(), sent)
+        with open(requests, "rb") as asked, open(answers, "wb") as sent:
+            pickle.dump(job(asked), sent)
         code = 0
     except BaseException:  # noqa: BLE001, S110 - the parent does the job instead (it sees no result)
         pass

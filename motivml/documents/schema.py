@@ -383,7 +383,7 @@ def read_checked_then(
     failure: Exception | None = None
     try:
         if len(doc.text) >= BESIDE_FROM and can_fork():
-            beside = InChild.start(functools.partial(_checked, schema_check, doc))
+            beside = InChild.start(lambda requests: _checked(schema_check, doc))
         if beside is None:
             problems = _checked(schema_check, doc)
             return (None, problems, None) if problems else (doc, [], then(doc))
