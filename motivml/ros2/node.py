@@ -27,13 +27,15 @@ over the bridge's link to the binder; the binder's news (every outcome, from any
 door) and the loop's health come back the same way. Everything that changes the node's
 parameters runs in one mutually exclusive callback group (the parameter services and the
 binder's news), so the parameters always follow the active set, one change after the
-other; the log and the topic are written as the news arrives. `ros2 param set`, rqt's parameter editor and any rclpy client speak these same
+other; the news goes into the log and onto the topic there too, after the answer to the call
+in hand. `ros2 param set`, rqt's parameter editor and any rclpy client speak these same
 standard services.
 """
 
 from __future__ import annotations
 
 import json
+from collections import deque
 from typing import Any
 
 from ..errors import describe_exception
@@ -74,6 +76,7 @@ class FrontDoor:
         self.compiled_in = {str(f["id"]) for f in robot["features"] if f["read_only"]}
         self.active = frozenset(robot["active"])
         self._internal = False  # parameters being brought in line with the active set
+        self._news: deque[dict[str, Any]] = deque()  # the binder's outcomes, for `_catch_up`
         self._closed = False
         door = self
 
@@ -184,36 +187,40 @@ class FrontDoor:
         if not answer["accepted"]:
             return SetParametersResult(successful=False, reason=answer["reason"])
         self.active = frozenset(answer["active"])
-        self._align_parameters()  # before the answer; the log and the topic follow it (_catch_up)
+        self._align_parameters()  # before the answer; the log and the topic follow it (`_catch_up`)
         return SetParametersResult(successful=True)
 
     # ---------------------------------------------------------- the binder's news
     def heard(self, outcome: dict[str, Any]) -> None:
-        """On the link's thread: an outcome of the binder (any front door's). It goes into the
-        log and onto the topic from here (rclpy's loggers and publishers may be used from any
-        thread), so that the node's own thread is free for the next call at once; the
-        parameters are brought in line on the node's thread (`_catch_up`)."""
+        """On the link's thread: an outcome of the binder (any front door's), queued for the
+        node's thread (`_catch_up`). There it comes after the answer to the call in hand: the
+        outcome of that call arrives just before its answer, and its log line and message,
+        written here at once, delayed the answer by 0.5-1 ms on a busy 2-core machine."""
         if self._closed:
             return
-        if not outcome["accepted"]:
-            self.log.warning(f"refused {outcome['request']}: {outcome['reason']}")
-            return
-        self.active = frozenset(outcome["active"])
-        moved = "; ".join(
-            part
-            for part in (
-                f"loaded {', '.join(outcome['loads'])}" if outcome["loads"] else "",
-                f"unloaded {', '.join(outcome['unloads'])}" if outcome["unloads"] else "",
-            )
-            if part
-        )
-        self.log.info(f"accepted {outcome['request']}: {moved}")
-        self._publish_active(outcome["active"], outcome["tick"], outcome["change"])
+        self._news.append(outcome)
         self._guard.trigger()
 
     def _catch_up(self) -> None:
-        """In the node's group: the parameters in line with the active set (a change that came
-        through this node's services is in line already: nothing to do then)."""
+        """In the node's group, between two calls: the binder's news in the log and on the
+        topic, in the order it came, then the parameters in line with the active set (a
+        change that came through this node's services is in line already)."""
+        while self._news:
+            outcome = self._news.popleft()
+            if not outcome["accepted"]:
+                self.log.warning(f"refused {outcome['request']}: {outcome['reason']}")
+                continue
+            self.active = frozenset(outcome["active"])
+            moved = "; ".join(
+                part
+                for part in (
+                    f"loaded {', '.join(outcome['loads'])}" if outcome["loads"] else "",
+                    f"unloaded {', '.join(outcome['unloads'])}" if outcome["unloads"] else "",
+                )
+                if part
+            )
+            self.log.info(f"accepted {outcome['request']}: {moved}")
+            self._publish_active(outcome["active"], outcome["tick"], outcome["change"])
         self._align_parameters()
 
     def _align_parameters(self) -> None:
