@@ -206,6 +206,17 @@ def test_a_bridge_is_kept_to_the_cpus_it_is_given(scripted: None) -> None:
         bridge.close()
 
 
+def test_a_bridge_has_a_process_group_of_its_own_in_the_runs_session(scripted: None) -> None:
+    """Out of the terminal's Ctrl-C (a group of its own), in the run's autogroup (its session):
+    a session of its own competed with the run's loop for the CPU as an equal."""
+    bridge = Bridge("/ward")
+    try:
+        assert os.getpgid(bridge.process.pid) == bridge.process.pid != os.getpgid(0)
+        assert os.getsid(bridge.process.pid) == os.getsid(0)
+    finally:
+        bridge.close()
+
+
 def test_one_bridge_a_namespace_ends_with_its_last_user(scripted: None) -> None:
     first = bridges.open_bridge("/ward")
     second = bridges.open_bridge("/ward")

@@ -216,9 +216,14 @@ class Bridge:
                 command,
                 pass_fds=fds,
                 stdin=subprocess.DEVNULL,
-                # Its own session: a Ctrl-C at the terminal reaches the run, which ends its
-                # features (through the bridge) and then the bridge.
-                start_new_session=True,
+                # A process group of its own: a Ctrl-C at the terminal reaches the run, which
+                # ends its features (through the bridge) and then the bridge. The run's
+                # session, though: Linux's autogroups share the CPU between sessions, and a
+                # bridge in a session of its own competed with the whole run, loop included,
+                # as an equal; in the run's, the loop's short slice (runtime.waiting) wins
+                # over the bridge's threads. Missed deadlines during 5 x 200 swaps of
+                # bench/ros2_bench.py, alternated: 0, 5, 2, 8 here; 8, 6, 12, 12 apart.
+                process_group=0,
                 preexec_fn=setup if cpus else None,  # noqa: PLW1509 (affinity only)
             )
         except OSError as exc:

@@ -123,9 +123,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--fds", required=True, help="this process's ends of the run's socket pairs: ASKING,HEARING")
     parser.add_argument("--namespace", default="/")
     args = parser.parse_args(argv)
-    # The run has the terminal's Ctrl-C (the bridge has a session of its own, but a shell
-    # may signal the process group anyway): it ends the bridge through the link.
+    # The run has the terminal's Ctrl-C (the bridge has a process group of its own, but a
+    # shell may signal it anyway): it ends the bridge through the link. And the bridge's
+    # log lines go on to the terminal even where `stty tostop` stops a background group
+    # that writes to it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTTOU, signal.SIG_IGN)
     # An answer passes from the thread that heard it (an executor's, the link's) to the one
     # that waits for it: with Python's default 5 ms switch interval, a thread running on
     # (an executor building its next wait set) keeps the waiting one waiting that long.
