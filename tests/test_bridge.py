@@ -269,8 +269,9 @@ def test_a_set_from_the_node_is_one_request_to_the_binder(running: Session) -> N
         swap = door.bridge.call("ask", 15.0, kind="set", fields={"wanted": {"hectorslam": False, "kartoslam": True}})
         assert swap["answer"]["accepted"] is True
         assert "kartoslam" in swap["answer"]["active"] and "hectorslam" not in swap["answer"]["active"]
+        assert swap["answer"]["told"] == 1  # the number of the latest outcome told: the swap's own
         same = door.bridge.call("ask", 15.0, kind="set", fields={"wanted": {"kartoslam": True}})
-        assert same["answer"] == {"re": 2, "accepted": True, "active": swap["answer"]["active"]}
+        assert same["answer"] == {"re": 2, "accepted": True, "active": swap["answer"]["active"], "told": 1}
         # (the ids are the bridge's calls to the run: one per `ask`)
         odd = door.bridge.call("ask", 15.0, kind="set", fields={"wanted": 5})
         assert odd["answer"]["error"].startswith("motivml could not handle the call: TypeError")
@@ -279,7 +280,10 @@ def test_a_set_from_the_node_is_one_request_to_the_binder(running: Session) -> N
         news = until(lambda: [m for m in heard(door) if m.get("event") == "outcome"], what="the news")
         assert news[0]["accepted"] is True and news[0]["loads"] == ["kartoslam"]
         assert news[0]["unloads"] == ["hectorslam"] and news[0]["change"] is not None
+        assert news[0]["told"] == 1 and news[0]["active"] == swap["answer"]["active"]
         until(lambda: len([m for m in heard(door) if m.get("event") == "outcome"]) == 2, what="the refusal")
+        outcomes = [m for m in heard(door) if m.get("event") == "outcome"]
+        assert [m["told"] for m in outcomes] == [1, 2] and outcomes[1]["accepted"] is False
     finally:
         door.close()
 

@@ -491,6 +491,53 @@ def test_a_callback_that_raises_does_not_stop_its_node_spinning() -> None:
         graph.close()
 
 
+def test_the_node_never_goes_back_to_an_outcome_older_than_its_answer() -> None:
+    """News comes on the link's thread, a set call's answer on the node's: an outcome queued
+    during the call but older than its answer leaves the parameters as the answer set them.
+    (The test plays the node's executor: nothing spins.)"""
+    from rclpy.parameter import Parameter
+
+    from motivml.ros2.graph import Graph
+    from motivml.ros2.node import FrontDoor
+
+    graph = Graph("/older_" + str(domain()))
+    graph.spin = lambda node: None  # type: ignore[method-assign]
+
+    def outcome(told: int, active: list[str]) -> dict[str, Any]:
+        change = f"change {told}"
+        return {"event": "outcome", "told": told, "accepted": True, "request": change, "loads": [],
+                "unloads": [], "active": active, "tick": told, "change": change}  # fmt: skip
+
+    class Link:
+        def call(self, op: str, wait: float, **fields: Any) -> dict[str, Any]:
+            door.heard(outcome(1, ["lamp", "camera"]))  # ctl's change, committed before this call's
+            return {"accepted": True, "active": ["thermal"], "told": 2}
+
+    features = [{"id": f, "words": "Dynamic Late", "read_only": False} for f in ("lamp", "camera", "thermal")]
+    robot = {"robot": "ward", "variant": "v", "timeout": 5.0, "features": features, "active": ["lamp"], "tick": 0}
+    door = FrontDoor(graph, Link(), robot)  # type: ignore[arg-type]
+
+    def shown() -> dict[str, bool]:
+        return {f: door.node.get_parameter(f"features.{f}.active").value for f in ("lamp", "camera", "thermal")}
+
+    try:
+        wanted = [
+            Parameter("features.lamp.active", value=False).to_parameter_msg(),
+            Parameter("features.thermal.active", value=True).to_parameter_msg(),
+        ]
+        assert door.set_call(wanted).successful
+        assert shown() == {"lamp": False, "camera": False, "thermal": True}
+        door._catch_up()  # what the executor runs next: the older outcome is written, not shown
+        assert shown() == {"lamp": False, "camera": False, "thermal": True}
+        door.heard(outcome(2, ["thermal"]))  # the call's own outcome, arriving late
+        door.heard(outcome(3, ["camera"]))  # and a later change
+        door._catch_up()
+        assert shown() == {"lamp": False, "camera": True, "thermal": False}
+    finally:
+        door.close()
+        graph.close()
+
+
 def test_a_node_that_fails_to_configure_refuses_the_request(ward: Callable[..., Running]) -> None:
     robot = ward(fail={"thermal_detection": "configure"})
     [result] = robot.client.set(camera=False, thermal=True)

@@ -9,7 +9,8 @@ there for why it is a process of its own. It answers the run's calls:
 
 and passes the run's news (`outcome`, `health`) to the node. Calls run on one worker
 thread, in the order they came (a node's moves on the link's own thread: the run waits for
-each); news is handled as it arrives. When the run's end of the
+each); news goes to the node as it arrives (an outcome is queued there for the node's own
+thread, `motivml.ros2.node`). When the run's end of the
 link closes without an `exit` (the run was killed), every node the run had activated is
 moved back to unconfigured before the bridge ends.
 """
@@ -122,13 +123,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m motivml.ros2", description=__doc__.splitlines()[0])
     parser.add_argument("--fds", required=True, help="this process's ends of the run's socket pairs: ASKING,HEARING")
     parser.add_argument("--namespace", default="/")
-    args = parser.parse_args(argv)
     # The run has the terminal's Ctrl-C (the bridge has a process group of its own, but a
     # shell may signal it anyway): it ends the bridge through the link. And the bridge's
     # log lines go on to the terminal even where `stty tostop` stops a background group
     # that writes to it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTTOU, signal.SIG_IGN)
+    args = parser.parse_args(argv)
     # An answer passes from the thread that heard it (an executor's, the link's) to the one
     # that waits for it: with Python's default 5 ms switch interval, a thread running on
     # (an executor building its next wait set) keeps the waiting one waiting that long.

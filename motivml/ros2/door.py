@@ -74,6 +74,10 @@ class Door:
             bridges.release_bridge(self.bridge)
             raise
         self.name = str(answer["name"])
+        # The latest outcome told to the node (its number, the active set after it): a set
+        # call's answer carries both, so that the node never takes an older outcome still
+        # on its way for newer than its answer.
+        self._told: tuple[int, list[str]] = (0, self._ordered(self.binder.active))
         self.binder.watchers.append(self._heard)
         self._ticks = (self.runtime.ticks, time.perf_counter())
         self._missed = self.runtime.missed
@@ -104,7 +108,8 @@ class Door:
             outcome = self.binder.request(Request.set(loads, unloads), timeout=self.timeout)
             if not outcome.accepted:
                 return {"accepted": False, "reason": outcome.reason}
-        return {"accepted": True, "active": self._ordered(self.binder.active)}
+        told, now = self._told  # (this request's own outcome among them)
+        return {"accepted": True, "active": now, "told": told}
 
     # ---------------------------------------------------------- the binder's news
     def _heard(self, outcome: Outcome) -> None:
@@ -112,17 +117,21 @@ class Door:
         if self._closed.is_set():
             return
         plan, change = outcome.plan, outcome.change
+        told = self._told[0] + 1
+        after = self._ordered(plan.after if outcome.accepted and plan is not None else self.binder.active)
         news = {
             "event": "outcome",
+            "told": told,
             "accepted": outcome.accepted,
             "request": str(outcome.request),
             "reason": outcome.reason,
             "loads": list(plan.loads) if plan is not None else [],
             "unloads": list(plan.unloads) if plan is not None else [],
-            "active": self._ordered(plan.after if outcome.accepted and plan is not None else self.binder.active),
+            "active": after,
             "tick": change.tick if change is not None else self.runtime.ticks,
             "change": change.request if change is not None else None,
         }
+        self._told = (told, after)
         try:
             self.bridge.link.send(news)
         except LinkBroken:

@@ -83,13 +83,17 @@ class Graph:
 
     def forget(self, node: Any) -> None:
         """Stop spinning `node` and destroy it."""
+        self.stop(node)
+        node.destroy_node()
+
+    def stop(self, node: Any) -> None:
+        """Stop spinning `node` (its callbacks have ended when this returns)."""
         for entry in list(self._spinning):
             if entry[0] is node:
                 self._spinning.remove(entry)
                 _, executor, thread = entry
                 executor.shutdown(timeout_sec=2.0)
                 thread.join(timeout=2.0)
-        node.destroy_node()
 
     def call(self, client: Any, request: Any, timeout: float) -> Any:
         """A service call from any thread but the executor's; None when no answer came in time."""

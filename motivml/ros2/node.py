@@ -77,6 +77,7 @@ class FrontDoor:
         self.active = frozenset(robot["active"])
         self._internal = False  # parameters being brought in line with the active set
         self._news: deque[dict[str, Any]] = deque()  # the binder's outcomes, for `_catch_up`
+        self._shown = 0  # the number of the outcome the parameters show (`told`, see the run's door)
         self._closed = False
         door = self
 
@@ -186,7 +187,7 @@ class FrontDoor:
             return SetParametersResult(successful=False, reason=answer["error"])
         if not answer["accepted"]:
             return SetParametersResult(successful=False, reason=answer["reason"])
-        self.active = frozenset(answer["active"])
+        self._show(int(answer["told"]), answer["active"])
         self._align_parameters()  # before the answer; the log and the topic follow it (`_catch_up`)
         return SetParametersResult(successful=True)
 
@@ -205,12 +206,20 @@ class FrontDoor:
         """In the node's group, between two calls: the binder's news in the log and on the
         topic, in the order it came, then the parameters in line with the active set (a
         change that came through this node's services is in line already)."""
+        self._write_news(show=True)
+        self._align_parameters()
+
+    def _write_news(self, show: bool) -> None:
+        """The queued outcomes in the log and on the topic; with `show`, the active set of the
+        newest accepted one, unless a set call's answer has shown a later state already (its
+        outcome may still be queued behind an older one, news that came on another thread)."""
         while self._news:
             outcome = self._news.popleft()
             if not outcome["accepted"]:
                 self.log.warning(f"refused {outcome['request']}: {outcome['reason']}")
                 continue
-            self.active = frozenset(outcome["active"])
+            if show:
+                self._show(int(outcome["told"]), outcome["active"])
             moved = "; ".join(
                 part
                 for part in (
@@ -221,7 +230,12 @@ class FrontDoor:
             )
             self.log.info(f"accepted {outcome['request']}: {moved}")
             self._publish_active(outcome["active"], outcome["tick"], outcome["change"])
-        self._align_parameters()
+
+    def _show(self, told: int, active: list[str]) -> None:
+        """The active set after the binder's outcome number `told`, unless a later one is shown."""
+        if told >= self._shown:
+            self._shown = told
+            self.active = frozenset(active)
 
     def _align_parameters(self) -> None:
         """Every features.<id>.active equal to the active set, in one parameter event."""
@@ -266,7 +280,9 @@ class FrontDoor:
 
     # --------------------------------------------------------------- closing
     def close(self) -> None:
-        """Leave the graph."""
+        """Leave the graph, once the news still queued is in the log and on the topic."""
         if not self._closed:
+            self.graph.stop(self.node)
             self._closed = True
+            self._write_news(show=False)
             self.graph.forget(self.node)
