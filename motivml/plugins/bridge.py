@@ -219,11 +219,11 @@ class Bridge:
                 # A process group of its own: a Ctrl-C at the terminal reaches the run, which
                 # ends its features (through the bridge) and then the bridge. The run's
                 # session, though: Linux's autogroups (where enabled and no CPU cgroup divides
-                # the processes) share the CPU between sessions, and a
-                # bridge in a session of its own competed with the whole run, loop included,
-                # as an equal; in the run's, the loop's short slice (runtime.waiting) wins
-                # over the bridge's threads. Missed deadlines during 5 x 200 swaps of
-                # bench/ros2_bench.py, alternated: 0, 5, 2, 8 here; 8, 6, 12, 12 apart.
+                # the processes) share the CPU between sessions, and a bridge in a session of
+                # its own competed with the whole run, loop included, as an equal; in the
+                # run's, the loop's short slice (runtime.waiting) wins over the bridge's
+                # threads. Missed deadlines during 5 x 200 swaps of bench/ros2_bench.py,
+                # alternated: 0, 5, 2, 8 here; 8, 6, 12, 12 apart.
                 process_group=0,
                 preexec_fn=setup if cpus else None,  # noqa: PLW1509 (affinity only)
             )
