@@ -595,16 +595,29 @@ def test_a_command_of_many_encodings_keeps_the_last_solver_only(monkeypatch: pyt
         assert enc._LEFT_TILL_EXIT == [second.solver] and first.solver.solver is None  # (deleted)
 
 
+def test_a_process_that_ends_at_once_deletes_no_solver(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A forked child (`forked._child`) ends with os._exit: its encodings, in a command or
+    not, free nothing before its answer."""
+    monkeypatch.setattr(loader, "_at_once", True)
+    monkeypatch.setattr(enc, "_LEFT_TILL_EXIT", [])
+    model = reader.load_model(SIMPLEBOT / "model.json")[0]
+    assert model is not None
+    with enc.Encoding(model) as first:
+        pass
+    with enc.Encoding(model) as second:
+        pass
+    assert enc._LEFT_TILL_EXIT == [first.solver, second.solver] and first.solver.solver is not None
+
+
 def test_solvers_are_deleted_when_the_process_goes_on_after_the_command() -> None:
     result = CliRunner().invoke(main, ["validate", str(SIMPLEBOT / "model.json")])
     assert result.exit_code == 0 and not loader._process_ends and not enc._LEFT_TILL_EXIT
     model = reader.load_model(SIMPLEBOT / "model.json")[0]
     assert model is not None
     with loader.one_command():
-        loader_ends = loader._process_ends
         with enc.Encoding(model) as encoding:
             pass
-    assert not loader_ends and encoding.solver.solver is None  # (deleted)
+    assert encoding.solver.solver is None  # (deleted)
 
 
 def test_help_a_long_running_command_or_another_thread_end_the_process_as_python_does(

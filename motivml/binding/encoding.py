@@ -37,7 +37,7 @@ from typing import Any, NamedTuple
 
 from pysat.solvers import Solver
 
-from ..documents.loader import keep_till_exit
+from ..documents.loader import keep_till_exit, keeping_all
 from ..language.formula import AND, IFF, IMPLIES, OR, Formula, Var, fold
 from ..language.model import Configuration, FeatureModel, Mode, Time
 
@@ -1064,7 +1064,9 @@ class Encoding:
     def close(self) -> None:
         if keep_till_exit():  # (the process ends soon, and frees the last one at no cost)
             _LEFT_TILL_EXIT.append(self.solver)
-            while len(_LEFT_TILL_EXIT) > 1:  # (a command of many encodings keeps one at most)
+            # (a command of many encodings keeps one at most; a forked child, all: deleting
+            # one would come before its answer, and would touch the parent's pages it shares)
+            while len(_LEFT_TILL_EXIT) > 1 and not keeping_all():
                 _LEFT_TILL_EXIT.pop(0).delete()
         else:
             self.solver.delete()

@@ -11,9 +11,7 @@ needs); elsewhere, and whenever the child fails, the caller does the job itself.
 
 from __future__ import annotations
 
-import ctypes
 import os
-import pickle
 import signal
 import threading
 from collections.abc import Callable
@@ -69,20 +67,20 @@ class InChild(Generic[T]):
                     os.close(fd)
                 return None
             if pid == 0:  # pragma: no cover - the child (coverage does not follow a fork): `_child` is tested here
-                os.close(down[1])
-                os.close(up[0])
-                _child(job, down[0], up[1], parent)
+                _child(job, down[0], up[1], parent, (down[1], up[0]))
             os.close(down[0])
             os.close(up[1])
             try:
                 made = cls(pid, open(down[1], "wb"), open(up[0], "rb"))
-            except BaseException:
+            except BaseException as failed:
                 end(pid)
                 for fd in (down[1], up[0]):
                     try:
                         os.close(fd)
                     except OSError:
                         pass
+                if isinstance(failed, OSError):  # (as a failed fork: the caller does the job)
+                    return None
                 raise
         finally:
             unblock(held, made)
@@ -93,6 +91,8 @@ class InChild(Generic[T]):
         hold this process up until the child, still at other work, reads it."""
         if not self.pid:  # (ended already: nothing to send)
             return
+        import pickle
+
         if self._writing is not None:
             self._writing.join()  # (in order)
         writing = threading.Thread(target=self._write, args=(pickle.dumps(what),), name="motivml-child-ask")
@@ -117,6 +117,8 @@ class InChild(Generic[T]):
             self._writing.join()
         if not self.pid:
             return FAILED
+        import pickle
+
         try:
             found: T = pickle.load(self._answers)
         except Exception:  # noqa: BLE001 - an unpickling error, end of file, an OSError: no result
@@ -148,12 +150,22 @@ def unblock(held: set[signal.Signals], made: InChild[Any] | None) -> None:
         raise
 
 
-def _child(job: Callable[[BinaryIO], object], requests: int, answers: int, parent: int) -> NoReturn:
-    """The child's life, from the fork to its end (whatever happens, it ends here)."""
+def _child(
+    job: Callable[[BinaryIO], object], requests: int, answers: int, parent: int, unused: tuple[int, ...] = ()
+) -> NoReturn:
+    """The child's life, from the fork to its end (whatever happens, it ends here): `job`
+    with `requests` to read and `answers` to write; `unused` are the parent's ends."""
     code = 1
     try:
+        import pickle
+
+        from .loader import ending_at_once
+
+        for fd in unused:
+            os.close(fd)
         signal.signal(signal.SIGINT, signal.SIG_IGN)  # (Ctrl-C is the parent's to handle; it ends this)
         signal.pthread_sigmask(signal.SIG_UNBLOCK, HELD & signal.valid_signals())
+        ending_at_once()  # (it ends with os._exit: nothing need be freed before the answer)
         die_with_parent(parent)
         with open(requests, "rb") as asked, open(answers, "wb") as sent:
             pickle.dump(job(asked), sent)
@@ -169,6 +181,8 @@ def die_with_parent(parent: int) -> None:
     fork) ends, so that a parent killed outright leaves no child at work, and is the first
     the kernel kills when memory runs out (the parent then does the job itself)."""
     try:
+        import ctypes
+
         libc = ctypes.CDLL(None, use_errno=True)
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
     except (OSError, AttributeError):

@@ -657,10 +657,25 @@ def ending_with_the_command() -> None:
     _process_ends = True
 
 
+_at_once = False  # this process ends with os._exit once its job is done (`ending_at_once`)
+
+
+def ending_at_once() -> None:
+    """Say that this process ends with `os._exit` once its job is done (a child forked by
+    `forked.InChild`): nothing it holds need ever be freed (`keeping_all`)."""
+    global _at_once
+    _at_once = True
+
+
 def keep_till_exit() -> bool:
     """Whether a large object no longer needed (a solver: 0.1 s to delete at 100,000
     features) may be left for the end of the process, which is near."""
-    return _process_ends and _freezing
+    return _at_once or (_process_ends and _freezing)
+
+
+def keeping_all() -> bool:
+    """Whether every such object is left, not just the last one (`ending_at_once`)."""
+    return _at_once
 
 
 @contextlib.contextmanager
