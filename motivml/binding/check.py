@@ -77,14 +77,14 @@ def analyse_model(model: FeatureModel, parallel: bool | None = None) -> list[Dia
                     helper = None
                 with enc.Encoding(model, explain=True) as encoding:
                     return _void(encoding, Explainer(encoding, model, None))
-            def explain_dead(alive: list[bool]) -> None:  # (explained while the bindings are searched)
-                if helper is not None:
-                    helper.ask(_dead(model, alive))
+            dead: list[int] = []
 
-            alive, impossible = live_features_and_impossible_bindings(
-                hard, model, explain_dead if helper is not None else None
-            )
-            dead = _dead(model, alive)
+            def tell_dead(alive: list[bool]) -> None:  # (known before the bindings: the child explains them meanwhile)
+                dead.extend(_dead(model, alive))
+                if helper is not None:
+                    helper.ask(dead)
+
+            _, impossible = live_features_and_impossible_bindings(hard, model, tell_dead)
             if helper is not None:
                 helper.ask(impossible)  # (before this solver is deleted: that takes a while)
         if not dead and not impossible:

@@ -86,8 +86,8 @@ def _variant(encoding: enc.Encoding, model: FeatureModel, config: Configuration,
         root = f.parent is None
         # a time or mode the configuration leaves open is the model's if it allows one only
         # (or for the root), else the solver's
-        time_by = _DECIDER[root or f.time_allowed is not None]
-        mode_by = _DECIDER[root or f.mode_allowed is not None]
+        time_by = "model" if root or f.time_allowed is not None else "solver"
+        mode_by = "model" if root or f.mode_allowed is not None else "solver"
         if entry is not None:
             time_by = "configuration" if entry.time is not None else time_by
             mode_by = "configuration" if entry.mode is not None else mode_by
@@ -96,8 +96,6 @@ def _variant(encoding: enc.Encoding, model: FeatureModel, config: Configuration,
         decisions.append(Decision(f, selected, binding, selection_by, time_by, mode_by))
     return Variant(model, config.name, tuple(decisions))
 
-
-_DECIDER = {True: "model", False: "solver"}  # who decides what a configuration leaves open: the model?
 
 
 def _preferences(
