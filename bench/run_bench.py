@@ -93,8 +93,9 @@ def robot(folder: Path, components: int) -> None:
 def floor(rate: float, duration: float, work: float) -> tuple[list[float], int]:
     """The same schedule and clock with `work` seconds of busy-waiting per tick."""
     clock, period = RealClock(), 1.0 / rate
-    start = clock.now() + period
+    start = clock.first_deadline(period)
     jitter, missed, slot, total = [], 0, 0, round(duration * rate)
+    clock.enter()
     while slot < total:
         deadline = start + slot * period
         began = clock.wait_until(deadline)
@@ -107,6 +108,7 @@ def floor(rate: float, duration: float, work: float) -> tuple[list[float], int]:
             ahead = math.ceil((ended - start) / period)
             missed += min(ahead, total) - slot
             slot = ahead
+    clock.leave()
     return jitter, missed
 
 

@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import math
 import os
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import pytest
 from click.testing import CliRunner
+from hypothesis import given
+from hypothesis import strategies as st
 
 from motivml.cli import main
 from motivml.runtime import waiting
@@ -342,3 +347,90 @@ def test_a_fit_keeps_the_thread_s_reset_on_fork_flag() -> None:
         return seen
 
     assert _on_a_thread_of_its_own(ticking) == [os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, SLICE_NS]
+
+
+# ------------------------------------------------- deadlines between the scheduler's ticks
+def _after_grid(monotonic: float, grid: float) -> float:
+    """How far `monotonic` lies after the last multiple of `grid` (s)."""
+    return monotonic - math.floor(monotonic / grid) * grid
+
+
+@pytest.mark.parametrize(("rate", "grid"), [(1000, 0.001), (500, 0.001), (250, 0.001), (2000, 0.0005), (4000, 0.00025)])
+def test_the_first_deadline_falls_a_fixed_part_of_a_grid_step_after_the_grid(rate: int, grid: float) -> None:
+    period = 1.0 / rate
+    for monotonic in (12345.0, 12345.000349, 12345.00035, 12345.000351, 777.123456789):
+        first = waiting.first_deadline(7.0, period, monotonic)
+        on_monotonic = monotonic + (first - 7.0)
+        assert period <= first - 7.0 < period + grid
+        assert _after_grid(on_monotonic, grid) == pytest.approx(waiting.TICK_PHASE * grid, abs=1e-9)
+        # so does every later deadline: the period is a whole number of grid steps
+        later = on_monotonic + 977 * period
+        assert _after_grid(later, grid) == pytest.approx(waiting.TICK_PHASE * grid, abs=1e-8)
+
+
+@pytest.mark.parametrize("rate", [997, 300, 1024, 3])
+def test_a_period_with_no_step_in_common_with_the_ticks_starts_one_period_from_now(rate: int) -> None:
+    assert waiting.first_deadline(7.0, 1.0 / rate, 12345.000123) == 7.0 + 1.0 / rate
+
+
+@given(
+    st.integers(min_value=10**9, max_value=10**15),  # the monotonic clock, in ns
+    st.sampled_from([1000, 500, 250, 200, 100, 2000]),
+)
+def test_the_first_deadline_is_the_earliest_aligned_time_a_period_or_more_ahead(monotonic_ns: int, rate: int) -> None:
+    """Against a search over whole microseconds (the grid steps and the phase are whole
+    microseconds for these rates)."""
+    period_us = 10**6 // rate
+    grid_us = math.gcd(period_us, 1000)
+    phase_us = round(waiting.TICK_PHASE * grid_us)
+    earliest_us = -(-(monotonic_ns + period_us * 1000) // 1000)  # rounded up
+    wanted_us = next(t for t in range(earliest_us, earliest_us + grid_us + 1) if t % grid_us == phase_us)
+    first = waiting.first_deadline(0.0, period_us / 1e6, monotonic_ns / 1e9)
+    assert (monotonic_ns / 1e9 + first) * 1e6 == pytest.approx(wanted_us, abs=0.01)
+
+
+def test_the_real_clock_places_its_first_deadline_on_the_monotonic_clock_s_grid() -> None:
+    clock = RealClock()
+    first = clock.first_deadline(0.001)
+    now, monotonic = clock.now(), time.clock_gettime(time.CLOCK_MONOTONIC)
+    assert 0.0 < first - now <= 0.002
+    phase = _after_grid(monotonic + (first - now), 0.001)
+    assert phase == pytest.approx(waiting.TICK_PHASE * 0.001, abs=50e-6)  # (two clocks read one after the other)
+
+
+def test_every_deadline_of_a_real_clock_run_falls_between_the_scheduler_s_ticks(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The loop starts at the clock's first deadline, not one period from now: on a clock
+    whose monotonic twin reads 50 s when it reads 100 s, every deadline waited for is 0.35 ms
+    after a whole millisecond of the monotonic clock."""
+    from motivml.runtime.launch import launch
+
+    waited: list[float] = []
+
+    class Fake(RealClock):
+        def __init__(self) -> None:
+            super().__init__()
+            self.t = 100.0
+
+        def now(self) -> float:
+            return self.t
+
+        def enter(self) -> None:
+            pass
+
+        def leave(self) -> None:
+            pass
+
+        def wait_until(self, deadline: float) -> float:
+            waited.append(deadline)
+            self.t = max(self.t, deadline) + 0.0001
+            return self.t
+
+    clock = Fake()
+    monkeypatch.setattr(waiting, "time", SimpleNamespace(CLOCK_MONOTONIC=1, clock_gettime=lambda _: clock.t - 50.0))
+    stats = launch(SIMPLEBOT.parent / "reaching_arm", "dmp", rate=1000).runtime.run(0.02, clock)
+    assert stats.ticks == 20 and len(waited) == 20
+    assert waited[0] - 100.0 >= 0.001
+    for deadline in waited:
+        assert _after_grid(deadline - 50.0, 0.001) == pytest.approx(0.00035, abs=1e-9)

@@ -9,7 +9,8 @@ Two clocks:
 
 * `SimulatedClock`: time is `tick / rate`; `run` never sleeps, so tests are deterministic and
   take as long as the computation.
-* `RealClock`: ticks start on a fixed schedule of `1 / rate` seconds (default 1 kHz). It
+* `RealClock`: ticks start on a fixed schedule of `1 / rate` seconds (default 1 kHz), placed
+  so that the kernel's scheduler ticks fall between the loop's ticks, not in them. It
   sleeps until SPIN before a deadline, with the loop thread's timer slack cut to 1 us and
   its scheduler slice fitted to its ticks (0.1-0.5 ms) so that it wakes on time and is not
   preempted mid-tick on a busy machine (`motivml.runtime.waiting`), and spins the rest,
@@ -276,6 +277,12 @@ class RealClock:
 
     def now(self) -> float:
         return time.perf_counter()
+
+    def first_deadline(self, period: float) -> float:
+        """The first deadline of a loop of `period` s starting now: one period from now, or
+        up to a millisecond later, so that the scheduler's ticks fall between the loop's
+        ticks, not in them (`waiting.first_deadline`)."""
+        return waiting.first_deadline(self.now(), period)
 
     def wait_until(self, deadline: float) -> float:
         now = time.perf_counter()
@@ -573,7 +580,7 @@ class Runtime:
         slack = _SlackCollector(period)
         sys.setswitchinterval(min(switch, 0.0001))
         cpu0 = time.process_time()
-        start = clock.now() + period
+        start = clock.first_deadline(period)
         slot = 0
         others_commit = clock.priority is None  # (see commit_waiting)
         margin = min(period / 2, COMMIT_MARGIN)
