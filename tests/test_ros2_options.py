@@ -164,3 +164,30 @@ def test_cpus_keep_the_run_to_them(tmp_path: Path) -> None:
     finally:
         os.sched_setaffinity(0, before)
         bridge.BRIDGE_CPUS = None
+
+
+def test_a_bridge_whose_run_is_gone_releases_every_node_the_run_moved_once() -> None:
+    """The active nodes and those only configured (a load prepared, never committed: the run
+    was killed between the two) go back to unconfigured; a node reloaded by a second
+    instance is released by each instance once (the stale one then leaves it alone)."""
+    from motivml.ros2.lifecycle import LifecycleNodes
+
+    stopped: list[str] = []
+
+    class Instance:
+        def __init__(self, name: str) -> None:
+            self.name, self.watched = name, True
+
+        def stop(self) -> None:
+            assert not self.watched
+            stopped.append(self.name)
+
+    class Graph:
+        node = type("Node", (), {"create_timer": lambda self, period, callback: None})()
+
+    nodes = LifecycleNodes(Graph(), lambda message: None)  # type: ignore[arg-type]
+    active, configured, reloaded = Instance("lamp"), Instance("dosimeter"), Instance("camera, again")
+    nodes.owners = {"/lamp": active, "/camera": reloaded}  # type: ignore[dict-item]
+    nodes.instances = {1: active, 2: configured, 3: Instance("camera"), 4: reloaded}  # type: ignore[dict-item]
+    nodes.release_all()
+    assert sorted(stopped) == ["camera", "camera, again", "dosimeter", "lamp"]

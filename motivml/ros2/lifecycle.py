@@ -143,8 +143,11 @@ class LifecycleNodes:
 
     def release_all(self) -> None:
         """The run has gone without stopping its features (killed, say): every node it had
-        activated goes back to unconfigured, so that nothing it switched on stays on."""
-        for instance in list(self.owners.values()):
+        moved out of unconfigured goes back there, so that nothing it switched on stays on:
+        the active ones, and those configured for a load it never committed (a run killed
+        between a request's preparation and its commit), each once."""
+        left = {id(i): i for i in [*self.owners.values(), *self.instances.values()]}
+        for instance in left.values():
             instance.watched = False
             try:
                 instance.stop()
