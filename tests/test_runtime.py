@@ -398,6 +398,9 @@ class FakeClock(RealClock):
     def now(self) -> float:
         return self.t
 
+    def first_deadline(self, period: float) -> float:
+        return self.t + period  # (not placed on the real monotonic clock's grid: deterministic)
+
     def wait_until(self, deadline: float) -> float:
         self.t = max(self.t, deadline)
         return self.t
