@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import threading
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
@@ -168,15 +170,15 @@ def test_cpus_keep_the_run_to_them(tmp_path: Path) -> None:
 
 def test_a_bridge_whose_run_is_gone_releases_every_node_the_run_moved_once() -> None:
     """The active nodes and those only configured (a load prepared, never committed: the run
-    was killed between the two) go back to unconfigured; a node reloaded by a second
-    instance is released by each instance once (the stale one then leaves it alone)."""
+    was killed between the two) go back to unconfigured, each by one instance: a node reloaded
+    by a second instance by the one that activated it, never by both."""
     from motivml.ros2.lifecycle import LifecycleNodes
 
     stopped: list[str] = []
 
     class Instance:
-        def __init__(self, name: str) -> None:
-            self.name, self.watched = name, True
+        def __init__(self, name: str, node: str) -> None:
+            self.name, self.node, self.watched = name, node, True
 
         def stop(self) -> None:
             assert not self.watched
@@ -185,9 +187,74 @@ def test_a_bridge_whose_run_is_gone_releases_every_node_the_run_moved_once() -> 
     class Graph:
         node = type("Node", (), {"create_timer": lambda self, period, callback: None})()
 
-    nodes = LifecycleNodes(Graph(), lambda message: None)  # type: ignore[arg-type]
-    active, configured, reloaded = Instance("lamp"), Instance("dosimeter"), Instance("camera, again")
-    nodes.owners = {"/lamp": active, "/camera": reloaded}  # type: ignore[dict-item]
-    nodes.instances = {1: active, 2: configured, 3: Instance("camera"), 4: reloaded}  # type: ignore[dict-item]
-    nodes.release_all()
-    assert sorted(stopped) == ["camera", "camera, again", "dosimeter", "lamp"]
+    def released(owners: dict[str, Instance], instances: list[Instance]) -> list[str]:
+        nodes = LifecycleNodes(Graph(), lambda message: None)  # type: ignore[arg-type]
+        nodes.owners = owners  # type: ignore[assignment]
+        nodes.instances = dict(enumerate(instances))  # type: ignore[arg-type]
+        stopped.clear()
+        nodes.release_all()
+        return sorted(stopped)
+
+    lamp, dosimeter = Instance("lamp", "/lamp"), Instance("dosimeter", "/dosimeter")
+    camera, again = Instance("camera", "/camera"), Instance("camera, again", "/camera")
+    # the reload committed: the new instance owns the node
+    assert released({"/lamp": lamp, "/camera": again}, [lamp, dosimeter, camera, again]) == [
+        "camera, again",
+        "dosimeter",
+        "lamp",
+    ]
+    # the reload prepared, never committed: the old one still owns it
+    assert released({"/camera": camera}, [camera, again]) == ["camera"]
+
+
+def test_a_bridge_whose_run_is_gone_lets_the_node_move_under_way_end_before_it_releases(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The link can break on another thread's write while the link's thread still moves a
+    node; the release waits for that thread, or a node it starts would be configured after it."""
+    import motivml.ros2.bridge as bridge
+
+    done: list[str] = []
+
+    class Nodes:
+        def __init__(self, graph: object, tell: object) -> None:
+            pass
+
+        def release_all(self) -> None:
+            done.append("release")
+
+        def close(self) -> None:
+            done.append("close")
+
+    class Graph:
+        def __init__(self, namespace: str) -> None:
+            pass
+
+        def close(self) -> None:
+            pass
+
+    class Link:
+        def send(self, message: dict[str, object]) -> None:
+            pass
+
+        def join_reader(self) -> None:
+            done.append("join")
+
+        def close(self) -> None:
+            pass
+
+    monkeypatch.setattr(bridge, "Graph", Graph)
+    monkeypatch.setattr(bridge, "LifecycleNodes", Nodes)
+    server = object.__new__(bridge.Server)
+    server.namespace, server.asked_to_exit, server.door = "/", False, None
+    server.ended = threading.Event()
+    server.worker = ThreadPoolExecutor(max_workers=1)
+    server.link = Link()  # type: ignore[assignment]
+    server.ended.set()  # (the run has gone)
+    assert server.run() == 0
+    assert done == ["join", "release", "close"]
+    server.asked_to_exit, done[:] = True, []  # the run asked the bridge to end: nothing to release
+    server.worker = ThreadPoolExecutor(max_workers=1)
+    server.ended.set()
+    assert server.run() == 0
+    assert done == ["close"]

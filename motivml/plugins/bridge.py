@@ -172,6 +172,12 @@ class Link:
                 pass
         self._on_close(reason)
 
+    def join_reader(self) -> None:
+        """Wait for the reading thread to end, and the handler it runs with it (once the
+        link has broken; not on that thread)."""
+        if threading.current_thread() is not self._reader:
+            self._reader.join()
+
     def close(self) -> None:
         self._break("closed")
         if threading.current_thread() is not self._reader:

@@ -112,6 +112,10 @@ class Server:
         if self.door is not None:
             self.door.close()
         if not self.asked_to_exit:  # the run went without ending its features
+            # The link broke, maybe on another thread's write (a log line, an answer) while
+            # the link's thread still moves a node: that move ends first (within its
+            # node's timeout), or a node it starts would be configured after the release.
+            self.link.join_reader()
             self.nodes.release_all()
         self.nodes.close()
         self.graph.close()

@@ -145,9 +145,14 @@ class LifecycleNodes:
         """The run has gone without stopping its features (killed, say): every node it had
         moved out of unconfigured goes back there, so that nothing it switched on stays on:
         the active ones, and those configured for a load it never committed (a run killed
-        between a request's preparation and its commit), each once."""
-        left = {id(i): i for i in [*self.owners.values(), *self.instances.values()]}
+        between a request's preparation and its commit). Each node by one instance: the one
+        that activated it, if any (a reload's other instance would move it again, from a
+        state it no longer has)."""
+        owned = dict(self.owners)
+        left = {id(i): i for i in [*owned.values(), *self.instances.values()]}
         for instance in left.values():
+            if owned.get(instance.node, instance) is not instance:
+                continue
             instance.watched = False
             try:
                 instance.stop()
