@@ -203,8 +203,8 @@ def test_a_slice_the_kernel_will_not_set_is_not_reported_as_set(monkeypatch: pyt
 
 
 def test_a_fitted_slice_is_twice_the_cpu_time_used_awake_in_whole_steps_within_its_bounds() -> None:
-    assert waiting.fitted_slice(0.000_200, SLICE_NS) == 400_000  # 0.2 ms awake outgrew 0.1 ms
-    assert waiting.fitted_slice(0.000_201, SLICE_NS) == 450_000  # (rounded up to a whole step)
+    assert waiting.fitted_slice(0.000_300, SLICE_NS, longest=1_000_000) == 600_000  # 0.3 ms awake outgrew 0.3 ms
+    assert waiting.fitted_slice(0.000_301, SLICE_NS, longest=1_000_000) == 650_000  # (rounded up to a whole step)
     assert waiting.fitted_slice(0.000_010, SLICE_NS) == SLICE_NS  # never below the shortest
     assert waiting.fitted_slice(0.002, SLICE_NS) == SLICE_MAX_NS  # never above the longest
     assert waiting.fitted_slice(0.000_001, SLICE_MAX_NS) == SLICE_NS  # a slice far too long shrinks
@@ -215,7 +215,8 @@ def test_a_slice_is_kept_while_the_stretch_awake_is_between_a_quarter_and_three_
     for awake in (0.000_100, 0.000_200, 0.000_300):
         assert waiting.fitted_slice(awake, 400_000) == 400_000
     assert waiting.fitted_slice(0.000_301, 400_000) == SLICE_MAX_NS
-    assert waiting.fitted_slice(0.000_099, 400_000) == 200_000
+    assert waiting.fitted_slice(0.000_099, 400_000) == SLICE_NS  # (twice it is below the shortest)
+    assert waiting.fitted_slice(0.000_190, 800_000, longest=1_000_000) == 400_000
 
 
 def _on_a_thread_of_its_own(work: Callable[[], list[Any]]) -> list[Any]:
@@ -237,14 +238,14 @@ def test_on_time_fits_the_thread_s_slice_and_gives_the_thread_s_own_back() -> No
     def ticking() -> list[Any]:
         before = waiting.thread_slice()
         asked = waiting.on_time()
-        asked.fit(0.000_100)  # under a quarter of the first, 0.5 ms: twice it
+        asked.fit(0.000_100)  # under a quarter of the first, 0.5 ms: twice it, or the shortest, 0.3 ms
         seen = [asked.slice, waiting.thread_slice()]
         asked.fit(0.000_120)  # within a quarter and three quarters: kept
         seen.append(waiting.thread_slice())
         asked.restore()
         return [*seen, waiting.thread_slice() == before]
 
-    assert _on_a_thread_of_its_own(ticking) == [200_000, 200_000, 200_000, True]
+    assert _on_a_thread_of_its_own(ticking) == [SLICE_NS, SLICE_NS, SLICE_NS, True]
 
 
 class _Asked:
@@ -328,7 +329,7 @@ def test_a_fit_keeps_a_nice_value_the_thread_was_given_while_it_ticks() -> None:
         asked = waiting.on_time()
         os.setpriority(os.PRIO_PROCESS, me, os.getpriority(os.PRIO_PROCESS, me) + 1)  # (nicer: no privilege)
         nice = os.getpriority(os.PRIO_PROCESS, me)
-        asked.fit(0.000_050)  # 0.5 ms -> 0.1 ms
+        asked.fit(0.000_050)  # 0.5 ms -> the shortest
         seen = [waiting.thread_slice(), os.getpriority(os.PRIO_PROCESS, me) - nice]
         asked.restore()
         return seen

@@ -12,7 +12,7 @@ Two clocks:
 * `RealClock`: ticks start on a fixed schedule of `1 / rate` seconds (default 1 kHz), placed
   so that the kernel's scheduler ticks fall between the loop's ticks, not in them. It
   sleeps until SPIN before a deadline, with the loop thread's timer slack cut to 1 us and
-  its scheduler slice fitted to its ticks (0.1-0.5 ms) so that it wakes on time and is not
+  its scheduler slice fitted to its ticks (0.3-0.5 ms) so that it wakes on time and is not
   preempted mid-tick on a busy machine (`motivml.runtime.waiting`), and spins the rest,
   with the cyclic garbage collector paused and a short interpreter switch interval for the
   run. (It does not spin longer: on a busy machine a thread that spins looks CPU-bound to
