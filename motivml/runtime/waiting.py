@@ -54,7 +54,7 @@ work a tick:
 * the deadlines are now placed TICK_PHASE (0.35) of a step after the grid, so a scheduler
   tick falls 0.65 ms after each deadline, when the work is done. Preemptions mid-tick by
   whatever the tick woke went from 14 to 4 in 10 rounds, and over 5 alternated runs
-  (115 rounds of 2 s) the loop missed 606 deadlines placed so against 740 at a random
+  (105 rounds of 2 s) the loop missed 606 deadlines placed so against 740 at a random
   phase (514 for a bare sleep loop).
 
 The grid step is the largest common step of the period and a millisecond, 1 ms at 1 kHz or
