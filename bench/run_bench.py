@@ -96,19 +96,21 @@ def floor(rate: float, duration: float, work: float) -> tuple[list[float], int]:
     start = clock.first_deadline(period)
     jitter, missed, slot, total = [], 0, 0, round(duration * rate)
     clock.enter()
-    while slot < total:
-        deadline = start + slot * period
-        began = clock.wait_until(deadline)
-        while time.perf_counter() - began < work:
-            pass
-        jitter.append(began - deadline)
-        slot += 1
-        ended = clock.now()
-        if ended > start + slot * period:  # as the runtime: skip the deadlines overrun
-            ahead = math.ceil((ended - start) / period)
-            missed += min(ahead, total) - slot
-            slot = ahead
-    clock.leave()
+    try:
+        while slot < total:
+            deadline = start + slot * period
+            began = clock.wait_until(deadline)
+            while time.perf_counter() - began < work:
+                pass
+            jitter.append(began - deadline)
+            slot += 1
+            ended = clock.now()
+            if ended > start + slot * period:  # as the runtime: skip the deadlines overrun
+                ahead = math.ceil((ended - start) / period)
+                missed += min(ahead, total) - slot
+                slot = ahead
+    finally:
+        clock.leave()
     return jitter, missed
 
 

@@ -11,8 +11,9 @@ and passes the run's news (`outcome`, `health`) to the node. Calls run on one wo
 thread, in the order they came (a node's moves on the link's own thread: the run waits for
 each); news goes to the node as it arrives (an outcome is queued there for the node's own
 thread, `motivml.ros2.node`). When the run's end of the
-link closes without an `exit` (the run was killed), every node the run had activated is
-moved back to unconfigured before the bridge ends.
+link closes without an `exit` (the run was killed), every node the run had moved out of
+unconfigured (activated, or configured for a load never committed) is moved back there
+before the bridge ends.
 """
 
 from __future__ import annotations

@@ -240,9 +240,9 @@ def first_deadline(now: float, period: float, monotonic: float | None = None) ->
     if not sys.platform.startswith("linux") or not math.isfinite(scaled) or scaled < 1:
         return now + period
     period_ns = round(scaled)
-    if abs(scaled - period_ns) > 1e-3 or math.gcd(period_ns, TICK_GRID_NS) < GRID_MIN_NS:
-        return now + period  # (a period of a fraction of a ns more would drift off the grid)
     grid_ns = math.gcd(period_ns, TICK_GRID_NS)
+    if abs(scaled - period_ns) > 1e-3 or grid_ns < GRID_MIN_NS:
+        return now + period  # (a period of a fraction of a ns more would drift off the grid)
     if monotonic is None:
         monotonic = time.clock_gettime(time.CLOCK_MONOTONIC)
     grid, phase = grid_ns / 1e9, TICK_PHASE * grid_ns / 1e9
