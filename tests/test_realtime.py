@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from motivml.cli import main
 from motivml.runtime import waiting
-from motivml.runtime.loop import RealClock, realtime_problem
+from motivml.runtime.loop import DEFAULT_PRIORITY, RealClock, default_priority, realtime_problem
 from motivml.runtime.waiting import SLICE_MAX_NS, SLICE_NS, TIMER_SLACK_NS
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
@@ -40,9 +40,67 @@ def refuse(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(os, "sched_setscheduler", refused)
 
 
-def test_a_priority_outside_1_to_99_is_a_usage_error() -> None:
+def test_a_priority_outside_0_to_99_is_a_usage_error() -> None:
+    code, output = run("--priority", "100", "--duration", "0.01")
+    assert code == 2 and "--priority" in output and "0<=x<=99" in output
+
+
+def watch_scheduling(monkeypatch: pytest.MonkeyPatch) -> list[tuple[int, int]]:
+    """Every sched_setscheduler call of this process from now on, as (policy, priority), and
+    each one granted without changing anything: as where real time is allowed."""
+    calls: list[tuple[int, int]] = []
+    monkeypatch.setattr(os, "sched_setscheduler", lambda pid, policy, param: calls.append((policy, param.sched_priority)))
+    return calls
+
+
+def test_a_run_not_told_a_priority_takes_50_where_it_may(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls = watch_scheduling(monkeypatch)
+    assert default_priority() == (DEFAULT_PRIORITY, None) and DEFAULT_PRIORITY == 50
+    calls.clear()
+    code, output = run("--duration", "0.01")
+    assert code == 0, output
+    assert "1000 Hz, real clock, real-time priority 50, 0.01 s" in output
+    # the probe, then the loop's thread while it ticks, then that thread given back
+    assert calls == [
+        (os.SCHED_FIFO, 50),
+        (os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 50),
+        (os.SCHED_OTHER, 0),
+    ]
+
+
+def test_a_run_not_told_a_priority_runs_ordinary_where_it_may_not_and_says_why(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    refuse(monkeypatch)
+    assert default_priority() == (None, "real-time refused: Operation not permitted")
+    seen: list[int] = []
+    enter = RealClock.enter
+
+    def watched(self: RealClock) -> None:
+        enter(self)
+        seen.append(os.sched_getscheduler(0))
+
+    monkeypatch.setattr(RealClock, "enter", watched)
+    code, output = run("--duration", "0.01")
+    assert code == 0, output
+    assert "1000 Hz, real clock, ordinary priority (real-time refused: Operation not permitted), 0.01 s" in output
+    assert seen == [os.SCHED_OTHER]
+
+
+def test_without_real_time_scheduling_a_run_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delattr(os, "sched_setscheduler")
+    assert default_priority() == (None, "no real-time scheduling on this system")
+
+
+def test_priority_0_asks_for_no_real_time(monkeypatch: pytest.MonkeyPatch) -> None:
+    calls = watch_scheduling(monkeypatch)
     code, output = run("--priority", "0", "--duration", "0.01")
-    assert code == 2 and "--priority" in output and "1<=x<=99" in output
+    assert code == 0, output
+    assert "1000 Hz, real clock, ordinary priority, 0.01 s" in output
+    assert calls == []  # (not even asked)
+    code, output = run("--priority", "0", "--clock", "simulated", "--duration", "0.01")
+    assert code == 0 and "1000 Hz, simulated clock, 0.01 s" in output, output
+    assert calls == []
 
 
 def test_a_priority_is_for_the_real_clock() -> None:

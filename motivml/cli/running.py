@@ -100,10 +100,12 @@ class Number(click.FloatRange):
 )
 @click.option(
     "--priority",
-    type=click.IntRange(1, 99),
+    type=click.IntRange(0, 99),
     metavar="N",
     help="Run the loop's thread under SCHED_FIFO at real-time priority N (1-99; Linux, needs root, "
-    "CAP_SYS_NICE or an rtprio limit): it then wakes on time however busy the machine is.",
+    "CAP_SYS_NICE or an rtprio limit): it then wakes on time however busy the machine is. Without "
+    "it, a real-clock run takes priority 50 where it may and ordinary scheduling where not, and says "
+    "which; 0: ordinary scheduling.",
 )
 @click.option(
     "--ros2",
@@ -178,14 +180,25 @@ def run_command(
         missing = ros2_missing()  # before anything starts: say at once that ROS 2 is missing
         if missing is not None:
             fail(missing)
-    if priority is not None:
-        if clock != "real":
+    scheduling = ""  # how the loop's thread is scheduled, for the run's first line
+    if clock != "real":
+        if priority:
             raise click.BadParameter("a priority is for the real clock", param_hint="--priority")
+        priority = None
+    elif priority is None:  # as ros2_control's controller manager: real time where it may
+        from ..runtime.loop import default_priority
+
+        priority, refused = default_priority()
+        scheduling = f"real-time priority {priority}, " if priority else f"ordinary priority ({refused}), "
+    elif priority == 0:
+        priority, scheduling = None, "ordinary priority, "
+    else:
         from ..runtime.loop import realtime_problem
 
         problem = realtime_problem(priority)
         if problem is not None:
             fail(EnvironmentProblem(error(Location("run --priority"), problem, "run.priority")))
+        scheduling = f"real-time priority {priority}, "
     if cpus is not None:
         from ..runtime.session import keep_to_cpus
 
@@ -249,7 +262,7 @@ def run_command(
         f"running {escape(robot.folder.name)} variant {escape(name)}: "
         f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
         f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, "
-        + (f"real-time priority {priority}, " if priority is not None else "")
+        + scheduling
         + (f"{duration:g} s" if math.isfinite(duration) else "until stopped")
     )
 

@@ -210,14 +210,12 @@ class _SlackCollector:
 SPIN = 0.00002  # s before a deadline the loop's sleep ends; it spins the rest
 
 
-def realtime_problem(priority: int) -> str | None:
-    """Why this process may not run a thread under SCHED_FIFO at `priority`, or None (asked
-    of a short-lived thread, so that no thread of the caller changes)."""
-    if not hasattr(os, "sched_setscheduler"):
-        return "this system has no real-time scheduling (Linux has)"
-    low, high = os.sched_get_priority_min(os.SCHED_FIFO), os.sched_get_priority_max(os.SCHED_FIFO)
-    if not low <= priority <= high:
-        return f"{priority} is not a real-time priority: {low} to {high}"
+DEFAULT_PRIORITY = 50  # a run's loop without --priority, where the process may (see default_priority)
+
+
+def _refusal(priority: int) -> str | None:
+    """The system's words refusing this process a thread under SCHED_FIFO at `priority`, or
+    None (asked of a short-lived thread, so that no thread of the caller changes)."""
     problem: list[str] = []
 
     def probe() -> None:
@@ -229,13 +227,40 @@ def realtime_problem(priority: int) -> str | None:
     thread = threading.Thread(target=probe, name="motivml-realtime-probe")
     thread.start()
     thread.join()
-    if problem:
-        return (
-            f"this process may not use real-time scheduling ({problem[0]}): run it as root, give it "
-            f"CAP_SYS_NICE, or raise its real-time priority limit (ulimit -r {priority}; LimitRTPRIO={priority} "
-            f"in a systemd unit)"
-        )
-    return None
+    return problem[0] if problem else None
+
+
+def realtime_problem(priority: int) -> str | None:
+    """Why this process may not run a thread under SCHED_FIFO at `priority`, and how to
+    allow it, or None (no thread of the caller changes)."""
+    if not hasattr(os, "sched_setscheduler"):
+        return "this system has no real-time scheduling (Linux has)"
+    low, high = os.sched_get_priority_min(os.SCHED_FIFO), os.sched_get_priority_max(os.SCHED_FIFO)
+    if not low <= priority <= high:
+        return f"{priority} is not a real-time priority: {low} to {high}"
+    refusal = _refusal(priority)
+    if refusal is None:
+        return None
+    return (
+        f"this process may not use real-time scheduling ({refusal}): run it as root, give it "
+        f"CAP_SYS_NICE, or raise its real-time priority limit (ulimit -r {priority}; LimitRTPRIO={priority} "
+        f"in a systemd unit)"
+    )
+
+
+def default_priority() -> tuple[int | None, str | None]:
+    """The real-time priority of a run's loop that was not told one (`run` without
+    --priority), and if none, why, in a few words: DEFAULT_PRIORITY where this process may
+    use real-time scheduling (root, CAP_SYS_NICE, or a real-time priority limit of 50 or
+    more), else ordinary scheduling. ros2_control's controller manager does the same with its
+    control loop. On a busy machine it is what keeps a loop that works each tick on time:
+    there the scheduler may take an ordinary thread off the CPU in the middle of a tick and
+    give it back only at its next tick (waiting.py), and nothing short of a privilege
+    prevents that."""
+    if not hasattr(os, "sched_setscheduler"):
+        return None, "no real-time scheduling on this system"
+    refusal = _refusal(DEFAULT_PRIORITY)
+    return (DEFAULT_PRIORITY, None) if refusal is None else (None, f"real-time refused: {refusal}")
 
 
 class RealClock:
