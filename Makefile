@@ -63,5 +63,5 @@ bench: setup cpp-plugins ros2
 	$(BIN)/python bench/run_bench.py
 	$(BIN)/python bench/swap_bench.py
 	$(ROS_BIN)/python bench/ros2_bench.py
-	$(ROS_BIN)/python bench/ros2_bench.py --priority 80
+	$(ROS_BIN)/python bench/ros2_bench.py --priority 0
 	$(ROS_BIN)/python bench/ros2_bench.py --pinned

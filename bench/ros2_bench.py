@@ -36,8 +36,10 @@ by wrappers around them, a few microseconds each).
 
     .venv-ros/bin/python bench/ros2_bench.py [--swaps 200] [--rounds 5] [--rate 1000] [--domain 93] [--priority N] [--pinned]
 
-With --priority N both robots' loops run at real-time priority N (what `run --priority N`
-does). With --pinned the robot's process is kept to CPU 0 (what `run --cpus 0` does) and the
+Both robots' loops are scheduled as `run` schedules its loop: at real-time priority 50
+where this process may, else ordinary. With --priority N both run at real-time priority N
+(what `run --priority N` does), with --priority 0 both at ordinary priority (what `run`
+does where real time is refused, or with --priority 0). With --pinned the robot's process is kept to CPU 0 (what `run --cpus 0` does) and the
 nodes, the client and the bridge to the other CPUs, as a robot computer that gives its
 control loop a core.
 
@@ -289,7 +291,8 @@ class Timings:
             self.undo.pop()()
 
 
-PRIORITY: int | None = None  # with --priority: the loops' real-time priority (run --priority)
+PRIORITY: int | None = None  # the loops' real-time priority, if any (as run, or --priority)
+SCHEDULING = ""  # how main() said it
 OTHERS: set[int] | None = None  # with --pinned: the CPUs the nodes and the client are kept to
 
 
@@ -453,7 +456,8 @@ def main() -> None:
         "--priority",
         type=int,
         metavar="N",
-        help="run both robots' loops at real-time priority N (as run --priority N does)",
+        help="run both robots' loops at real-time priority N (as run --priority N does; 0: ordinary priority; "
+        "default: as run, 50 where this process may)",
     )
     parser.add_argument("--client", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -467,15 +471,22 @@ def main() -> None:
         return
     if not NODES.is_file():
         raise SystemExit(f"{NODES} is missing: it comes with the ros2-example branch")
-    if args.priority is not None:
+    global PRIORITY, SCHEDULING
+    if args.priority is None:
+        from motivml.runtime.loop import default_priority
+
+        PRIORITY, refused = default_priority()
+        SCHEDULING = f"real-time priority {PRIORITY}, as run" if PRIORITY else f"ordinary priority ({refused})"
+    elif args.priority == 0:
+        SCHEDULING = "ordinary priority (run --priority 0)"
+    else:
         from motivml.runtime.loop import realtime_problem
 
         problem = realtime_problem(args.priority)
         if problem is not None:  # (a figure that cannot be measured here is said so, not failed)
             print(f"ros2_bench --priority {args.priority}: not measured: {problem}")
             return
-        global PRIORITY
-        PRIORITY = args.priority
+        PRIORITY, SCHEDULING = args.priority, f"real-time priority {args.priority} (run --priority)"
     if args.pinned:
         from motivml.runtime.session import keep_to_cpus
 
@@ -513,7 +524,7 @@ def report(args: argparse.Namespace, rounds: list[dict[str, Any]]) -> None:
         f"thermal_detection) through set_parameters_atomically, loop at {args.rate:g} Hz (real clock), "
         f"{os.cpu_count()} CPUs"
         + (", the robot on CPU 0 (run --cpus 0), the nodes, the client and the bridge on the others" if args.pinned else "")
-        + (f", both loops at real-time priority {args.priority} (run --priority)" if args.priority else "")
+        + f", both loops at {SCHEDULING}"
     )
     print("  each round: new nodes, client and robot on a ROS graph of its own; its floor, its swaps, then the robot without ROS")
     for k, r in enumerate(rounds):

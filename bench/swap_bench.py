@@ -3,7 +3,8 @@
 Builds the robot of run_bench.py (20 components), adds two XOR pairs of Dynamic Late
 alternatives, `left`/`right` implemented by Python plugins and `near`/`far` by the C++
 gesture plugins (plugins/cpp, built by make cpp-plugins), runs the loop on the real clock
-at --rate Hz, and swaps each pair --swaps times, one request after the other,
+at --rate Hz (its thread scheduled as `run` schedules it: real-time priority 50 where this
+process may, else ordinary; --priority N for N, 0 for ordinary), and swaps each pair --swaps times, one request after the other,
 through the binder (the control socket's path minus the socket), one request every
 --interval seconds. Prints the request-to-
 commit latency p50/p99/max (to the change being applied between two ticks: by the
@@ -11,7 +12,7 @@ requesting thread while the loop waits, else by the loop before its next tick; t
 tick is the first to run with it either way), and the loop's jitter and missed deadlines
 over the swaps.
 
-    python bench/swap_bench.py [--swaps 1000] [--rate 1000]
+    python bench/swap_bench.py [--swaps 1000] [--rate 1000] [--priority N]
 
 Targets: (issue 5) p99 latency under 5 ms, no tick more than 1 ms late; (issue 14) p99
 request-to-commit under 2 ms for Python and 3 ms for C++ (printed met/MISSED).
@@ -32,7 +33,7 @@ from typing import Any
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from run_bench import robot  # noqa: E402
+from run_bench import loop_priority, robot  # noqa: E402
 
 from motivml.runtime.launch import launch  # noqa: E402
 from motivml.runtime.loop import RealClock, RunStats  # noqa: E402
@@ -102,7 +103,13 @@ def main() -> None:
     parser.add_argument("--swaps", type=int, default=1000)
     parser.add_argument("--rate", type=float, default=1000.0)
     parser.add_argument("--interval", type=float, default=0.01, help="seconds between two requests")
+    parser.add_argument(
+        "--priority",
+        type=int,
+        help="the loop's real-time priority, 0 for ordinary scheduling (default: as run, 50 where it may)",
+    )
     args = parser.parse_args()
+    priority, scheduling = loop_priority(args.priority)
     ms = 1e3
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
@@ -112,7 +119,7 @@ def main() -> None:
         runtime, binder = built.runtime, built.binder
         assert len(built.assembly.components) == 20 and set(runtime.plugins) == {"left", "near"}
         result: list[RunStats] = []
-        loop = threading.Thread(target=lambda: result.append(runtime.run(3600.0, RealClock())))
+        loop = threading.Thread(target=lambda: result.append(runtime.run(3600.0, RealClock(priority))))
         loop.start()
         latencies: dict[str, list[float]] = {"side": [], "range": []}
         refused: list[Any] = []
@@ -133,7 +140,7 @@ def main() -> None:
     stats = result[0]
     print(
         f"{args.swaps} swaps each of a Dynamic Python and a Dynamic C++ plugin, a request every "
-        f"{args.interval * 1e3 / 2:g} ms, beside 20 components at {args.rate:g} Hz (real clock)"
+        f"{args.interval * 1e3 / 2:g} ms, beside 20 components at {args.rate:g} Hz (real clock, {scheduling})"
     )
     if refused:
         print(f"  stopped: a swap was refused: {refused[0]}")
