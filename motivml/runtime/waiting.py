@@ -33,7 +33,8 @@ given back (both are no-ops where the system lacks them):
   machine. In 12 s there, alternated: 1,499-1,612 missed deadlines with a fixed 0.1 ms
   slice, 142-177 with 0.3 ms, 66-75 with 0.5 ms, and 30-43 for a bare sleep loop.
 
-Neither needs a privilege: a real-time priority (`run --priority`) does, and does more.
+Neither needs a privilege: a real-time priority does, and does more. `run` takes one
+where its process may (`loop.default_priority`); these are what is left where it may not.
 
 A third choice needs no system call at all: *where the deadlines fall* (`first_deadline`).
 Linux's scheduler ticks fall on multiples of its tick (1, 4 or 10 ms for HZ = 1000, 250 or
