@@ -60,11 +60,12 @@ def test_a_run_not_told_a_priority_takes_50_where_it_may(monkeypatch: pytest.Mon
     code, output = run("--duration", "0.01")
     assert code == 0, output
     assert "1000 Hz, real clock, real-time priority 50, 0.01 s" in output
-    # the probe, then the loop's thread while it ticks, then that thread given back
+    # the probe, then the loop's thread while it ticks, then that thread given back, all
+    # keeping reset-on-fork (which only CAP_SYS_NICE may clear, not an rtprio limit)
     assert calls == [
-        (os.SCHED_FIFO, 50),
         (os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 50),
-        (os.SCHED_OTHER, 0),
+        (os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 50),
+        (os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, 0),
     ]
 
 
@@ -73,23 +74,47 @@ def test_a_run_not_told_a_priority_runs_ordinary_where_it_may_not_and_says_why(
 ) -> None:
     refuse(monkeypatch)
     assert default_priority() == (None, "real-time refused: Operation not permitted")
-    seen: list[int] = []
+    seen: list[int | None] = []
     enter = RealClock.enter
 
     def watched(self: RealClock) -> None:
+        seen.append(self.priority)
         enter(self)
-        seen.append(os.sched_getscheduler(0))
 
     monkeypatch.setattr(RealClock, "enter", watched)
     code, output = run("--duration", "0.01")
     assert code == 0, output
     assert "1000 Hz, real clock, ordinary priority (real-time refused: Operation not permitted), 0.01 s" in output
-    assert seen == [os.SCHED_OTHER]
+    assert seen == [None]  # (not asked for, so not refused again in the run's log)
+    assert "the loop runs at ordinary priority" not in output
 
 
 def test_without_real_time_scheduling_a_run_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.delattr(os, "sched_setscheduler")
     assert default_priority() == (None, "no real-time scheduling on this system")
+    code, output = run("--duration", "0.01")
+    assert code == 0, output
+    assert "1000 Hz, real clock, ordinary priority (no real-time scheduling on this system), 0.01 s" in output
+
+
+def test_a_default_priority_refused_when_the_loop_starts_is_given_up_and_said(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Allowed when probed, refused a moment later (a limit lowered meanwhile, say): the run
+    goes on at ordinary priority and its log says so; a priority asked for is not given up."""
+    monkeypatch.setattr("motivml.runtime.loop.default_priority", lambda: (50, None))
+    refuse(monkeypatch)
+    code, output = run("--duration", "0.01")
+    assert code == 0, output
+    assert "real clock, real-time priority 50, 0.01 s" in output
+    assert "the loop runs at ordinary priority: real-time priority 50 was refused (Operation not permitted)" in output
+    clock = RealClock(50, insist=False)
+    clock.enter()
+    try:
+        assert (clock.priority, clock.real_time) == (None, False)
+        assert clock.refused == "real-time priority 50 was refused (Operation not permitted)"
+    finally:
+        clock.leave()
+    with pytest.raises(PermissionError):
+        RealClock(50).enter()
 
 
 def test_priority_0_asks_for_no_real_time(monkeypatch: pytest.MonkeyPatch) -> None:

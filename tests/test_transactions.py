@@ -845,6 +845,62 @@ def test_a_step_that_does_not_return_is_noted_by_the_watchdog_naming_its_plugin(
     assert runtime.status().slowest[0][0] == "a2"
 
 
+def test_a_real_time_loop_that_stops_sleeping_gives_up_its_priority(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """At a real-time priority, a loop stuck in a step would keep its CPU from every ordinary
+    thread (Ctrl-C's too): the watchdog makes it ordinary and says so."""
+    import os
+
+    calls: list[tuple[int, int, int]] = []  # (thread, policy, priority), each granted without changing anything
+    monkeypatch.setattr(
+        os, "sched_setscheduler", lambda pid, policy, param: calls.append((pid, policy, param.sched_priority))
+    )
+    gate = "import threading; self.gate = threading.Event()"
+    folder = lifecycle_robot(
+        tmp_path, {"a": {}, "a2": {"start": gate, "step": "if self.steps == 3: self.gate.wait(60)"}}
+    )
+    robot = launch(folder, "v")
+    runtime = robot.runtime
+    runtime.watchdog = 0.05  # s (1 s in a run)
+    given_up = threading.Event()
+    note = runtime.note
+
+    def noting(text: str) -> None:
+        note(text)
+        if "gives up its real-time priority" in text:
+            given_up.set()
+
+    runtime.note = noting  # type: ignore[method-assign]
+    clock = RealClock(50)
+    loop_thread: list[int] = []
+    enter = clock.enter
+
+    def entering() -> None:
+        loop_thread.append(threading.get_native_id())
+        enter()
+
+    clock.enter = entering  # type: ignore[method-assign]
+    loop = threading.Thread(target=runtime.run, args=(0.01, clock), daemon=True)
+    loop.start()
+    try:
+        assert given_up.wait(HANG_GUARD)  # while a2's third step waits
+    finally:
+        runtime.plugins["a2"].instance.gate.set()
+        loop.join(HANG_GUARD)
+        robot.close()
+    assert not loop.is_alive()
+    ordinary = os.SCHED_OTHER | os.SCHED_RESET_ON_FORK
+    assert calls == [(0, os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 50), (loop_thread[0], ordinary, 0)]  # (none at the end)
+    assert (clock.real_time, clock.refused) == (False, "it had not slept for 0.05 s")
+    log = [text for _, _, text in runtime.notes]
+    assert (
+        "the loop has not slept for 0.05 s: it gives up its real-time priority 50 for the rest of the run, "
+        "so that the machine's other threads get the CPU"
+    ) in log
+    assert any(text.startswith("a2's step has not returned after 0.05 s") for text in log)
+
+
 def test_a_real_clock_summary_names_the_slowest_plugin_steps(tmp_path: Path) -> None:
     folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {}})
     result = CliRunner().invoke(

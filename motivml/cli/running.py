@@ -180,7 +180,8 @@ def run_command(
         missing = ros2_missing()  # before anything starts: say at once that ROS 2 is missing
         if missing is not None:
             fail(missing)
-    scheduling = ""  # how the loop's thread is scheduled, for the run's first line
+    scheduling = ""  # how the loop's thread is scheduled, for the `running ...` line
+    insist = True  # a priority asked for (--priority N) must be had; run's own default is given up if refused
     if clock != "real":
         if priority:
             raise click.BadParameter("a priority is for the real clock", param_hint="--priority")
@@ -189,6 +190,7 @@ def run_command(
         from ..runtime.loop import default_priority
 
         priority, refused = default_priority()
+        insist = False
         scheduling = f"real-time priority {priority}, " if priority else f"ordinary priority ({refused}), "
     elif priority == 0:
         priority, scheduling = None, "ordinary priority, "
@@ -287,6 +289,7 @@ def run_command(
         variant=name,
         priority=priority,
         record=recorder,
+        insist=insist,
     )
     try:
         session.open()

@@ -211,6 +211,7 @@ SPIN = 0.00002  # s before a deadline the loop's sleep ends; it spins the rest
 
 
 DEFAULT_PRIORITY = 50  # a run's loop without --priority, where the process may (see default_priority)
+_RESET_ON_FORK = getattr(os, "SCHED_RESET_ON_FORK", 0)  # what the loop's thread starts (threads, processes) starts ordinary
 
 
 def _refusal(priority: int) -> str | None:
@@ -220,7 +221,7 @@ def _refusal(priority: int) -> str | None:
 
     def probe() -> None:
         try:
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+            os.sched_setscheduler(0, os.SCHED_FIFO | _RESET_ON_FORK, os.sched_param(priority))
         except OSError as exc:
             problem.append(exc.strerror or str(exc))
 
@@ -268,14 +269,23 @@ class RealClock:
     leaving the CPU to others meanwhile, with a short timer slack and slice while it ticks
     (`waiting.on_time`, Linux). With a `priority`, the thread runs under SCHED_FIFO at that priority
     (1-99) while it ticks: it then takes a CPU from any ordinary thread of any process the
-    moment its sleep ends."""
+    moment its sleep ends. Unless `insist`, a priority refused when the loop starts is given
+    up for ordinary scheduling (`refused` says why) instead of raising OSError. A loop that
+    stops sleeping (a step that never returns, ticks that overrun every period) would keep
+    its CPU from every ordinary thread: the run's watchdog then makes it ordinary (`give_up`)."""
 
     name = "real"
     spin = SPIN  # s before a deadline: sleep until then, spin the rest
     priority: int | None = None
+    insist = True
+    refused: str | None = None  # why the loop's thread runs at ordinary priority although given one
+    real_time = False  # the loop's thread is under SCHED_FIFO now
+    woke = 0.0  # perf_counter: when the loop's thread last woke from a sleep (the watchdog reads it)
+    _thread_id: int | None = None  # the loop thread's native id, for give_up from another thread
 
-    def __init__(self, priority: int | None = None) -> None:
+    def __init__(self, priority: int | None = None, insist: bool = True) -> None:
         self.priority = priority
+        self.insist = insist
         self._on_time: waiting.OnTime | None = None  # the thread's timer slack and slice while it ticks
         self._cpu = 0.0  # s: the thread's CPU time before its last sleep
         self._longest = 0.0  # s: the most CPU time it used between two sleeps since the last fit
@@ -283,10 +293,19 @@ class RealClock:
         self._fit_at = waiting.FIRST_FIT  # sleeps between two fits
 
     def enter(self) -> None:
-        """On the loop's thread, before the first tick: its scheduling (OSError if refused)
-        and its timer slack and slice."""
+        """On the loop's thread, before the first tick: its scheduling (OSError if refused,
+        if it insists) and its timer slack and slice."""
         if self.priority is not None:
-            os.sched_setscheduler(0, os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, os.sched_param(self.priority))
+            try:
+                os.sched_setscheduler(0, os.SCHED_FIFO | _RESET_ON_FORK, os.sched_param(self.priority))
+            except OSError as exc:
+                if self.insist:
+                    raise
+                self.refused = f"real-time priority {self.priority} was refused ({exc.strerror or exc})"
+                self.priority = None
+            else:
+                self.real_time = True
+        self._thread_id, self.woke = threading.get_native_id(), time.perf_counter()
         self._on_time = waiting.on_time()
         self._cpu, self._longest, self._sleeps, self._fit_at = time.thread_time(), 0.0, 0, waiting.FIRST_FIT
 
@@ -294,11 +313,24 @@ class RealClock:
         if self._on_time is not None:
             self._on_time.restore()
             self._on_time = None
-        if self.priority is not None:
-            try:
-                os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+        if self.real_time:
+            self.real_time = False
+            try:  # (keeping reset-on-fork: only CAP_SYS_NICE may clear it, not an rtprio limit)
+                os.sched_setscheduler(0, os.SCHED_OTHER | _RESET_ON_FORK, os.sched_param(0))
             except OSError:
                 pass
+
+    def give_up(self, why: str) -> bool:
+        """From any thread: the loop's thread leaves its real-time priority for ordinary
+        scheduling for the rest of the run, `why` kept in `refused`; True if it did."""
+        if not self.real_time or self._thread_id is None:
+            return False
+        try:
+            os.sched_setscheduler(self._thread_id, os.SCHED_OTHER | _RESET_ON_FORK, os.sched_param(0))
+        except OSError:
+            return False
+        self.real_time, self.refused = False, why
+        return True
 
     def now(self) -> float:
         return time.perf_counter()
@@ -318,7 +350,7 @@ class RealClock:
                 self._longest = cpu - self._cpu
             self._cpu = cpu
             time.sleep(ahead)
-            now = time.perf_counter()
+            now = self.woke = time.perf_counter()
             self._sleeps += 1
             if self._sleeps >= self._fit_at and self._on_time is not None:
                 # (just after a wake-up: a slice changed just before a sleep makes the next wake-up late)
@@ -490,10 +522,19 @@ class Runtime:
         if took >= self.watchdog:
             self.note(f"{running.feature}'s step returned after {took:.3f} s: the loop waited for it")
 
-    def _watch(self, ended: threading.Event) -> None:
-        """The watchdog's thread: note a plugin step that has not returned within `watchdog` s."""
+    def _watch(self, ended: threading.Event, clock: SimulatedClock | RealClock) -> None:
+        """The watchdog's thread: note a plugin step that has not returned within `watchdog` s,
+        and make a real-time loop that has not slept for that long ordinary (it would keep its
+        CPU from every ordinary thread, the one that handles Ctrl-C too)."""
         reported: tuple[Running, float, int] | None = None
         while not ended.wait(self.watchdog / 4):
+            if isinstance(clock, RealClock) and clock.real_time and time.perf_counter() - clock.woke >= self.watchdog:
+                priority = clock.priority
+                if clock.give_up(f"it had not slept for {self.watchdog:g} s"):
+                    self.note(
+                        f"the loop has not slept for {self.watchdog:g} s: it gives up its real-time priority "
+                        f"{priority} for the rest of the run, so that the machine's other threads get the CPU"
+                    )
             stepping = self._stepping
             if stepping is None or stepping is reported:
                 continue
@@ -568,7 +609,7 @@ class Runtime:
         """Tick for `duration` seconds of clock time (or until `until` or `stop()`)."""
         clock = clock or SimulatedClock()
         ended = threading.Event()
-        watchdog = threading.Thread(target=self._watch, args=(ended,), daemon=True, name="motivml-watchdog")
+        watchdog = threading.Thread(target=self._watch, args=(ended, clock), daemon=True, name="motivml-watchdog")
         watchdog.start()
         try:
             with np.errstate(all="ignore"):  # a diverging system shows in the values, not as warnings
@@ -607,10 +648,12 @@ class Runtime:
         cpu0 = time.process_time()
         start = clock.first_deadline(period)
         slot = 0
-        others_commit = clock.priority is None  # (see commit_waiting)
         margin = min(period / 2, COMMIT_MARGIN)
         try:
             clock.enter()
+            others_commit = clock.priority is None  # (see commit_waiting)
+            if clock.refused is not None:
+                self.note(f"the loop runs at ordinary priority: {clock.refused}")
             while slot < total:
                 if self.stop_requested.is_set() or (until is not None and until(self)):
                     break

@@ -112,9 +112,11 @@ class Session:
         variant: str | None = None,
         priority: int | None = None,
         record: Recorder | None = None,
+        insist: bool = True,
     ) -> None:
         self.robot = robot
         self.priority = priority  # the loop thread's real-time priority (real clock), if any
+        self.insist = insist  # False: that priority is given up if refused when the loop starts (run's default)
         self.runtime: Runtime = robot.runtime
         self.duration = duration
         self.simulated = clock == "simulated"
@@ -167,7 +169,7 @@ class Session:
 
     def start(self) -> None:
         """Start the loop on its own thread (at once over if a signal came since `open`)."""
-        clock = SimulatedClock() if self.simulated else RealClock(self.priority)
+        clock = SimulatedClock() if self.simulated else RealClock(self.priority, self.insist)
 
         def work() -> None:
             try:
