@@ -809,23 +809,32 @@ def test_a_fault_no_unload_can_mend_stops_the_run(tmp_path: Path) -> None:
 
 
 # ---------------------------------------------------- slow plugin steps: named, not only counted
-def test_a_step_that_does_not_return_is_noted_by_the_watchdog_naming_its_plugin(tmp_path: Path) -> None:
+def stuck_robot(tmp_path: Path, awaited: str) -> tuple[Robot, threading.Event]:
+    """A robot whose plugin a2 waits in its third step until its `gate` is set, with a
+    watchdog of 0.05 s (1 s in a run); the event is set once a line containing `awaited`
+    is noted in the run's log."""
     gate = "import threading; self.gate = threading.Event()"
     folder = lifecycle_robot(
         tmp_path, {"a": {}, "a2": {"start": gate, "step": "if self.steps == 3: self.gate.wait(60)"}}
     )
     robot = launch(folder, "v")
     runtime = robot.runtime
-    runtime.watchdog = 0.05  # s (1 s in a run)
+    runtime.watchdog = 0.05
     noticed = threading.Event()
     note = runtime.note
 
     def noting(text: str) -> None:
         note(text)
-        if "has not returned" in text:
+        if awaited in text:
             noticed.set()
 
     runtime.note = noting  # type: ignore[method-assign]
+    return robot, noticed
+
+
+def test_a_step_that_does_not_return_is_noted_by_the_watchdog_naming_its_plugin(tmp_path: Path) -> None:
+    robot, noticed = stuck_robot(tmp_path, "has not returned")
+    runtime = robot.runtime
     loop = threading.Thread(target=runtime.run, args=(0.01,), daemon=True)  # the simulated clock
     loop.start()
     try:
@@ -856,22 +865,8 @@ def test_a_real_time_loop_that_stops_sleeping_gives_up_its_priority(
     monkeypatch.setattr(
         os, "sched_setscheduler", lambda pid, policy, param: calls.append((pid, policy, param.sched_priority))
     )
-    gate = "import threading; self.gate = threading.Event()"
-    folder = lifecycle_robot(
-        tmp_path, {"a": {}, "a2": {"start": gate, "step": "if self.steps == 3: self.gate.wait(60)"}}
-    )
-    robot = launch(folder, "v")
+    robot, given_up = stuck_robot(tmp_path, "gives up its real-time priority")
     runtime = robot.runtime
-    runtime.watchdog = 0.05  # s (1 s in a run)
-    given_up = threading.Event()
-    note = runtime.note
-
-    def noting(text: str) -> None:
-        note(text)
-        if "gives up its real-time priority" in text:
-            given_up.set()
-
-    runtime.note = noting  # type: ignore[method-assign]
     clock = RealClock(50)
     loop_thread: list[int] = []
     enter = clock.enter
