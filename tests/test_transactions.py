@@ -896,6 +896,26 @@ def test_a_real_time_loop_that_stops_sleeping_gives_up_its_priority(
     assert any(text.startswith("a2's step has not returned after 0.05 s") for text in log)
 
 
+def test_a_real_time_loop_at_a_low_rate_sleeps_long_and_keeps_its_priority(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Asleep is not stuck: 0.1 s between two ticks, with a watchdog of 0.02 s."""
+    import os
+
+    calls: list[tuple[int, int]] = []
+    monkeypatch.setattr(os, "sched_setscheduler", lambda pid, policy, param: calls.append((policy, param.sched_priority)))
+    robot = launch(lifecycle_robot(tmp_path, {"a": {}}), "v")
+    robot.runtime.watchdog = 0.02
+    robot.runtime.rate = 10.0
+    try:
+        stats = robot.runtime.run(0.3, RealClock(50))
+    finally:
+        robot.close()
+    assert stats.ticks == 3
+    assert not [text for _, _, text in robot.runtime.notes if "real-time priority" in text]
+    assert calls == [(os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, 50), (os.SCHED_OTHER | os.SCHED_RESET_ON_FORK, 0)]
+
+
 def test_a_real_clock_summary_names_the_slowest_plugin_steps(tmp_path: Path) -> None:
     folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {}})
     result = CliRunner().invoke(

@@ -211,7 +211,7 @@ SPIN = 0.00002  # s before a deadline the loop's sleep ends; it spins the rest
 
 
 DEFAULT_PRIORITY = 50  # a run's loop without --priority, where the process may (see default_priority)
-_RESET_ON_FORK = getattr(os, "SCHED_RESET_ON_FORK", 0)  # what the loop's thread starts (threads, processes) starts ordinary
+_RESET_ON_FORK = getattr(os, "SCHED_RESET_ON_FORK", 0)  # threads and processes the loop's thread starts begin ordinary
 
 
 def _refusal(priority: int) -> str | None:
@@ -280,7 +280,7 @@ class RealClock:
     insist = True
     refused: str | None = None  # why the loop's thread runs at ordinary priority although given one
     real_time = False  # the loop's thread is under SCHED_FIFO now
-    woke = 0.0  # perf_counter: when the loop's thread last woke from a sleep (the watchdog reads it)
+    awake_since: float | None = None  # perf_counter: since when the loop's thread has not slept (None: asleep)
     _thread_id: int | None = None  # the loop thread's native id, for give_up from another thread
 
     def __init__(self, priority: int | None = None, insist: bool = True) -> None:
@@ -295,6 +295,7 @@ class RealClock:
     def enter(self) -> None:
         """On the loop's thread, before the first tick: its scheduling (OSError if refused,
         if it insists) and its timer slack and slice."""
+        self.refused = None
         if self.priority is not None:
             try:
                 os.sched_setscheduler(0, os.SCHED_FIFO | _RESET_ON_FORK, os.sched_param(self.priority))
@@ -305,7 +306,7 @@ class RealClock:
                 self.priority = None
             else:
                 self.real_time = True
-        self._thread_id, self.woke = threading.get_native_id(), time.perf_counter()
+        self._thread_id, self.awake_since = threading.get_native_id(), time.perf_counter()
         self._on_time = waiting.on_time()
         self._cpu, self._longest, self._sleeps, self._fit_at = time.thread_time(), 0.0, 0, waiting.FIRST_FIT
 
@@ -349,8 +350,9 @@ class RealClock:
             if cpu - self._cpu > self._longest:  # what it ran since its last sleep: its slice must cover it
                 self._longest = cpu - self._cpu
             self._cpu = cpu
+            self.awake_since = None
             time.sleep(ahead)
-            now = self.woke = time.perf_counter()
+            now = self.awake_since = time.perf_counter()
             self._sleeps += 1
             if self._sleeps >= self._fit_at and self._on_time is not None:
                 # (just after a wake-up: a slice changed just before a sleep makes the next wake-up late)
@@ -528,7 +530,8 @@ class Runtime:
         CPU from every ordinary thread, the one that handles Ctrl-C too)."""
         reported: tuple[Running, float, int] | None = None
         while not ended.wait(self.watchdog / 4):
-            if isinstance(clock, RealClock) and clock.real_time and time.perf_counter() - clock.woke >= self.watchdog:
+            since = clock.awake_since if isinstance(clock, RealClock) and clock.real_time else None
+            if since is not None and time.perf_counter() - since >= self.watchdog:
                 priority = clock.priority
                 if clock.give_up(f"it had not slept for {self.watchdog:g} s"):
                     self.note(
