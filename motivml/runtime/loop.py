@@ -531,7 +531,7 @@ class Runtime:
         reported: tuple[Running, float, int] | None = None
         while not ended.wait(self.watchdog / 4):
             since = clock.awake_since if isinstance(clock, RealClock) and clock.real_time else None
-            if since is not None and time.perf_counter() - since >= self.watchdog:
+            if isinstance(clock, RealClock) and since is not None and time.perf_counter() - since >= self.watchdog:
                 priority = clock.priority
                 if clock.give_up(f"it had not slept for {self.watchdog:g} s"):
                     self.note(
