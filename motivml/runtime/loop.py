@@ -529,11 +529,12 @@ class Runtime:
         and make a real-time loop that has not slept for that long ordinary (it would keep its
         CPU from every ordinary thread, the one that handles Ctrl-C too)."""
         reported: tuple[Running, float, int] | None = None
+        real = clock if isinstance(clock, RealClock) else None
         while not ended.wait(self.watchdog / 4):
-            since = clock.awake_since if isinstance(clock, RealClock) and clock.real_time else None
-            if isinstance(clock, RealClock) and since is not None and time.perf_counter() - since >= self.watchdog:
-                priority = clock.priority
-                if clock.give_up(f"it had not slept for {self.watchdog:g} s"):
+            since = real.awake_since if real is not None and real.real_time else None
+            if real is not None and since is not None and time.perf_counter() - since >= self.watchdog:
+                priority = real.priority
+                if real.give_up(f"it had not slept for {self.watchdog:g} s"):
                     self.note(
                         f"the loop has not slept for {self.watchdog:g} s: it gives up its real-time priority "
                         f"{priority} for the rest of the run, so that the machine's other threads get the CPU"
