@@ -472,21 +472,13 @@ def main() -> None:
     if not NODES.is_file():
         raise SystemExit(f"{NODES} is missing: it comes with the ros2-example branch")
     global PRIORITY, SCHEDULING
-    if args.priority is None:
-        from motivml.runtime.loop import default_priority
+    from motivml.runtime.loop import run_scheduling
 
-        PRIORITY, refused = default_priority()
-        SCHEDULING = f"real-time priority {PRIORITY}, as run" if PRIORITY else f"ordinary priority ({refused})"
-    elif args.priority == 0:
-        SCHEDULING = "ordinary priority (run --priority 0)"
-    else:
-        from motivml.runtime.loop import realtime_problem
-
-        problem = realtime_problem(args.priority)
-        if problem is not None:  # (a figure that cannot be measured here is said so, not failed)
-            print(f"ros2_bench --priority {args.priority}: not measured: {problem}")
-            return
-        PRIORITY, SCHEDULING = args.priority, f"real-time priority {args.priority} (run --priority)"
+    chosen = run_scheduling(args.priority)  # as run --priority: None takes 50 where it may, 0 ordinary
+    if chosen.problem is not None:  # (a figure that cannot be measured here is said so, not failed)
+        print(f"ros2_bench --priority {args.priority}: not measured: {chosen.problem}")
+        return
+    PRIORITY, SCHEDULING = chosen.priority, chosen.said
     if args.pinned:
         from motivml.runtime.session import keep_to_cpus
 

@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from motivml.runtime.launch import launch
-from motivml.runtime.loop import RealClock, default_priority, realtime_problem
+from motivml.runtime.loop import RealClock, run_scheduling
 
 
 def robot(folder: Path, components: int) -> None:
@@ -157,17 +157,12 @@ def busy(processes: int) -> Iterator[None]:
 
 
 def loop_priority(asked: int | None) -> tuple[int | None, str]:
-    """The robot's loop's real-time priority (None: ordinary) and how to say it: as `run`
-    does when not told, or as --priority says (exits if that priority is refused)."""
-    if asked is None:
-        priority, refused = default_priority()
-        return priority, f"real-time priority {priority}, as run" if priority else f"ordinary priority ({refused})"
-    if asked == 0:
-        return None, "ordinary priority"
-    problem = realtime_problem(asked)
-    if problem is not None:
-        sys.exit(f"run_bench --priority {asked}: not measured: {problem}")
-    return asked, f"real-time priority {asked}"
+    """The robot's loop's real-time priority (None: ordinary) and how to say it, as `run
+    --priority asked` has it (exits if a priority asked for is refused)."""
+    chosen = run_scheduling(asked)
+    if chosen.problem is not None:
+        sys.exit(f"--priority {asked}: not measured: {chosen.problem}")
+    return chosen.priority, chosen.said
 
 
 def main() -> None:

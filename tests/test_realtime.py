@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 
 from motivml.cli import main
 from motivml.runtime import waiting
-from motivml.runtime.loop import DEFAULT_PRIORITY, RealClock, default_priority, realtime_problem
+from motivml.runtime.loop import DEFAULT_PRIORITY, RealClock, RealtimeRefused, default_priority, realtime_problem
 from motivml.runtime.waiting import SLICE_MAX_NS, SLICE_NS, TIMER_SLACK_NS
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
@@ -113,8 +113,24 @@ def test_a_default_priority_refused_when_the_loop_starts_is_given_up_and_said(mo
         assert clock.refused == "real-time priority 50 was refused (Operation not permitted)"
     finally:
         clock.leave()
-    with pytest.raises(PermissionError):
+    with pytest.raises(RealtimeRefused, match=r"^this process may not use real-time scheduling \(Operation not permitted\)"):
         RealClock(50).enter()
+
+
+def test_a_priority_asked_for_and_refused_when_the_loop_starts_is_a_located_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Allowed when run checked, refused a moment later: the same message as before the
+    run, exit code 3, no traceback."""
+    monkeypatch.setattr("motivml.runtime.loop.realtime_problem", lambda priority: None)
+    refuse(monkeypatch)
+    code, output = run("--priority", "10", "--duration", "0.01")
+    assert code == 3, output
+    assert "real clock, real-time priority 10, 0.01 s" in output
+    assert (
+        "run --priority: this process may not use real-time scheduling (Operation not permitted): run it as root"
+    ) in output
+    assert "Traceback" not in output and "without a result" not in output
 
 
 def test_priority_0_asks_for_no_real_time(monkeypatch: pytest.MonkeyPatch) -> None:

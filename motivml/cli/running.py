@@ -180,27 +180,18 @@ def run_command(
         missing = ros2_missing()  # before anything starts: say at once that ROS 2 is missing
         if missing is not None:
             fail(missing)
-    scheduling = ""  # how the loop's thread is scheduled, for the `running ...` line
-    insist = True  # a priority asked for (--priority N) must be had; run's own default is given up if refused
+    scheduling, insist = "", True  # how the `running ...` line says the loop's scheduling; see run_scheduling
     if clock != "real":
         if priority:
             raise click.BadParameter("a priority is for the real clock", param_hint="--priority")
         priority = None
-    elif priority is None:  # as ros2_control's controller manager: real time where it may
-        from ..runtime.loop import default_priority
-
-        priority, refused = default_priority()
-        insist = False
-        scheduling = f"real-time priority {priority}, " if priority else f"ordinary priority ({refused}), "
-    elif priority == 0:
-        priority, scheduling = None, "ordinary priority, "
     else:
-        from ..runtime.loop import realtime_problem
+        from ..runtime.loop import run_scheduling
 
-        problem = realtime_problem(priority)
-        if problem is not None:
-            fail(EnvironmentProblem(error(Location("run --priority"), problem, "run.priority")))
-        scheduling = f"real-time priority {priority}, "
+        chosen = run_scheduling(priority)  # (without --priority: real time where it may, as ros2_control)
+        if chosen.problem is not None:
+            fail(EnvironmentProblem(error(Location("run --priority"), chosen.problem, "run.priority")))
+        priority, insist, scheduling = chosen.priority, chosen.insist, f"{chosen.said}, "
     if cpus is not None:
         from ..runtime.session import keep_to_cpus
 
@@ -327,6 +318,9 @@ def run_command(
         _report_notes(session, out)  # all of the run's log, before the summary (same place every run)
     finally:
         session.stop_watching()
+    if session.realtime_refused is not None:  # as before the run, had it been refused then
+        session.close()
+        fail(EnvironmentProblem(error(Location("run --priority"), session.realtime_refused, "run.priority")))
     if session.stats is None:
         out.print("[bold red]the run ended without a result[/]")
         session.close()  # the plugins stopped, and the record (if any) completed

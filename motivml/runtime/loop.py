@@ -35,7 +35,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -240,13 +240,20 @@ def realtime_problem(priority: int) -> str | None:
     if not low <= priority <= high:
         return f"{priority} is not a real-time priority: {low} to {high}"
     refusal = _refusal(priority)
-    if refusal is None:
-        return None
+    return None if refusal is None else _how_to_allow(priority, refusal)
+
+
+def _how_to_allow(priority: int, refusal: str) -> str:
     return (
         f"this process may not use real-time scheduling ({refusal}): run it as root, give it "
         f"CAP_SYS_NICE, or raise its real-time priority limit (ulimit -r {priority}; LimitRTPRIO={priority} "
         f"in a systemd unit)"
     )
+
+
+class RealtimeRefused(OSError):
+    """A real-time priority the loop insists on, refused when the loop starts (the message
+    says how to allow it)."""
 
 
 def default_priority() -> tuple[int | None, str | None]:
@@ -262,6 +269,27 @@ def default_priority() -> tuple[int | None, str | None]:
         return None, "no real-time scheduling on this system"
     refusal = _refusal(DEFAULT_PRIORITY)
     return (DEFAULT_PRIORITY, None) if refusal is None else (None, f"real-time refused: {refusal}")
+
+
+class LoopScheduling(NamedTuple):
+    """How `run` schedules its loop's thread on the real clock."""
+
+    priority: int | None  # its real-time priority; None: ordinary scheduling
+    insist: bool  # False: run's own default, given up if refused when the loop starts
+    said: str  # how the `running ...` line says it
+    problem: str | None  # why a priority asked for may not be had (then the run does not start)
+
+
+def run_scheduling(asked: int | None) -> LoopScheduling:
+    """`run --priority asked`: None (not told) takes DEFAULT_PRIORITY where it may and
+    ordinary scheduling where not; 0 asks for ordinary scheduling; N insists on N."""
+    if asked is None:
+        priority, refused = default_priority()
+        said = f"real-time priority {priority}" if priority else f"ordinary priority ({refused})"
+        return LoopScheduling(priority, False, said, None)
+    if asked == 0:
+        return LoopScheduling(None, True, "ordinary priority", None)
+    return LoopScheduling(asked, True, f"real-time priority {asked}", realtime_problem(asked))
 
 
 class RealClock:
@@ -301,7 +329,7 @@ class RealClock:
                 os.sched_setscheduler(0, os.SCHED_FIFO | _RESET_ON_FORK, os.sched_param(self.priority))
             except OSError as exc:
                 if self.insist:
-                    raise
+                    raise RealtimeRefused(_how_to_allow(self.priority, exc.strerror or str(exc))) from exc
                 self.refused = f"real-time priority {self.priority} was refused ({exc.strerror or exc})"
                 self.priority = None
             else:

@@ -38,7 +38,15 @@ from .binder import Outcome
 from .control import ControlServer
 from .coordinator import Coordinator
 from .launch import Robot
-from .loop import AppliedReconfiguration, RealClock, RunStats, Runtime, SimulatedClock, Snapshot
+from .loop import (
+    AppliedReconfiguration,
+    RealClock,
+    RealtimeRefused,
+    RunStats,
+    Runtime,
+    SimulatedClock,
+    Snapshot,
+)
 from .record import Recorder, columns
 from .requests import Request
 from .runs import Run, register, unregister
@@ -117,6 +125,7 @@ class Session:
         self.robot = robot
         self.priority = priority  # the loop thread's real-time priority (real clock), if any
         self.insist = insist  # False: that priority is given up if refused when the loop starts (run's default)
+        self.realtime_refused: str | None = None  # why the loop did not start: its priority, insisted on, refused
         self.runtime: Runtime = robot.runtime
         self.duration = duration
         self.simulated = clock == "simulated"
@@ -174,6 +183,8 @@ class Session:
         def work() -> None:
             try:
                 self.stats = self.runtime.run(self.duration, clock, until=self._scheduler)
+            except RealtimeRefused as exc:  # (allowed when run asked a moment before; no tick ran)
+                self.realtime_refused = str(exc)
             finally:
                 self.finished.set()
 
