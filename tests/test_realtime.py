@@ -18,7 +18,13 @@ from hypothesis import strategies as st
 
 from motivml.cli import main
 from motivml.runtime import waiting
-from motivml.runtime.loop import DEFAULT_PRIORITY, RealClock, RealtimeRefused, default_priority, realtime_problem
+from motivml.runtime.loop import (
+    DEFAULT_PRIORITY,
+    RealClock,
+    RealtimeRefused,
+    default_priority,
+    realtime_problem,
+)
 from motivml.runtime.waiting import SLICE_MAX_NS, SLICE_NS, TIMER_SLACK_NS
 
 SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
