@@ -31,7 +31,6 @@ from collections import ChainMap, deque
 from collections.abc import Callable, Collection, Container, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from itertools import accumulate, chain, compress, repeat
-from operator import not_
 from types import TracebackType
 from typing import Any, NamedTuple
 
@@ -204,6 +203,152 @@ class _Targets:
         return literals[first].tolist()  # type: ignore[no-any-return]
 
 
+@dataclass
+class Work:
+    """What an encoding's `cover` calls did, counted (tests check that it grows linearly
+    with the number of targets; `bench/` prints it)."""
+
+    solves: int = 0  # solver calls, failed ones included
+    propagations: int = 0  # unit propagations (step 2)
+    phases: int = 0  # literals handed to the solver as polarity hints
+    checks: int = 0  # targets checked against a witness
+
+
+HINT_WINDOW = 256  # open targets that a target's own solve is hinted towards (`_Cover`)
+DIFF_IN_NUMPY = 4096  # variables: from here a new witness is compared with the last in numpy
+
+
+class _Cover:
+    """The state of one `Encoding.cover`: which targets are open, and the last witness,
+    every open target checked against it.
+
+    Nothing here costs more per target the more targets are open:
+
+    * Hints. The solver saves each variable's phase as the last variant had it, over any
+      hint, so hints are set anew before each solve. While witnesses settle many targets at
+      once (step 1) they are set towards every open target, but only while each witness
+      settles a sixteenth of them (so that the hints' work is at most 16 times the
+      targets'); for a target's own solve (step 3), towards the open targets of the next
+      HINT_WINDOW only.
+    * Witnesses. A target the last witness did not show can be shown by the next only if
+      the next changed one of its variables: a new witness is compared with the last (in
+      C from DIFF_IN_NUMPY variables), and only the open targets over the changed
+      variables are checked.
+    * Order. The open targets are taken in their order from a list that is compacted when
+      half of it is settled.
+    """
+
+    def __init__(self, encoding: Encoding, targets: Sequence[Sequence[int]]) -> None:
+        self.encoding, self.targets = encoding, targets
+        self.work = encoding.work
+        self.table = _Targets(targets)
+        n = len(targets)
+        self.possible = [False] * n
+        self.is_open = bytearray(b"\x01") * n
+        self.left = n  # open targets
+        self.order: list[int] = list(range(n))  # open targets in their order, settled ones not yet removed
+        self.head = 0  # order[:head] is settled
+        self.settled_in_order = 0  # settled targets in order[head:]
+        self.last: Any = None  # the last witness (a list, or a numpy array from DIFF_IN_NUMPY)
+        self.occurs: dict[int, list[int]] | None = None  # variable -> the targets that have it
+
+    # --------------------------------------------------------------- the open targets
+    def close(self, k: int, possible: bool) -> None:
+        """Settle target k."""
+        if not self.is_open[k]:
+            return
+        self.is_open[k] = 0
+        self.possible[k] = possible
+        self.left -= 1
+        self.settled_in_order += 1
+
+    def open_targets(self) -> list[int]:
+        return [k for k in self.order[self.head :] if self.is_open[k]]
+
+    def next_open(self) -> int | None:
+        """The first open target (in the targets' order), or None."""
+        order, is_open = self.order, self.is_open
+        if self.settled_in_order * 2 > len(order) - self.head:  # compact (amortised: half is settled)
+            self.order = order = [k for k in order[self.head :] if is_open[k]]
+            self.head = self.settled_in_order = 0
+        while self.head < len(order) and not is_open[order[self.head]]:
+            self.head += 1
+            self.settled_in_order -= 1
+        return order[self.head] if self.head < len(order) else None
+
+    def open_after(self, count: int) -> list[int]:
+        """Up to `count` open targets after the first, looking at no more than 4 x `count`."""
+        order, is_open, start = self.order, self.is_open, self.head + 1
+        return [k for k in order[start : start + 4 * count] if is_open[k]][:count]
+
+    # ----------------------------------------------------------------------- hints
+    def prefer(self, window: int | None = None) -> None:
+        """Hint the variables of the open targets (the first `window` of them; None: all) as
+        the last of those with a variable wants it."""
+        if window is None:
+            todo = self.open_targets()
+        else:
+            first = self.next_open()
+            todo = [first, *self.open_after(window - 1)] if first is not None else []
+        self.work.phases += len(todo)
+        if len(todo) >= VECTOR_FROM:
+            self.encoding.solver.set_phases(self.table.last_literals(todo))
+            return
+        preferred: dict[int, int] = {}
+        targets = self.targets
+        for k in todo:
+            for literal in targets[k]:
+                preferred[abs(literal)] = literal
+        self.encoding.solver.set_phases(list(preferred.values()))
+
+    # ------------------------------------------------------------------- witnesses
+    def mark(self, witness: Callable[[list[int]], None] | None) -> None:
+        """Settle as possible the open targets that the solver's present variant shows."""
+        values = self.encoding.assignment()
+        if witness is not None:
+            witness(values)
+        last, self.last = self.last, values
+        big = len(values) >= DIFF_IN_NUMPY
+        if big:
+            import numpy as np  # lazy: only large models get here
+
+            self.last = np.asarray(values, dtype=np.int64)
+        if last is None or len(last) != len(values):  # the first witness (of these variables): every open target
+            self._check_all(values)
+            return
+        if big:
+            import numpy as np
+
+            changed = (np.flatnonzero(self.last != last) + 1).tolist()
+        else:
+            changed = [v for v, (old, new) in enumerate(zip(last, values, strict=True), 1) if old != new]
+        if self.occurs is None:
+            occurs: dict[int, list[int]] = {}
+            for k, target in enumerate(self.targets):
+                if self.is_open[k]:
+                    for literal in target:
+                        occurs.setdefault(abs(literal), []).append(k)
+            self.occurs = occurs
+        occurs, is_open, targets, close = self.occurs, self.is_open, self.targets, self.close
+        for v in changed:
+            for k in occurs.get(v, ()):
+                if is_open[k]:
+                    self.work.checks += 1
+                    if all(values[abs(literal) - 1] == literal for literal in targets[k]):
+                        close(k, True)
+
+    def _check_all(self, values: list[int]) -> None:
+        candidates = self.open_targets()
+        self.work.checks += len(candidates)
+        if len(candidates) >= VECTOR_FROM:
+            shown, _ = self.table.split(values, candidates)
+        else:
+            true = set(values)
+            shown = list(compress(candidates, map(true.issuperset, map(self.targets.__getitem__, candidates))))
+        for k in shown:
+            self.close(k, True)
+
+
 class _AllFacts(Collection[int]):
     """`conflicts`' facts when it is not told which: its queries, the configuration's facts
     and every model fact, in that order, without a set of them all (480,000 at 100,000
@@ -300,6 +445,7 @@ class Encoding:
         self._kept_selectors = array("i")  # each clause's selector
         self._clauses_of: dict[int, list[int]] | None = None  # selector -> its kept clauses
         self._model_by_literal: dict[int, int] | None = None  # (see _by_literal)
+        self.work = Work()  # what `cover` did
         self._encode_model()
         self.model_facts = len(self.facts)
         self._config_fact_range = (len(self.facts), len(self.facts))
@@ -787,60 +933,68 @@ class Encoding:
         2. Unit propagation refutes most impossible targets without a search.
         3. Each target still open is solved for under its literals as assumptions (with
            `batch`, with those of later open targets, less those a failed solve's core
-           blames, `_solve_batch`; alone when none is left), with the hints renewed
-           towards every open target, so its witness settles others too.
+           blames, `_solve_batch`; alone when none is left), with the hints towards the
+           next open targets, so its witness settles others too.
+
+        No step costs more per target the more targets are open (`_Cover`): a target's own
+        solve is hinted towards the next HINT_WINDOW open targets, not every open one, and
+        a new witness is checked only against the open targets over the variables it
+        changed. `work` counts what the calls did (a test checks that it grows linearly).
         """
-        possible = [False] * len(targets)
+        state = _Cover(self, targets)
         first, tell = settled if settled is not None else (0, None)
 
         def answered() -> list[bool]:  # (the first ones too, if not told yet)
             if tell is not None:
-                tell(possible[:first])
-            return possible
+                tell(state.possible[:first])
+            return state.possible
 
         base = self.assumptions(with_config)
-        pending: list[int] = list(range(len(targets)))
-        table = _Targets(targets)
         for hint in hints:
             self.solver.set_phases(list(hint))
-            if not self.solver.solve(assumptions=base):
+            self.work.phases += len(hint)
+            if not self._solve(base):
                 return answered()
-            pending = self._mark(table, possible, pending, witness)
-        while pending:
-            self._prefer(table, pending)
-            if not self.solver.solve(assumptions=base):
+            state.mark(witness)
+        while state.left:
+            state.prefer()
+            if not self._solve(base):
                 return answered()
-            before = len(pending)
-            pending = self._mark(table, possible, pending, witness)
-            if before - len(pending) < WITNESS_GAIN:
+            before = state.left
+            state.mark(witness)
+            if before - state.left < max(WITNESS_GAIN, before // 16):
                 break
-        if refute is not False:
+        if refute is not False and state.left:
             asked = [
                 k
-                for k in pending
-                if (refute is True or refute[k]) and (requires is None or (r := requires[k]) is None or possible[r])
+                for k in state.open_targets()
+                if (refute is True or refute[k]) and (requires is None or (r := requires[k]) is None or state.possible[r])
             ]
-            refuted = set(asked).difference(self._propagating(targets, base, asked, implied))
-            pending = [k for k in pending if k not in refuted]
-        while pending:
-            k = pending[0]
+            consistent = set(self._propagating(targets, base, asked, implied))
+            for j in asked:
+                if j not in consistent:
+                    state.close(j, False)
+        while (k := state.next_open()) is not None:
             if tell is not None and k >= first:
-                tell(possible[:first])
+                tell(state.possible[:first])
                 tell = None
-            if requires is not None and (r := requires[k]) is not None and not possible[r]:
-                # (every target before k is settled: so is r, as impossible; and so is each
-                # open target that requires one of those)
-                pending = [j for j in pending if (q := requires[j]) is None or q >= k or possible[q]]
+            if requires is not None and (r := requires[k]) is not None and not state.possible[r]:
+                # (every target before k is settled: so is r, as impossible)
+                state.close(k, False)
                 continue
-            self._prefer(table, pending)
-            shown = self._solve_batch(targets, base, pending) if batch else None
+            state.prefer(HINT_WINDOW)
+            shown = self._solve_batch(targets, base, [k, *state.open_after(BATCH_TRIED - 1)]) if batch else None
             if shown is None:
-                shown = bool(self.solver.solve(assumptions=[*base, *targets[k]]))
+                shown = self._solve([*base, *targets[k]])
             if shown:
-                pending = self._mark(table, possible, pending, witness)  # (k among them)
+                state.mark(witness)  # (k among them)
             else:
-                pending = pending[1:]
+                state.close(k, False)
         return answered()
+
+    def _solve(self, assumptions: list[int]) -> bool:
+        self.work.solves += 1
+        return bool(self.solver.solve(assumptions=assumptions))
 
     def _solve_batch(
         self, targets: Sequence[Sequence[int]], base: list[int], pending: list[int]
@@ -874,7 +1028,7 @@ class Encoding:
         for _ in range(BATCH_FAILURES):
             if not members:
                 break
-            if self.solver.solve(assumptions=[*base, *first, *chain.from_iterable(members)]):
+            if self._solve([*base, *first, *chain.from_iterable(members)]):
                 return True
             blamed = set(self.solver.get_core() or ()) - innocent
             if not blamed:
@@ -897,48 +1051,16 @@ class Encoding:
         """
         consistent: set[int] = set()
         for k in reversed(pending):
-            if k in consistent or not self.solver.propagate(assumptions=[*base, *targets[k]])[0]:
+            if k in consistent:
+                continue
+            self.work.propagations += 1
+            if not self.solver.propagate(assumptions=[*base, *targets[k]])[0]:
                 continue
             j: int | None = k
             while j is not None and j not in consistent:
                 consistent.add(j)
                 j = implied[j] if implied is not None else None
         return [k for k in pending if k in consistent]
-
-    def _prefer(self, table: _Targets, todo: list[int]) -> None:
-        """Polarity hints: decide the open targets' literals their way first (where a
-        variable is in several, as the last one has it)."""
-        if len(todo) >= VECTOR_FROM:
-            self.solver.set_phases(table.last_literals(todo))
-            return
-        preferred: dict[int, int] = {}
-        for k in todo:
-            for lit in table.targets[k]:
-                preferred[abs(lit)] = lit
-        self.solver.set_phases(list(preferred.values()))
-
-    def _mark(
-        self,
-        table: _Targets,
-        possible: list[bool],
-        candidates: list[int],
-        witness: Callable[[list[int]], None] | None = None,
-    ) -> list[int]:
-        """The candidates the solver's present variant does not show (those it shows are
-        marked possible), in their order."""
-        values = self.assignment()
-        if witness is not None:
-            witness(values)
-        if len(candidates) >= VECTOR_FROM:
-            shown, left = table.split(values, candidates)
-            for k in shown:
-                possible[k] = True
-            return left
-        true = set(values)
-        shown = list(map(true.issuperset, map(table.targets.__getitem__, candidates)))
-        for k in compress(candidates, shown):
-            possible[k] = True
-        return list(compress(candidates, map(not_, shown)))
 
     def optimise(self, soft: Sequence[tuple[int, int]], with_config: bool = True) -> list[int] | None:
         """A valid variant that minimises the weight of the soft literals it leaves false.
