@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 from ..documents.loader import no_gc
 from ..language.model import FeatureModel, Mode, Time
 from . import encoding as enc
+from .symmetry import classes, expand, interchangeable
 
 if TYPE_CHECKING:
     from .cuts import Cuts
@@ -91,18 +92,24 @@ def analyse(
             selections.append(hard.selection_of(values))
 
         step(STEPS[1])
+        # one question per class of interchangeable features (symmetry.py), for its first
+        representative = interchangeable(model)
+        asked = [i for i in range(n) if representative[i] == i]
         s = [hard.s(i) for i in range(n)]
         parents = [f.parent for f in features]
         possible = hard.cover(
-            [[literal] for literal in s] + [[-literal] for literal in s],
+            [[s[i]] for i in asked] + [[-s[i]] for i in asked],
             with_config=False,
             hints=[s, [s[0], *(-literal for literal in s[1:])]],
             witness=witness,
             batch=True,  # (most of what the hints leave open is possible)
             refute=False,
         )
-        alive = possible[:n]
-        core = [i for i in range(n) if not possible[n + i]]
+        alive_asked, core_asked = [False] * n, [False] * n
+        for k, i in enumerate(asked):
+            alive_asked[i], core_asked[i] = possible[k], not possible[len(asked) + k]
+        alive, is_core = expand(representative, alive_asked), expand(representative, core_asked)
+        core = [i for i in range(n) if is_core[i]]
 
         step(STEPS[2])
         # Cuts of the first variants found (`cuts.Cuts`): each valid cut is a variant
@@ -115,12 +122,16 @@ def analyse(
 
         cuts = Cuts(model, hard.recorded)
         key = list(zip(*(_deepest_cuts(cuts, parents, values) for values in first), strict=True))
-        atomic = _atomic_sets(hard, [i for i in range(n) if alive[i]], core, selections, witness, key)
+        live_asked = [i for i in asked if alive[i]]
+        atomic = _atomic_sets(hard, live_asked, core, selections, witness, key)
+        atomic = _atomic_classes(hard, atomic, classes(representative), alive, is_core)
         # The bindings on the same solver: the variants the questions above left in its
         # saved phases select most live features, so few solves are left to do (at 10,000
         # features, 23 solves where a fresh solver takes 75, and no second encoding).
         step(STEPS[3])
-        impossible = impossible_bindings(hard, model, alive)
+        impossible = _for_each_member(
+            representative, impossible_bindings(hard, model, [alive[i] and i == representative[i] for i in range(n)])
+        )
     # s(f) -> s(parent) always holds, so f is selected whenever its parent is iff the two
     # are selected together in every variant: iff they share an atomic set
     step(STEPS[4])
@@ -164,6 +175,50 @@ def _deepest_cuts(cuts: Cuts, parents: list[int | None], values: list[int]) -> l
         if values[4 * i] > 0:
             key[i] = i + 1 if cut[i] else (key[parent] if parent is not None else 0) or 1
     return key
+
+
+def _atomic_classes(
+    hard: enc.Encoding,
+    atomic: list[list[int]],
+    members: dict[int, list[int]],
+    alive: Sequence[bool],
+    core: Sequence[bool],
+) -> list[list[int]]:
+    """The atomic sets of every live feature, from those of the first feature of each class
+    of interchangeable ones (`atomic`; the core class holds every core feature already).
+
+    A live class that is not core is selected together as a whole in every variant, and
+    then its members join its first feature's set, or not, and then each member is a set
+    of its own (symmetry.py says why): one `cover` of two targets per class decides it
+    (can the first member be selected without the second, or the second without the first).
+    """
+    open_classes = [r for r in members if alive[r] and not core[r]]
+    if not open_classes:
+        return atomic
+    s = hard.s
+    targets: list[list[int]] = []
+    for r in open_classes:
+        second = members[r][1]
+        targets += [[s(r), -s(second)], [-s(r), s(second)]]
+    possible = hard.cover(targets, with_config=False, batch=True)
+    set_of = {i: k for k, found in enumerate(atomic) for i in found}
+    for k, r in enumerate(open_classes):
+        others = members[r][1:]
+        if possible[2 * k] or possible[2 * k + 1]:
+            atomic += [[i] for i in others]
+        else:
+            atomic[set_of[r]] = sorted([*atomic[set_of[r]], *others])
+    return sorted(atomic)
+
+
+def _for_each_member(
+    representative: Sequence[int], found: list[tuple[int, str, Time | Mode]]
+) -> list[tuple[int, str, Time | Mode]]:
+    """Answers about the first feature of each class, given to every member, in pre-order."""
+    of: dict[int, list[tuple[str, Time | Mode]]] = {}
+    for i, aspect, value in found:
+        of.setdefault(i, []).append((aspect, value))
+    return [(i, aspect, value) for i, r in enumerate(representative) for aspect, value in of.get(r, ())]
 
 
 def _atomic_sets(
@@ -316,22 +371,37 @@ def live_features_and_impossible_bindings(
     a cover of the selections and then one of the live features' bindings took 5.5 s.
     """
     n = len(model.features)
-    question = _Bindings(hard, model, None)
+    # one question per class of interchangeable features (symmetry.py), for its first
+    representative = interchangeable(model)
+    features = [i for i in range(n) if representative[i] == i]
+    position = {i: k for k, i in enumerate(features)}  # (a parent is never in a class: it has sub-features)
+    m = len(features)
+    question = _Bindings(hard, model, [representative[i] == i for i in range(n)])
     asked = question.asked
-    targets = [[hard.s(i)] for i in range(n)] + question.asked_targets
-    implied = [f.parent for f in model.features] + [None if j is None else n + j for j in question.implied]
+    targets = [[hard.s(i)] for i in features] + question.asked_targets
+    parents = [model.features[i].parent for i in features]
+    implied = [None if p is None else position[p] for p in parents] + [
+        None if j is None else m + j for j in question.implied
+    ]
+
+    def of_every_feature(selected: list[bool]) -> list[bool]:
+        answers = [False] * n
+        for k, i in enumerate(features):
+            answers[i] = selected[k]
+        return expand(representative, answers)
+
     possible = hard.cover(
         targets,
         with_config=False,
         hints=question.hints,
         implied=implied,
         batch=True,
-        refute=[False] * n + [True] * len(asked),  # (the selections: as for dead features alone)
-        requires=[None] * n + [question.owners[k][0] for k in asked],
-        settled=(n, on_alive) if on_alive is not None else None,
+        refute=[False] * m + [True] * len(asked),  # (the selections: as for dead features alone)
+        requires=[None] * m + [position[question.owners[k][0]] for k in asked],
+        settled=(m, lambda selected: on_alive(of_every_feature(selected))) if on_alive is not None else None,
     )
-    alive = possible[:n]
-    return alive, [b for b in question.impossible(possible[n:]) if alive[b[0]]]
+    alive = of_every_feature(possible[:m])
+    return alive, _for_each_member(representative, [b for b in question.impossible(possible[m:]) if alive[b[0]]])
 
 
 class _Bindings:

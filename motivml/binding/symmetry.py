@@ -1,0 +1,72 @@
+"""Interchangeable features: sub-features that no statement of the model tells apart.
+
+Two features are interchangeable when swapping them maps every valid variant to a valid
+variant: the same parent, the same group (or both ungrouped with the same `isMandatory`),
+the same allowed time and mode, no sub-features, and no include, exclude or formula naming
+either (nor a configuration entry that differs). Every rule of semantics.md sections 2-4
+treats such features alike: a group's rules are the same for each member, the sub-feature
+rules look only at the parent, and the start state exists for a variant iff it exists for
+the swapped one.
+
+So a question about one of them (is it dead, core, can it be Early) has the same answer for
+each, and is asked of the class's first feature only: a group of 10,000 alternatives that
+allow the same bindings is one question, not 10,000 solves. (The XOR rule of a large group
+is encoded with counters in the members' order, which is not symmetric clause by clause;
+the variants it allows are, and those are what the answers are about.)
+
+Atomic sets need one more question per class (`analysis._atomic_classes`): two members are selected
+together in every variant, or (if some variant selects one without the other) no member is
+in an atomic set with any other feature but itself: if x were always selected with some z
+outside the class, swapping x and y would show y always selected with z too, and so x with y.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable, Sequence
+
+from ..language.model import Configuration, FeatureModel
+
+
+def interchangeable(model: FeatureModel, config: Configuration | None = None) -> list[int]:
+    """Per feature (in pre-order), the first feature of its class of interchangeable ones:
+    itself when it has none."""
+    named: set[str] = set()
+    for f in model.features:
+        named.update(f.includes)
+        named.update(f.excludes)
+        if f.includes or f.excludes:
+            named.add(f.id)
+    for formula in model.formulas:
+        named.update(formula.ids())
+    first: dict[Hashable, int] = {}
+    representative = list(range(len(model.features)))
+    entries = config.entries if config is not None else {}
+    for f in model.features:
+        if f.parent is None or f.children or f.id in named:
+            continue
+        entry = entries.get(f.id)
+        key = (
+            f.parent,
+            f.group,
+            f.mandatory,
+            f.time_allowed,
+            f.mode_allowed,
+            f.abstract,
+            None if entry is None else (entry.selected, entry.time, entry.mode),
+        )
+        representative[f.index] = first.setdefault(key, f.index)
+    return representative
+
+
+def classes(representative: Sequence[int]) -> dict[int, list[int]]:
+    """The classes of more than one feature, by their first feature: its members in order."""
+    found: dict[int, list[int]] = {}
+    for i, r in enumerate(representative):
+        if r != i:
+            found.setdefault(r, [r]).append(i)
+    return found
+
+
+def expand(representative: Sequence[int], answers: Sequence[bool]) -> list[bool]:
+    """Per feature, the answer for its class's first feature (`answers` is indexed by feature)."""
+    return [answers[r] for r in representative]
