@@ -97,6 +97,7 @@ def analyse(
         asked = [i for i in range(n) if representative[i] == i]
         s = [hard.s(i) for i in range(n)]
         parents = [f.parent for f in features]
+        at = {i: k for k, i in enumerate(asked)}  # (a parent is never in a class: it has sub-features)
         possible = hard.cover(
             [[s[i]] for i in asked] + [[-s[i]] for i in asked],
             with_config=False,
@@ -104,6 +105,8 @@ def analyse(
             witness=witness,
             batch=True,  # (most of what the hints leave open is possible)
             refute=False,
+            # (a feature is selected only with its parent: below a dead one, dead without a solve)
+            requires=[None if (p := parents[i]) is None else at[p] for i in asked] + [None] * len(asked),
         )
         alive_asked, core_asked = [False] * n, [False] * n
         for k, i in enumerate(asked):
@@ -397,7 +400,9 @@ def live_features_and_impossible_bindings(
         implied=implied,
         batch=True,
         refute=[False] * m + [True] * len(asked),  # (the selections: as for dead features alone)
-        requires=[None] * m + [position[question.owners[k][0]] for k in asked],
+        # (a feature is selected only with its parent: below a dead one, dead without a solve)
+        requires=[None if p is None else position[p] for p in parents]
+        + [position[question.owners[k][0]] for k in asked],
         settled=(m, lambda selected: on_alive(of_every_feature(selected))) if on_alive is not None else None,
     )
     alive = of_every_feature(possible[:m])

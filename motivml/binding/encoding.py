@@ -214,6 +214,7 @@ class Work:
     checks: int = 0  # targets checked against a witness
 
 
+ONE_HINTED_FROM = 32  # members: a larger XOR group has one member hinted selected at most (`hint`)
 HINT_WINDOW = 256  # open targets that a target's own solve is hinted towards (`_Cover`)
 DIFF_IN_NUMPY = 4096  # variables: from here a new witness is compared with the last in numpy
 
@@ -292,14 +293,15 @@ class _Cover:
             todo = [first, *self.open_after(window - 1)] if first is not None else []
         self.work.phases += len(todo)
         if len(todo) >= VECTOR_FROM:
-            self.encoding.solver.set_phases(self.table.last_literals(todo))
-            return
-        preferred: dict[int, int] = {}
-        targets = self.targets
-        for k in todo:
-            for literal in targets[k]:
-                preferred[abs(literal)] = literal
-        self.encoding.solver.set_phases(list(preferred.values()))
+            literals = self.table.last_literals(todo)
+        else:
+            preferred: dict[int, int] = {}
+            targets = self.targets
+            for k in todo:
+                for literal in targets[k]:
+                    preferred[abs(literal)] = literal
+            literals = list(preferred.values())
+        self.encoding.hint(literals)
 
     # ------------------------------------------------------------------- witnesses
     def mark(self, witness: Callable[[list[int]], None] | None) -> None:
@@ -446,6 +448,7 @@ class Encoding:
         self._clauses_of: dict[int, list[int]] | None = None  # selector -> its kept clauses
         self._model_by_literal: dict[int, int] | None = None  # (see _by_literal)
         self.work = Work()  # what `cover` did
+        self._xor_member: dict[int, int] | None = None  # s(member) -> its XOR group (`hint`)
         self._encode_model()
         self.model_facts = len(self.facts)
         self._config_fact_range = (len(self.facts), len(self.facts))
@@ -893,6 +896,38 @@ class Encoding:
             return min(self.model.index[name] for name in self.model.formulas[fact.a].ids())
         return fact.a
 
+    def hint(self, literals: Iterable[int]) -> None:
+        """Polarity hints for the next solve: `literals`, with at most one member of each
+        large XOR group (over ONE_HINTED_FROM members) hinted selected (the first one). A
+        hint that selects a thousand alternatives costs the solver a conflict per member,
+        each undoing thousands of decisions: 1 s for one solve of a model with groups of
+        thousands of members, 10 ms hinted so. Small groups are hinted as asked: Dynamic
+        alternatives may be selected together, and a variant that selects them all shows
+        more at once. (Hinting every other member of a large group not selected as well
+        would cost the group's size per solve.)"""
+        if self._xor_member is None:
+            self._xor_member = {
+                self.s(m): g
+                for g, group in enumerate(self.model.groups)
+                if group.kind == "XOR" and len(group.members) > ONE_HINTED_FROM
+                for m in group.members
+            }
+        member = self._xor_member
+        if not member:
+            self.solver.set_phases(list(literals))
+            return
+        hinted: set[int] = set()
+        out: list[int] = []
+        for literal in literals:
+            g = member.get(literal)
+            if g is not None:
+                if g in hinted:
+                    literal = -literal
+                else:
+                    hinted.add(g)
+            out.append(literal)
+        self.solver.set_phases(out)
+
     def cover(
         self,
         targets: Sequence[Sequence[int]],
@@ -951,7 +986,7 @@ class Encoding:
 
         base = self.assumptions(with_config)
         for hint in hints:
-            self.solver.set_phases(list(hint))
+            self.hint(hint)
             self.work.phases += len(hint)
             if not self._solve(base):
                 return answered()
