@@ -224,10 +224,14 @@ def test_the_work_of_cover_grows_linearly_with_its_targets() -> None:
 def test_families_have_the_size_asked_and_stay_alive() -> None:
     """The benchmark's families: exactly n features, and most of them alive (a family of
     dead models would benchmark nothing)."""
-    sys.setrecursionlimit(max(sys.getrecursionlimit(), 5000))  # (json.dumps of a chain of 600)
     for name in FAMILIES:
         raw = family(name, 600, seed=1)
-        model = read(raw)
+        limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(limit, 5000))  # (json.dumps of a chain of 600; others count on the limit)
+        try:
+            model = read(raw)
+        finally:
+            sys.setrecursionlimit(limit)
         assert len(model.features) == 600, name
         result = analyse(model, counts=False)
         assert not result.void, name
