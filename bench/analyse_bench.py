@@ -65,8 +65,9 @@ PUBLISHED_ECOS = {"YASA (m=1)": 77, "YASA (m=10)": 66, "IncLing": 89}
 ECOS = Path(__file__).resolve().parent / "models" / "ecos-3.0-i386pc.xml.xz"
 
 
-def run_limited(args: list[str], timeout: float) -> tuple[float, int, str] | None:
-    """Wall seconds, peak RSS in MiB and stdout of a child; None if it ran out of time."""
+def run_limited(args: list[str], timeout: float, ok: tuple[int, ...] = (0,)) -> tuple[float, int, str] | None:
+    """Wall seconds, peak RSS in MiB and stdout of a child; None if it ran out of time.
+    An exit code not in `ok` ends the benchmark."""
     start = time.perf_counter()
     child = subprocess.Popen(
         args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=child_env()
@@ -81,7 +82,7 @@ def run_limited(args: list[str], timeout: float) -> tuple[float, int, str] | Non
     code = os.waitstatus_to_exitcode(status)
     if code == -9 and wall >= timeout:
         return None
-    if code != 0:
+    if code not in ok:
         raise SystemExit(f"{' '.join(args)} failed ({code}):\n{output}")
     return wall, usage.ru_maxrss // 1024, output
 
