@@ -214,33 +214,29 @@ def _wide(s: _Shape) -> None:
     s.bindings(0.5)
 
 
-def _dense(s: _Shape) -> None:
-    s.random_tree()
-    s.group_some(0.2, (2, 5))
-    s.bindings(0.5)
-    s.cross_tree(0.2)
-    s.root_formulas(0.05)
+def _random(
+    groups: float, sizes: tuple[int, int], any_share: float, cross: float, formulas: float
+) -> Callable[[_Shape], None]:
+    """A random tree (generate.py's shape) with `groups` of its parents grouped, bindings
+    `Any` with probability `any_share`, and `cross` and `formulas` of its features in
+    includes and excludes, and in formulas."""
+
+    def build(s: _Shape) -> None:
+        s.random_tree()
+        s.group_some(groups, sizes)
+        s.bindings(any_share)
+        if cross:
+            s.cross_tree(cross)
+        if formulas:
+            s.root_formulas(formulas)
+
+    return build
 
 
-def _formulas(s: _Shape) -> None:
-    s.random_tree()
-    s.group_some(0.1, (2, 4))
-    s.bindings(0.5)
-    s.root_formulas(0.25)
-
-
-def _any(s: _Shape) -> None:
-    s.random_tree()
-    s.group_some(0.2, (2, 5))
-    s.bindings(0.95)
-    s.cross_tree(0.1)
-
-
-def _fixed(s: _Shape) -> None:
-    s.random_tree()
-    s.group_some(0.2, (2, 5))
-    s.bindings(0.05)
-    s.cross_tree(0.1)
+_dense = _random(0.2, (2, 5), 0.5, 0.2, 0.05)
+_formulas = _random(0.1, (2, 4), 0.5, 0.0, 0.25)
+_any = _random(0.2, (2, 5), 0.95, 0.1, 0.0)
+_fixed = _random(0.2, (2, 5), 0.05, 0.1, 0.0)
 
 
 _BUILDERS: dict[str, Callable[[_Shape], None]] = {
