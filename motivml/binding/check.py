@@ -225,6 +225,7 @@ def binding_states(model: FeatureModel, config: Configuration | None) -> list[se
     with no_gc(), enc.Encoding(model) as hard:
         if config is not None:
             hard.set_configuration(config)
+            hard.fix_configuration()  # (every question is asked under it)
         targets: list[list[int]] = []
         for i in asked:
             s, e, st = hard.s(i), hard.E(i), hard.S(i)

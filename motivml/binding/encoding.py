@@ -512,6 +512,7 @@ class Encoding:
         self._top = 4 * n
         self._activity: int | None = None  # index of the first ACTIVE fact, once made
         self._final = False  # a configuration or variant is in the solver as units (optimise, start_state)
+        self._config_units = False  # ... the configuration is (fix_configuration): not assumed any more
         self._clauses: list[list[int]] = []
         # explain build: every clause, flat, with its selector, so that a conflict is shrunk
         # in a solver of its own facts' clauses only (`_minimise`), not in the whole model's
@@ -815,8 +816,19 @@ class Encoding:
         `optimise` or `start_state(variant=...)` it is: the answer would not be the model's)."""
         if self._final and not with_config:
             raise ValueError("this encoding's configuration is in its solver for good: no answer without it")
-        last = self._config_fact_range[1] if with_config else self.model_facts
+        last = self._config_fact_range[1] if with_config and not self._config_units else self.model_facts
         return self.literals[:last]
+
+    def fix_configuration(self) -> None:
+        """Put the configuration in the solver as unit clauses, for good, for questions that
+        are all asked under it (the hard build). Glucose makes a decision level per
+        assumption: `show` of a complete configuration of 10,000 features propagated 40,000
+        questions under 25,000 assumptions each, 60 s, where units make each propagation
+        cost only what it propagates. Afterwards `assumptions()` holds the model's facts only,
+        and no other configuration can be set."""
+        first, last = self._config_fact_range
+        add_clauses(self.solver, [[literal] for literal in self.literals[first:last]])
+        self._final = self._config_units = True
 
     def solve(self, with_config: bool = True, extra: Sequence[int] = ()) -> bool:
         return bool(self.solver.solve(assumptions=[*self.assumptions(with_config), *extra]))
