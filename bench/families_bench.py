@@ -12,6 +12,9 @@ says where each comes from and its licence), it prints, each in a fresh process:
 * `motivml validate MODEL` and `motivml analyse MODEL --no-counts --format json`: wall
   time, ratio to the floor, peak memory, and the verdict against issue 32's targets;
 * the work of the analysis in solver calls (in-process, a run of its own);
+* `show --config` and `show --config --why` beside `validate --config` of the same
+  complete configuration, for generate.py's model at 10,000 features and for the XOR
+  group of 10,000 members (its first member selected);
 * with `--flamapy`, flamapy (its PySAT plugin: core, dead and false-optional features,
   atomic sets) on each public model, in a venv of the bench's own (build/bench-flamapy,
   made with pip on first use; flamapy is GPL-3.0 and runs there only, nothing of it is in
@@ -21,7 +24,8 @@ says where each comes from and its licence), it prints, each in a fresh process:
 Targets (issue 32): validate MODEL and analyse --no-counts at most 5x the floor at 10k and
 10x at 100k on every family; the 10,000-member XOR group at most 10x; every public model
 analysed in at most 2 s and at least 10x faster than flamapy where flamapy finishes; peak
-memory at most 2x the floor's at 100k. A run that does not
+memory at most 2x the floor's at 100k; show --variant and show --why at 10k at most 3x
+validate --config. A run that does not
 finish within --timeout seconds is printed as such (and is a MISSED).
 
     python bench/families_bench.py [--sizes 1000 10000 100000] [--families deep wide ...] [--no-real]
@@ -137,6 +141,42 @@ def flamapy_row(label: str, robot: str, folder: str, timeout: float, ours: float
     )
 
 
+SHOW_TARGET = 3.0  # show (and show --why) / validate --config, at 10k
+
+
+def show_rows(tmp: str, timeout: float) -> None:
+    """show and show --why of a complete configuration beside validate --config of it."""
+    from generate import write as write_generated
+    from xor_bench import model as xor_model
+
+    motivml = str(Path(sys.executable).with_name("motivml"))
+    generated = write_generated(10_000, 1, os.path.join(tmp, "show-generated"))
+    xor_folder = os.path.join(tmp, "show-xor")
+    os.makedirs(xor_folder)
+    xor_path, xor_config = os.path.join(xor_folder, "model.json"), os.path.join(xor_folder, "config.json")
+    Path(xor_path).write_text(json.dumps(xor_model(10_000)))
+    entries = [{"id": f"m{i}", "selected": i == 0} for i in range(10_000)]
+    Path(xor_config).write_text(json.dumps({"properties": entries}))
+    for label, (model_path, config_path), why in (
+        ("generated 10,000, full variant", generated, "f5000"),
+        ("XOR group of 10,000, first member", (xor_path, xor_config), "m5000"),
+    ):
+        check = run_limited([motivml, "validate", model_path, "--config", config_path], timeout)
+        cells = []
+        for extra in ([], ["--why", why]):
+            shown = run_limited([motivml, "show", model_path, "--config", config_path, *extra], timeout)
+            if check is None or shown is None:
+                cells.append(f"show{' --why' if extra else ''}: did not finish in {timeout:g} s MISSED")
+                continue
+            ratio = shown[0] / check[0]
+            cells.append(
+                f"show{' --why' if extra else ''} {shown[0]:.2f} s ({ratio:.1f}x,"
+                f" target {SHOW_TARGET:g}x {'met' if ratio <= SHOW_TARGET else 'MISSED'})"
+            )
+        base = "-" if check is None else f"{check[0]:.2f} s"
+        print(f"{label}: validate --config {base}; " + "; ".join(cells), flush=True)
+
+
 def verdict(ratio: float | None, target: float | None, memory: float | None = None) -> str:
     if target is None:
         return "-"
@@ -199,6 +239,7 @@ def main() -> None:
     parser.add_argument("--no-xor", action="store_true", help="leave out the 10,000-member XOR group")
     parser.add_argument("--no-real", action="store_true", help="leave out the public models")
     parser.add_argument("--flamapy", action="store_true", help="run flamapy on the public models too")
+    parser.add_argument("--no-show", action="store_true", help="leave out show beside validate --config")
     args = parser.parse_args()
     compile_motivml()
     motivml = str(Path(sys.executable).with_name("motivml"))
@@ -221,6 +262,8 @@ def main() -> None:
             path = os.path.join(folder, "model.json")
             Path(path).write_text(json.dumps(xor_model(10_000)))
             row("one XOR group of 10,000", path, folder, args.timeout, XOR_TARGET, False)
+        if not args.no_show:
+            show_rows(tmp, args.timeout)
         if not args.no_real:
             for file, label in REAL.items():
                 folder = os.path.join(tmp, file.split(".")[0])
