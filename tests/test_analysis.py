@@ -742,3 +742,29 @@ def test_a_target_is_not_propagated_before_the_one_it_requires_is_shown() -> Non
         )
     assert answers == [False, False]
     assert not any(hard.E(a) in assumptions for assumptions in asked)
+
+
+@pytest.mark.parametrize("value", ["nan", "1e308", "2e6", "0", "-1", "-inf", "ten"])
+def test_a_count_timeout_that_is_no_time_limit_is_a_usage_error(value: str) -> None:
+    """Issue 31: nan, inf-like and huge limits made tracebacks (the system's poll takes at
+    most 24 days); each is now refused as a usage error, exit 2, naming the option."""
+    result = CliRunner().invoke(
+        main, ["analyse", str(ROOT / "feature_models" / "simplebot"), "--count-timeout", value]
+    )
+    assert result.exit_code == 2, result.output
+    assert "--count-timeout" in result.output and "Traceback" not in result.output
+
+
+def test_a_count_timeout_of_inf_counts_without_a_limit() -> None:
+    result = CliRunner().invoke(
+        main, ["analyse", str(ROOT / "feature_models" / "simplebot"), "--count-timeout", "inf", "--format", "json"]
+    )
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.output)["variant_count"] == analyse(read_simplebot(), counts=True).variant_count
+
+
+def read_simplebot() -> Any:
+    from motivml.language.reader import load_model
+
+    model, _ = load_model(str(ROOT / "feature_models" / "simplebot" / "model.json"))
+    return model

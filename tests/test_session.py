@@ -144,6 +144,19 @@ def test_nan_durations_and_rates_are_usage_errors(option: str) -> None:
     assert result.exit_code == 2 and "'nan' is not a finite number" in result.output
 
 
+@pytest.mark.parametrize("value", ["1e308", "1e10", "-inf"])
+def test_a_duration_past_the_bound_is_a_usage_error(value: str) -> None:
+    """Issue 31: `run --duration 1e308` was an OverflowError traceback; a duration above
+    10^9 s (31 years; inf runs until stopped) is refused before anything starts."""
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    result = CliRunner().invoke(main, ["run", str(SIMPLEBOT), "--variant", "field", "--duration", value])
+    assert result.exit_code == 2, result.output
+    assert "--duration" in result.output and "Traceback" not in result.output
+
+
 def test_a_second_run_on_the_same_socket_is_refused_and_leaves_the_first_ones_socket(tmp_path: Path) -> None:
     run_dir = tmp_path / "run"
     first = Session(launch(SIMPLEBOT, "field"), 1.0, "simulated", run_dir=run_dir)

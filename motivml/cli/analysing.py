@@ -12,7 +12,7 @@ import click
 from rich.markup import escape
 
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
-from .common import err, fail, out, plural, print_diagnostics, targets
+from .common import Number, err, fail, out, plural, print_diagnostics, targets
 
 if TYPE_CHECKING:
     from rich.progress import Progress
@@ -23,16 +23,20 @@ SHOWN = 20  # ids listed per line of the text output; --format json lists them a
 PROGRESS_AFTER = 1.0  # seconds: a quicker analysis shows no progress bar
 
 
+MAX_COUNT_SECONDS = 1e6  # the longest wait for a count that the system's poll takes is 24 days
+
+
 @click.command("analyse")
 @click.argument("target", default=".", type=click.Path())
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @click.option("--no-counts", is_flag=True, help="Leave out the selection and variant counts.")
 @click.option(
     "--count-timeout",
-    type=click.FloatRange(min=0, min_open=True),
+    type=Number(min=0, min_open=True, max=MAX_COUNT_SECONDS, allow_inf=True),
     default=60.0,
     show_default=True,
-    help="Seconds each exact count may take before it is given up (and reported as not counted).",
+    help=f"Seconds each exact count may take before it is given up (and reported as not counted), at most"
+    f" {MAX_COUNT_SECONDS:g}; inf: no limit.",
 )
 def analyse_command(target: str, fmt: str, no_counts: bool, count_timeout: float) -> None:
     """Core, dead and false-optional features, atomic sets, impossible bindings and exact counts.
@@ -57,7 +61,7 @@ def analyse_command(target: str, fmt: str, no_counts: bool, count_timeout: float
             _refuse([d for r in reports for d in r.errors], fmt, "the model has errors")
         with _Bar(len(STEPS)) as bar:
             try:
-                analysis = analyse(model, not no_counts, bar.step, count_timeout)
+                analysis = analyse(model, not no_counts, bar.step, None if count_timeout == float("inf") else count_timeout)
             except CountFailed as exc:
                 raise EnvironmentProblem(error(Location(str(model_path)), str(exc), "count")) from None
         if analysis.void:

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import click
 from rich.console import Console
@@ -121,3 +122,24 @@ def shown(text: str) -> str:
 
 def plural(count: int, word: str) -> str:
     return f"{count} {word}{'s' * (count != 1)}"
+
+
+MAX_SECONDS = 1e9  # a duration or time limit longer than this (31 years) is a usage error; inf is allowed where it means "no limit"
+
+
+class Number(click.FloatRange):
+    """A FloatRange that refuses nan (which passes every comparison) and, unless allowed,
+    infinity; an allowed infinity passes whatever the maximum (it means "no limit"), and a
+    finite number above the maximum is refused as any out-of-range number is."""
+
+    def __init__(self, *, allow_inf: bool = False, **limits: Any) -> None:
+        super().__init__(**limits)
+        self.allow_inf = allow_inf
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = click.FLOAT.convert(value, param, ctx)
+        if math.isnan(number) or (math.isinf(number) and not self.allow_inf):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        if math.isinf(number) and number > 0:
+            return number
+        return super().convert(number, param, ctx)

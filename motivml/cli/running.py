@@ -10,7 +10,7 @@ import sys
 import threading
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import click
 from rich import box
@@ -21,26 +21,23 @@ from rich.table import Table
 from ..binding import PREFERENCES
 from ..errors import EnvironmentProblem, Location, MotivmlError, error
 from ..runtime.requests import ACTIONS, Request
-from .common import err, fail, one_variant, out, plural, print_diagnostics, printable, shown
+from .common import (
+    MAX_SECONDS,
+    Number,
+    err,
+    fail,
+    one_variant,
+    out,
+    plural,
+    print_diagnostics,
+    printable,
+    shown,
+)
 
 if TYPE_CHECKING:
     from ..runtime.loop import RunStats, Runtime, Snapshot
     from ..runtime.record import Recorder
     from ..runtime.session import Feed, Session
-
-
-class Number(click.FloatRange):
-    """A FloatRange that refuses nan (which passes every comparison) and, unless allowed, infinity."""
-
-    def __init__(self, *, allow_inf: bool = False, **limits: Any) -> None:
-        super().__init__(**limits)
-        self.allow_inf = allow_inf
-
-    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
-        number = super().convert(value, param, ctx)
-        if math.isnan(number) or (math.isinf(number) and not self.allow_inf):
-            self.fail(f"{value!r} is not a finite number", param, ctx)
-        return number
 
 
 @click.command("run")
@@ -54,10 +51,10 @@ class Number(click.FloatRange):
 )
 @click.option(
     "--duration",
-    type=Number(min=0, min_open=True, allow_inf=True),
+    type=Number(min=0, min_open=True, max=MAX_SECONDS, allow_inf=True),
     default=5.0,
     show_default=True,
-    help="Seconds of clock time to run; inf: until stopped (Ctrl-C, SIGTERM).",
+    help=f"Seconds of clock time to run, at most {MAX_SECONDS:g}; inf: until stopped (Ctrl-C, SIGTERM).",
 )
 @click.option(
     "--rate",
