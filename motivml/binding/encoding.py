@@ -31,6 +31,7 @@ from collections import ChainMap, deque
 from collections.abc import Callable, Collection, Container, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from itertools import accumulate, chain, compress, repeat
+from operator import itemgetter
 from types import TracebackType
 from typing import Any, NamedTuple
 
@@ -158,6 +159,7 @@ def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
 
 VECTOR_FROM = 50_000  # open targets (or features): from here cover's checks use numpy arrays
 BATCH_FAILURES = 8  # failed solves of one batch before its first target is left to its own
+BATCHES_GIVEN_UP = 4  # batches in a row that gave up: the targets left exclude each other, batching stops
 BATCH, BATCH_TRIED = 32, 128  # cover's last step: targets solved for together, of the next ones
 
 
@@ -215,8 +217,9 @@ class Work:
 
 
 ONE_HINTED_FROM = 32  # members: a larger XOR group has one member hinted selected at most (`hint`)
+SELECTION_IN_NUMPY = 1000  # features: from here `selection_of` reads a variant in numpy
 HINT_WINDOW = 256  # open targets that a target's own solve is hinted towards (`_Cover`)
-DIFF_IN_NUMPY = 4096  # variables: from here a new witness is compared with the last in numpy
+DIFF_IN_NUMPY = 4096  # the targets' variables: from here a new witness is compared with the last in numpy
 
 
 class _Cover:
@@ -250,7 +253,9 @@ class _Cover:
         self.order: list[int] = list(range(n))  # open targets in their order, settled ones not yet removed
         self.head = 0  # order[:head] is settled
         self.settled_in_order = 0  # settled targets in order[head:]
-        self.last: Any = None  # the last witness (a list, or a numpy array from DIFF_IN_NUMPY)
+        self.last: Any = None  # the last witness's literals of `variables` (a tuple, or a numpy array)
+        self.variables: list[int] | None = None  # the targets' variables, in order
+        self.pick: Callable[[list[int]], tuple[int, ...]] | None = None  # their literals of a witness
         self.occurs: dict[int, list[int]] | None = None  # variable -> the targets that have it
 
     # --------------------------------------------------------------- the open targets
@@ -309,21 +314,32 @@ class _Cover:
         values = self.encoding.assignment()
         if witness is not None:
             witness(values)
-        last, self.last = self.last, values
-        big = len(values) >= DIFF_IN_NUMPY
-        if big:
-            import numpy as np  # lazy: only large models get here
-
-            self.last = np.asarray(values, dtype=np.int64)
-        if last is None or len(last) != len(values):  # the first witness (of these variables): every open target
+        if self.variables is None:  # the variables the targets have: only they are compared
+            self.variables = sorted({abs(literal) for target in self.targets for literal in target})
+        variables = self.variables
+        if len(variables) < 2 or len(values) < variables[-1]:  # (too few for a getter; a model short of them)
+            self.last = None
             self._check_all(values)
             return
-        if big:
+        if self.pick is None:
+            self.pick = itemgetter(*(v - 1 for v in variables))
+        picked = self.pick(values)  # (in C: the targets' variables' literals, in order)
+        last = self.last
+        if len(variables) >= DIFF_IN_NUMPY:
+            import numpy as np  # lazy: only large models get here
+
+            self.last = np.frombuffer(array("i", picked), dtype=np.int32)
+        else:
+            self.last = picked
+        if last is None:  # the first witness: every open target
+            self._check_all(values)
+            return
+        if len(variables) >= DIFF_IN_NUMPY:
             import numpy as np
 
-            changed = (np.flatnonzero(self.last != last) + 1).tolist()
+            changed = [variables[at] for at in np.flatnonzero(self.last != last).tolist()]
         else:
-            changed = [v for v, (old, new) in enumerate(zip(last, values, strict=True), 1) if old != new]
+            changed = [v for v, old, new in zip(variables, last, picked, strict=True) if old != new]
         if self.occurs is None:
             occurs: dict[int, list[int]] = {}
             for k, target in enumerate(self.targets):
@@ -555,10 +571,10 @@ class Encoding:
     def selection_of(self, values: Sequence[int]) -> bytes:
         """Which features an assignment selects: one byte (0 or 1) per feature, in pre-order."""
         chosen = values[0 : 4 * self.n : 4]  # s(i) is variable 4i + 1
-        if self.n >= VECTOR_FROM:
+        if self.n >= SELECTION_IN_NUMPY:
             import numpy as np
 
-            return (np.asarray(chosen) > 0).astype(np.uint8).tobytes()
+            return (np.frombuffer(array("i", chosen), dtype=np.int32) > 0).astype(np.uint8).tobytes()
         return bytes(map((0).__lt__, chosen))
 
     def _new_var(self) -> int:
@@ -1099,6 +1115,7 @@ class Encoding:
             for j in asked:
                 if j not in consistent:
                     state.close(j, False)
+        gave_up = 0  # batches given up in a row: from BATCHES_GIVEN_UP on, each target is solved for alone
         while (k := state.next_open()) is not None:
             if tell is not None and k >= first:
                 tell(state.possible[:first])
@@ -1108,7 +1125,10 @@ class Encoding:
                 state.close(k, False)
                 continue
             state.prefer(HINT_WINDOW)
-            shown = self._solve_batch(targets, base, [k, *state.open_after(BATCH_TRIED - 1)]) if batch else None
+            shown = None
+            if batch and gave_up < BATCHES_GIVEN_UP:
+                shown = self._solve_batch(targets, base, [k, *state.open_after(BATCH_TRIED - 1)])
+                gave_up = gave_up + 1 if shown is None else 0
             if shown is None:
                 shown = self._solve([*base, *targets[k]])
             if shown:
