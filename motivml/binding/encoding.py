@@ -159,7 +159,6 @@ def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
 
 VECTOR_FROM = 50_000  # open targets (or features): from here cover's checks use numpy arrays
 BATCH_FAILURES = 8  # failed solves of one batch before its first target is left to its own
-BATCHES_GIVEN_UP = 4  # batches in a row that gave up: the targets left exclude each other, batching stops
 BATCH, BATCH_TRIED = 32, 128  # cover's last step: targets solved for together, of the next ones
 
 
@@ -1115,7 +1114,6 @@ class Encoding:
             for j in asked:
                 if j not in consistent:
                     state.close(j, False)
-        gave_up = 0  # batches given up in a row: from BATCHES_GIVEN_UP on, each target is solved for alone
         while (k := state.next_open()) is not None:
             if tell is not None and k >= first:
                 tell(state.possible[:first])
@@ -1125,10 +1123,7 @@ class Encoding:
                 state.close(k, False)
                 continue
             state.prefer(HINT_WINDOW)
-            shown = None
-            if batch and gave_up < BATCHES_GIVEN_UP:
-                shown = self._solve_batch(targets, base, [k, *state.open_after(BATCH_TRIED - 1)])
-                gave_up = gave_up + 1 if shown is None else 0
+            shown = self._solve_batch(targets, base, [k, *state.open_after(BATCH_TRIED - 1)]) if batch else None
             if shown is None:
                 shown = self._solve([*base, *targets[k]])
             if shown:
