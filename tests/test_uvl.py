@@ -325,3 +325,21 @@ def test_import_and_export_commands(tmp_path: Path) -> None:
         f"nothing imported: {bad}",
     ]
     assert not (tmp_path / "bad").exists()
+
+
+@pytest.mark.parametrize("kind", ["uvl", "featureide"])
+@pytest.mark.parametrize("special", ["fifo", "/dev/zero"])
+def test_import_reads_only_a_regular_file(kind: str, special: str, tmp_path: Path) -> None:
+    """Issue 31: importing a FIFO blocked for ever and /dev/zero ran out of memory. An import
+    reads its file as every document is read (documents/loader.read_bytes): a FIFO or a
+    device is refused, exit 3, and nothing is written."""
+    import os
+
+    source = str(tmp_path / "model.fifo") if special == "fifo" else special
+    if special == "fifo":
+        os.mkfifo(source)
+    out = tmp_path / "robot"
+    result = CliRunner().invoke(main, ["import", kind, source, "-o", str(out)])
+    assert result.exit_code == 3, result.output
+    assert "is not a regular file" in result.output and "Traceback" not in result.output
+    assert not out.exists()

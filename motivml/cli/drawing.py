@@ -219,7 +219,7 @@ def import_command(what: str, source: str, output: str) -> None:
     """
     import json
 
-    from ..documents.loader import load_bytes, no_gc
+    from ..documents.loader import load_bytes, no_gc, read_bytes
     from ..documents.writing import write_if_changed
     from ..errors import DocumentError, EnvironmentProblem, Location, error
     from ..language.featureide import read_featureide
@@ -233,11 +233,13 @@ def import_command(what: str, source: str, output: str) -> None:
             raise EnvironmentProblem(
                 error(Location(str(model_path)), "exists already: import into a new folder, or remove it", "io")
             )
+        # (a regular file within the size limit of every document: not a FIFO, not /dev/zero)
+        data = read_bytes(source, what="a model file")
         if what == "featureide":
-            document = read_featureide(Path(source).read_bytes(), source)
+            document = read_featureide(data, source)
         else:
             try:
-                text = Path(source).read_text(encoding="utf-8")
+                text = data.decode("utf-8")
             except UnicodeDecodeError as exc:
                 raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
             document = read_uvl(text, source)

@@ -789,10 +789,10 @@ def load_bytes(data: bytes, file: str, max_bytes: int = MAX_BYTES, max_depth: in
     return parse(text, file, max_depth)
 
 
-def load_file(
-    path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH
-) -> Document:
-    """Read and parse a JSON file; a missing or unreadable file is an environment problem."""
+def read_bytes(path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, what: str = "a JSON file") -> bytes:
+    """The bytes of a document: a regular file (not a folder, FIFO, device or link to
+    nothing: an environment problem) of at most `max_bytes` (over it, a document error).
+    Every document motivml reads comes through here, the ones `import` reads too."""
     name = os.fspath(path)
     try:
         info = os.stat(name)
@@ -812,9 +812,18 @@ def load_file(
         with open(name, "rb") as handle:
             data = handle.read(max_bytes + 1)
     except IsADirectoryError:
-        raise EnvironmentProblem(error(Location(name), "is a folder, not a JSON file", "io")) from None
+        raise EnvironmentProblem(error(Location(name), f"is a folder, not {what}", "io")) from None
     except FileNotFoundError:
         raise EnvironmentProblem(error(Location(name), "no such file or folder", "io")) from None
     except OSError as exc:
         raise EnvironmentProblem(error(Location(name), f"cannot read: {exc.strerror}", "io")) from None
-    return load_bytes(data, name, max_bytes, max_depth)
+    if len(data) > max_bytes:  # (it grew while read)
+        raise DocumentError(error(Location(name), f"file is over the limit of {max_bytes:,} bytes", "limits"))
+    return data
+
+
+def load_file(
+    path: str | os.PathLike[str], max_bytes: int = MAX_BYTES, max_depth: int = MAX_DEPTH
+) -> Document:
+    """Read and parse a JSON file; a missing or unreadable file is an environment problem."""
+    return load_bytes(read_bytes(path, max_bytes), os.fspath(path), max_bytes, max_depth)
