@@ -343,3 +343,33 @@ def test_import_reads_only_a_regular_file(kind: str, special: str, tmp_path: Pat
     assert result.exit_code == 3, result.output
     assert "is not a regular file" in result.output and "Traceback" not in result.output
     assert not out.exists()
+
+
+@pytest.mark.parametrize("kind", ["uvl", "featureide"])
+def test_import_of_a_model_nested_600_deep(kind: str, tmp_path: Path) -> None:
+    """Issue 31: a model nested 600 deep made a RecursionError traceback (json.dumps of the
+    imported document); motivml accepts models thousands deep, and so does import."""
+    depth = 600
+    if kind == "uvl":
+        lines = ["features", "    f0"]
+        for d in range(1, depth):
+            lines += ["    " * (2 * d) + "optional", "    " * (2 * d + 1) + f"f{d}"]
+        text = "\n".join(lines) + "\n"
+        source = tmp_path / "deep.uvl"
+    else:
+        opening = "".join(f'<and name="f{d}">' for d in range(depth - 1))
+        text = (
+            '<?xml version="1.0"?><featureModel><struct>'
+            + opening
+            + '<feature name="leaf"/>'
+            + "</and>" * (depth - 1)
+            + "</struct></featureModel>"
+        )
+        source = tmp_path / "deep.xml"
+    source.write_text(text)
+    out = tmp_path / "robot"
+    result = CliRunner().invoke(main, ["import", kind, str(source), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert f"({depth} features)" in result.output
+    validated = CliRunner().invoke(main, ["validate", str(out / "model.json")])
+    assert validated.exit_code == 0, validated.output

@@ -179,3 +179,28 @@ def test_indented_json_of_an_analysis_shaped_document() -> None:
         "uncounted": [],
     }
     assert writing.indented_json(document) == json.dumps(document, indent=2)
+
+
+@pytest.mark.parametrize("ascii", [True, False])
+def test_indented_json_is_jsons_indented_text_however_deep(ascii: bool) -> None:
+    """indented_json is json.dumps(indent=2) (with the same ensure_ascii), and iterative: a
+    document nested 5,000 deep, past Python's recursion limit, is written too."""
+    from motivml.documents.writing import indented_json
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
+    from families import family
+
+    samples: list[object] = [
+        {},
+        [],
+        {"a": [1, 2.5, None, True, "ß\u2603\x1b"], "b": {"c": [], "d": {}}, "é": ["x", "y"]},
+        [[["deep"]], {"k": [{"l": []}]}],
+        family("groups", 60, seed=3),
+    ]
+    for value in samples:
+        assert indented_json(value, ascii=ascii) == json.dumps(value, indent=2, ensure_ascii=ascii)
+    deep: dict[str, object] = {"id": "leaf"}
+    for d in range(5_000):
+        deep = {"id": f"f{d}", "sub": [deep]}
+    text = indented_json(deep, ascii=ascii)
+    assert text.count('"sub"') == 5_000 and text.endswith("}")

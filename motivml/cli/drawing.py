@@ -217,10 +217,9 @@ def import_command(what: str, source: str, output: str) -> None:
     and/or/alt/feature, mandatory, abstract, and its <constraints> rules. An existing
     model.json is not overwritten.
     """
-    import json
 
     from ..documents.loader import load_bytes, no_gc, read_bytes
-    from ..documents.writing import write_if_changed
+    from ..documents.writing import indented_json, write_if_changed
     from ..errors import DocumentError, EnvironmentProblem, Location, error
     from ..language.featureide import read_featureide
     from ..language.reader import read_model
@@ -243,7 +242,7 @@ def import_command(what: str, source: str, output: str) -> None:
             except UnicodeDecodeError as exc:
                 raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
             document = read_uvl(text, source)
-        written = json.dumps(document, indent=2, ensure_ascii=False) + "\n"
+        written = indented_json(document, ascii=False) + "\n"  # (iterative: models nest deep)
         with no_gc():
             _, problems = read_model(load_bytes(written.encode("utf-8"), str(model_path)))
         errors = [d for d in problems if d.severity.value == "error"]

@@ -14,47 +14,55 @@ from typing import Any
 from ..errors import EnvironmentProblem, Location, error
 
 
-def indented_json(value: Any) -> str:
-    """`json.dumps(value, indent=2)`, for values made of dicts with string keys, lists (or
-    tuples) and JSON scalars, without json's pure-Python indenting encoder (which makes a generator
-    frame per container: `analyse --format json` spent 0.15 s of its 1.5 s in it at 10,000
-    features). A list of strings is written in one join; scalars go through json itself."""
+def indented_json(value: Any, ascii: bool = True) -> str:
+    """`json.dumps(value, indent=2, ensure_ascii=ascii)`, for values made of dicts with
+    string keys, lists (or tuples) and JSON scalars, without json's pure-Python indenting
+    encoder (which makes a generator frame per container: `analyse --format json` spent
+    0.15 s of its 1.5 s in it at 10,000 features, and a model nested 600 deep exceeded
+    Python's recursion limit). Iterative, however deep; a list of strings is written in
+    one join; other scalars go through json itself."""
+    from json.encoder import encode_basestring
+
+    encode = encode_basestring_ascii if ascii else encode_basestring
     out: list[str] = []
-    _indented(value, "\n", out)
-    return "".join(out)
-
-
-def _indented(value: Any, newline: str, out: list[str]) -> None:
-    inner = newline + "  "
-    if isinstance(value, dict):
-        if not value:
-            out.append("{}")
-            return
-        out.append("{")
-        comma = ""
-        for key, item in value.items():
-            if type(item) is str:  # (the common case, without a call of its own)
-                out.append(f"{comma}{inner}{encode_basestring_ascii(key)}: {encode_basestring_ascii(item)}")
-            else:
-                out.append(f"{comma}{inner}{encode_basestring_ascii(key)}: ")
-                _indented(item, inner, out)
-            comma = ","
-        out.append(newline + "}")
-    elif isinstance(value, (list, tuple)):
-        if not value:
-            out.append("[]")
-        elif all(type(item) is str for item in value):
-            out.append("[" + inner + ("," + inner).join(map(encode_basestring_ascii, value)) + newline + "]")
-        else:
-            out.append("[")
+    stack: list[Any] = [(value, "\n")]  # text to write (str), or (value, its newline) to expand
+    while stack:
+        item = stack.pop()
+        if type(item) is str:
+            out.append(item)
+            continue
+        value, newline = item
+        inner = newline + "  "
+        if isinstance(value, dict):
+            if not value:
+                out.append("{}")
+                continue
+            pieces: list[Any] = ["{"]
             comma = ""
-            for item in value:
-                out.append(comma + inner)
-                _indented(item, inner, out)
+            for key, member in value.items():
+                if type(member) is str:  # (the common case, without an expansion of its own)
+                    pieces.append(f"{comma}{inner}{encode(key)}: {encode(member)}")
+                else:
+                    pieces += [f"{comma}{inner}{encode(key)}: ", (member, inner)]
                 comma = ","
-            out.append(newline + "]")
-    else:
-        out.append(json.dumps(value))
+            pieces.append(newline + "}")
+            stack.extend(reversed(pieces))
+        elif isinstance(value, (list, tuple)):
+            if not value:
+                out.append("[]")
+            elif all(type(member) is str for member in value):
+                out.append("[" + inner + ("," + inner).join(map(encode, value)) + newline + "]")
+            else:
+                pieces = ["["]
+                comma = ""
+                for member in value:
+                    pieces += [comma + inner, (member, inner)]
+                    comma = ","
+                pieces.append(newline + "]")
+                stack.extend(reversed(pieces))
+        else:
+            out.append(json.dumps(value, ensure_ascii=ascii))
+    return "".join(out)
 
 
 def write_if_changed(folder: Path, files: Mapping[str, str | bytes]) -> dict[str, bool]:
