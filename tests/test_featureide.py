@@ -243,3 +243,25 @@ def test_the_shipped_ecos_benchmark_model_is_the_benchmarks_file_and_imports_who
         count += 1
         stack.extend(node.get("sub", []))
     assert count == 1245
+
+
+@pytest.mark.parametrize("character", ["\x1b", "\x07", "\x00", "\ufffe"])
+def test_export_refuses_a_name_that_xml_cannot_hold(character: str, tmp_path: Path) -> None:
+    """Issue 31: a feature named with ESC or BEL was written as XML that is not
+    well-formed, exit 0. XML 1.0 holds no such character, not even as a reference: the
+    export is refused, located at the name, and nothing is written; a tab is kept."""
+    from xml.dom.minidom import parseString
+
+    model = tmp_path / "model.json"
+    out = tmp_path / "model.xml"
+    raw = {"id": "root", "name": "Root", "sub": [{"id": "a", "name": f"A{character}B", "isMandatory": False}]}
+    model.write_text(json.dumps(raw))
+    result = CliRunner().invoke(main, ["export", "featureide", str(model), "-o", str(out)])
+    assert result.exit_code == 1, result.output
+    assert "the name of a cannot be written in FeatureIDE XML" in result.output and "model.json:1:" in result.output
+    assert not out.exists()
+    raw["sub"][0]["name"] = "A\tB"  # type: ignore[index]
+    model.write_text(json.dumps(raw))
+    result = CliRunner().invoke(main, ["export", "featureide", str(model), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    parseString(out.read_bytes())  # (well-formed)

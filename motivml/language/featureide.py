@@ -208,6 +208,18 @@ def write_featureide(model: FeatureModel) -> str:
     from xml.sax.saxutils import quoteattr
 
     features = model.features
+    for feature in features:  # XML 1.0 holds no control character but tab and newlines, not even escaped
+        bad = next((c for c in feature.name if not _xml_char(c)), None)
+        if bad is not None:
+            where = model.source.locate(model.path(feature.index, "name")) if model.source else Location(model.name)
+            raise DocumentError(
+                error(
+                    where,
+                    f"the name of {feature.id} cannot be written in FeatureIDE XML (U+{ord(bad):04X}: XML 1.0"
+                    " holds no such character)",
+                    "featureide",
+                )
+            )
     rules: list[str] = []
     lines = ['<?xml version="1.0" encoding="UTF-8" standalone="no"?>', "<featureModel>", "    <struct>"]
     work: list[tuple[int | str, int]] = [(0, 2)]
@@ -278,6 +290,12 @@ def _rule_not_both(a: str, b: str) -> str:
 
 def _rule_imp(a: str, b: str) -> str:
     return f"<imp><var>{a}</var><var>{b}</var></imp>"
+
+
+def _xml_char(c: str) -> bool:
+    """Whether XML 1.0 holds the character (its production Char)."""
+    n = ord(c)
+    return n in (0x9, 0xA, 0xD) or 0x20 <= n <= 0xD7FF or 0xE000 <= n <= 0xFFFD or 0x10000 <= n <= 0x10FFFF
 
 
 def _escape(text: str) -> str:
