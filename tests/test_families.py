@@ -26,7 +26,7 @@ from test_analysis import (
 from motivml.binding import encoding as enc
 from motivml.binding.analysis import analyse
 from motivml.binding.check import binding_states
-from motivml.binding.symmetry import classes, interchangeable
+from motivml.binding.symmetry import Classes, interchangeable
 from motivml.documents.loader import parse
 from motivml.language.model import OFF, Binding
 from motivml.language.reader import read_configuration
@@ -117,7 +117,9 @@ def test_interchangeable_features_are_leaves_alike_that_no_statement_names() -> 
     assert [representative[index[f"m{i}"]] for i in range(4)] == [index["m0"]] * 4
     for single in ("root", "parent", "leaf", "named", "fixed", "user"):
         assert representative[index[single]] == index[single]
-    assert classes(representative) == {index["m0"]: [index[f"m{i}"] for i in range(4)]}
+    same = Classes(model)
+    assert same.members() == {index["m0"]: [index[f"m{i}"] for i in range(4)]}
+    assert same.spread([f"answer {i}" for i in same.asked])[index["m3"]] == f"answer {index['m0']}"
 
 
 def test_a_configuration_entry_tells_interchangeable_features_apart() -> None:

@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 from ..documents.loader import no_gc
 from ..language.model import FeatureModel, Mode, Time
 from . import encoding as enc
-from .symmetry import classes, expand, interchangeable
+from .symmetry import Classes
 
 if TYPE_CHECKING:
     from .cuts import Cuts
@@ -93,11 +93,10 @@ def analyse(
 
         step(STEPS[1])
         # one question per class of interchangeable features (symmetry.py), for its first
-        representative = interchangeable(model)
-        asked = [i for i in range(n) if representative[i] == i]
+        same = Classes(model)
+        asked, at = same.asked, same.position  # (a parent is never in a class: it has sub-features)
         s = [hard.s(i) for i in range(n)]
         parents = [f.parent for f in features]
-        at = {i: k for k, i in enumerate(asked)}  # (a parent is never in a class: it has sub-features)
         possible = hard.cover(
             [[s[i]] for i in asked] + [[-s[i]] for i in asked],
             with_config=False,
@@ -108,10 +107,8 @@ def analyse(
             # (a feature is selected only with its parent: below a dead one, dead without a solve)
             requires=[None if (p := parents[i]) is None else at[p] for i in asked] + [None] * len(asked),
         )
-        alive_asked, core_asked = [False] * n, [False] * n
-        for k, i in enumerate(asked):
-            alive_asked[i], core_asked[i] = possible[k], not possible[len(asked) + k]
-        alive, is_core = expand(representative, alive_asked), expand(representative, core_asked)
+        alive = same.spread(possible[: len(asked)])
+        is_core = [not can for can in same.spread(possible[len(asked) :])]
         core = [i for i in range(n) if is_core[i]]
 
         step(STEPS[2])
@@ -127,13 +124,13 @@ def analyse(
         key = list(zip(*(_deepest_cuts(cuts, parents, values) for values in first), strict=True))
         live_asked = [i for i in asked if alive[i]]
         atomic = _atomic_sets(hard, live_asked, core, selections, witness, key)
-        atomic = _atomic_classes(hard, atomic, classes(representative), alive, is_core)
+        atomic = _atomic_classes(hard, atomic, same.members(), alive, is_core)
         # The bindings on the same solver: the variants the questions above left in its
         # saved phases select most live features, so few solves are left to do (at 10,000
         # features, 23 solves where a fresh solver takes 75, and no second encoding).
         step(STEPS[3])
         impossible = _for_each_member(
-            representative, impossible_bindings(hard, model, [alive[i] and i == representative[i] for i in range(n)])
+            same, impossible_bindings(hard, model, [alive[i] and i in at for i in range(n)])
         )
     # s(f) -> s(parent) always holds, so f is selected whenever its parent is iff the two
     # are selected together in every variant: iff they share an atomic set
@@ -215,13 +212,13 @@ def _atomic_classes(
 
 
 def _for_each_member(
-    representative: Sequence[int], found: list[tuple[int, str, Time | Mode]]
+    same: Classes, found: list[tuple[int, str, Time | Mode]]
 ) -> list[tuple[int, str, Time | Mode]]:
     """Answers about the first feature of each class, given to every member, in pre-order."""
-    of: dict[int, list[tuple[str, Time | Mode]]] = {}
+    of: list[list[tuple[str, Time | Mode]]] = [[] for _ in same.asked]
     for i, aspect, value in found:
-        of.setdefault(i, []).append((aspect, value))
-    return [(i, aspect, value) for i, r in enumerate(representative) for aspect, value in of.get(r, ())]
+        of[same.position[i]].append((aspect, value))
+    return [(i, aspect, value) for i, answers in enumerate(same.spread(of)) for aspect, value in answers]
 
 
 def _atomic_sets(
@@ -375,23 +372,16 @@ def live_features_and_impossible_bindings(
     """
     n = len(model.features)
     # one question per class of interchangeable features (symmetry.py), for its first
-    representative = interchangeable(model)
-    features = [i for i in range(n) if representative[i] == i]
-    position = {i: k for k, i in enumerate(features)}  # (a parent is never in a class: it has sub-features)
+    same = Classes(model)
+    features, position = same.asked, same.position  # (a parent is never in a class: it has sub-features)
     m = len(features)
-    question = _Bindings(hard, model, [representative[i] == i for i in range(n)])
+    question = _Bindings(hard, model, [i in position for i in range(n)])
     asked = question.asked
     targets = [[hard.s(i)] for i in features] + question.asked_targets
     parents = [model.features[i].parent for i in features]
     implied = [None if p is None else position[p] for p in parents] + [
         None if j is None else m + j for j in question.implied
     ]
-
-    def of_every_feature(selected: list[bool]) -> list[bool]:
-        answers = [False] * n
-        for k, i in enumerate(features):
-            answers[i] = selected[k]
-        return expand(representative, answers)
 
     possible = hard.cover(
         targets,
@@ -403,10 +393,10 @@ def live_features_and_impossible_bindings(
         # (a feature is selected only with its parent: below a dead one, dead without a solve)
         requires=[None if p is None else position[p] for p in parents]
         + [position[question.owners[k][0]] for k in asked],
-        settled=(m, lambda selected: on_alive(of_every_feature(selected))) if on_alive is not None else None,
+        settled=(m, lambda selected: on_alive(same.spread(selected))) if on_alive is not None else None,
     )
-    alive = of_every_feature(possible[:m])
-    return alive, _for_each_member(representative, [b for b in question.impossible(possible[m:]) if alive[b[0]]])
+    alive = same.spread(possible[:m])
+    return alive, _for_each_member(same, [b for b in question.impossible(possible[m:]) if alive[b[0]]])
 
 
 class _Bindings:

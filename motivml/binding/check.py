@@ -22,7 +22,7 @@ from . import encoding as enc
 from .analysis import live_features_and_impossible_bindings
 from .explain import Explainer
 from .repair import configuration_repairs
-from .symmetry import interchangeable
+from .symmetry import Classes
 
 EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
 LISTED_WARNINGS = 100  # per kind: located one by one; the rest are summed up in one warning
@@ -220,18 +220,17 @@ def binding_states(model: FeatureModel, config: Configuration | None) -> list[se
     states: tuple[FeatureState, ...] = (OFF, *Binding)
     signs = [(1 if b.early else -1, 1 if b.static else -1) for b in Binding]
     # asked of the first of each class of interchangeable features only (symmetry.py)
-    representative = interchangeable(model, config)
-    asked = [i for i, r in enumerate(representative) if r == i]
+    same = Classes(model, config)
     with no_gc(), enc.Encoding(model) as hard:
         if config is not None:
             hard.set_configuration(config)
             hard.fix_configuration()  # (every question is asked under it)
         targets: list[list[int]] = []
-        for i in asked:
+        for i in same.asked:
             s, e, st = hard.s(i), hard.E(i), hard.S(i)
             targets.append([-s])
             targets += [[s, te * e, ts * st] for te, ts in signs]
         possible = hard.cover(targets, with_config=config is not None)
     k = len(states)
-    of = {i: {states[j] for j in range(k) if possible[k * at + j]} for at, i in enumerate(asked)}
-    return [of[r] if r == i else set(of[r]) for i, r in enumerate(representative)]
+    asked = [tuple(states[j] for j in range(k) if possible[k * at + j]) for at in range(len(same.asked))]
+    return [set(found) for found in same.spread(asked)]  # (a set of its own per feature)

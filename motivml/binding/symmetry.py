@@ -23,8 +23,37 @@ outside the class, swapping x and y would show y always selected with z too, and
 from __future__ import annotations
 
 from collections.abc import Hashable, Sequence
+from typing import TypeVar
 
 from ..language.model import Configuration, FeatureModel
+
+T = TypeVar("T")
+
+
+class Classes:
+    """The classes of interchangeable features of a model (and configuration): which
+    feature each question is asked of, and each answer given back to every member."""
+
+    def __init__(self, model: FeatureModel, config: Configuration | None = None) -> None:
+        self.representative = interchangeable(model, config)
+        # the features asked about (the first of each class, and every feature of none), in
+        # pre-order, and where each is among them
+        self.asked = [i for i, r in enumerate(self.representative) if r == i]
+        self.position = {i: k for k, i in enumerate(self.asked)}
+
+    def spread(self, answers: Sequence[T]) -> list[T]:
+        """Per feature, the answer of its class's first feature, from `answers`, one per
+        feature asked about, in their order."""
+        position = self.position
+        return [answers[position[r]] for r in self.representative]
+
+    def members(self) -> dict[int, list[int]]:
+        """The classes of more than one feature, by their first feature: its members in order."""
+        found: dict[int, list[int]] = {}
+        for i, r in enumerate(self.representative):
+            if r != i:
+                found.setdefault(r, [r]).append(i)
+        return found
 
 
 def interchangeable(model: FeatureModel, config: Configuration | None = None) -> list[int]:
@@ -56,17 +85,3 @@ def interchangeable(model: FeatureModel, config: Configuration | None = None) ->
         )
         representative[f.index] = first.setdefault(key, f.index)
     return representative
-
-
-def classes(representative: Sequence[int]) -> dict[int, list[int]]:
-    """The classes of more than one feature, by their first feature: its members in order."""
-    found: dict[int, list[int]] = {}
-    for i, r in enumerate(representative):
-        if r != i:
-            found.setdefault(r, [r]).append(i)
-    return found
-
-
-def expand(representative: Sequence[int], answers: Sequence[bool]) -> list[bool]:
-    """Per feature, the answer for its class's first feature (`answers` is indexed by feature)."""
-    return [answers[r] for r in representative]
