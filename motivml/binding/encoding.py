@@ -295,7 +295,6 @@ class _Cover:
         else:
             first = self.next_open()
             todo = [first, *self.open_after(window - 1)] if first is not None else []
-        self.work.phases += len(todo)
         if len(todo) >= VECTOR_FROM:
             literals = self.table.last_literals(todo)
         else:
@@ -364,7 +363,6 @@ class _Cover:
             shown = list(compress(candidates, map(true.issuperset, map(self.targets.__getitem__, candidates))))
         for k in shown:
             self.close(k, True)
-
 
 
 class _Rotation:
@@ -1019,7 +1017,9 @@ class Encoding:
             }
         member = self._xor_member
         if not member:
-            self.solver.set_phases(list(literals))
+            literals = list(literals)
+            self.solver.set_phases(literals)
+            self.work.phases += len(literals)
             return
         hinted: set[int] = set()
         out: list[int] = []
@@ -1032,6 +1032,7 @@ class Encoding:
                     hinted.add(g)
             out.append(literal)
         self.solver.set_phases(out)
+        self.work.phases += len(out)
 
     def cover(
         self,
@@ -1092,7 +1093,6 @@ class Encoding:
         base = self.assumptions(with_config)
         for hint in hints:
             self.hint(hint)
-            self.work.phases += len(hint)
             if not self._solve(base):
                 return answered()
             state.mark(witness)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 import threading
 from pathlib import Path
@@ -61,7 +62,8 @@ def analyse_command(target: str, fmt: str, no_counts: bool, count_timeout: float
             _refuse([d for r in reports for d in r.errors], fmt, "the model has errors")
         with _Bar(len(STEPS)) as bar:
             try:
-                analysis = analyse(model, not no_counts, bar.step, None if count_timeout == float("inf") else count_timeout)
+                limit = None if math.isinf(count_timeout) else count_timeout  # (inf: no limit)
+                analysis = analyse(model, not no_counts, bar.step, limit)
             except CountFailed as exc:
                 raise EnvironmentProblem(error(Location(str(model_path)), str(exc), "count")) from None
         if analysis.void:

@@ -124,7 +124,7 @@ def plural(count: int, word: str) -> str:
     return f"{count} {word}{'s' * (count != 1)}"
 
 
-MAX_SECONDS = 1e9  # a duration or time limit longer than this (31 years) is a usage error; inf is allowed where it means "no limit"
+MAX_SECONDS = 1e9  # a longer duration (31 years) is a usage error; inf is allowed where it means "no limit"
 
 
 class Number(click.FloatRange):

@@ -217,7 +217,6 @@ def import_command(what: str, source: str, output: str) -> None:
     and/or/alt/feature, mandatory, abstract, and its <constraints> rules. An existing
     model.json is not overwritten.
     """
-
     from ..documents.loader import load_bytes, no_gc, read_bytes
     from ..documents.writing import indented_json, write_if_changed
     from ..errors import DocumentError, EnvironmentProblem, Location, error
