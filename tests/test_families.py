@@ -198,7 +198,8 @@ def _cover_work(members: int) -> tuple[int, int, int]:
         set_phases = hard.solver.set_phases
 
         def counting(literals: list[int]) -> None:
-            hinted[0] += len(literals)
+            if literals is not hard._unhinted:  # (`unhint`: one list per model, set before a solve)
+                hinted[0] += len(literals)
             set_phases(literals)
 
         hard.solver.set_phases = counting  # type: ignore[method-assign]
@@ -209,6 +210,7 @@ def _cover_work(members: int) -> tuple[int, int, int]:
             targets += [[hard.s(i), sign * hard.S(i)] for sign in (1, -1)]
         possible = hard.cover(targets, with_config=False, batch=True)
         assert all(possible)
+        assert hard.work.resets <= hard.work.solves
         return hard.work.solves, hinted[0], hard.work.checks
 
 
