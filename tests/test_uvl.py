@@ -226,6 +226,7 @@ def test_shipped_models_read_back_the_same(robot: str) -> None:
             "bindingTime is one of Early, Late, Any, not 'early'",
         ),
         ("features\n    R\n        optional\n            A\n            A\n", (5, 13), "a second feature named 'A'"),
+        ('features\n    R\n        optional\n            ""\n', (4, 13), 'a feature named "": every feature needs a name'),
     ],
     ids=[
         "group cardinality",
@@ -238,6 +239,7 @@ def test_shipped_models_read_back_the_same(robot: str) -> None:
         "chain",
         "binding token",
         "name twice",
+        "empty name",
     ],
 )
 def test_refusals_are_located(text: str, where: tuple[int, int], message: str) -> None:
@@ -373,3 +375,23 @@ def test_import_of_a_model_nested_600_deep(kind: str, tmp_path: Path) -> None:
     assert f"({depth} features)" in result.output
     validated = CliRunner().invoke(main, ["validate", str(out / "model.json")])
     assert validated.exit_code == 0, validated.output
+
+
+def test_import_writes_only_what_validate_accepts(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 31: `import uvl` said "wrote" and wrote a model.json that `validate` refused (the
+    root's `position` attribute stayed as a key "\\u0000position"). The root's position is
+    read as the children's are; and whatever an importer makes is checked as `validate`
+    checks it (the schema, then the model) before anything is written."""
+    source = tmp_path / "m.uvl"
+    source.write_text("features\n    R {position 3}\n        optional\n            B {position 0}\n")
+    result = CliRunner().invoke(main, ["import", "uvl", str(source), "-o", str(tmp_path / "ok")])
+    assert result.exit_code == 0, result.output
+    assert CliRunner().invoke(main, ["validate", str(tmp_path / "ok" / "model.json")]).exit_code == 0
+
+    import motivml.language.uvl as uvl
+
+    monkeypatch.setattr(uvl, "read_uvl", lambda text, file: {"id": "R", "name": "R", "colour": "red"})
+    refused = CliRunner().invoke(main, ["import", "uvl", str(source), "-o", str(tmp_path / "bad")])
+    assert refused.exit_code == 1, refused.output
+    assert "unknown key 'colour'" in refused.output and "nothing imported" in refused.output
+    assert not (tmp_path / "bad" / "model.json").exists()

@@ -218,6 +218,7 @@ def import_command(what: str, source: str, output: str) -> None:
     model.json is not overwritten.
     """
     from ..documents.loader import load_bytes, no_gc, read_bytes
+    from ..documents.schema import check_feature_model
     from ..documents.writing import indented_json, write_if_changed
     from ..errors import DocumentError, EnvironmentProblem, Location, error
     from ..language.featureide import read_featureide
@@ -242,8 +243,12 @@ def import_command(what: str, source: str, output: str) -> None:
                 raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
             document = read_uvl(text, source)
         written = indented_json(document, ascii=False) + "\n"  # (iterative: models nest deep)
-        with no_gc():
-            _, problems = read_model(load_bytes(written.encode("utf-8"), str(model_path)))
+        # what `validate` checks of the model written: the schema, then the model's reading
+        loaded = load_bytes(written.encode("utf-8"), str(model_path))
+        problems = check_feature_model(loaded)
+        if not problems:
+            with no_gc():
+                _, problems = read_model(loaded)
         errors = [d for d in problems if d.severity.value == "error"]
         if errors:  # (a model the importer made that motivml refuses: said, not written)
             raise DocumentError(errors)

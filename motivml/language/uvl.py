@@ -238,8 +238,8 @@ class _Reader:
             sub = document.get("sub", [])
             if any(_POSITION in child for child in sub):
                 sub.sort(key=lambda child: child.get(_POSITION, len(sub)))
-            for child in sub:
-                child.pop(_POSITION, None)
+        for document in documents:  # (the root's too: it has no siblings to be sorted among)
+            document.pop(_POSITION, None)
         root = documents[0]
         for document, key, targets in relations:
             unknown = [t for t in targets if t not in self.ids]
@@ -263,6 +263,8 @@ class _Reader:
         if children and not hasattr(children[0], "data") and children[0].type == "TYPE" and str(children[0]) != "Boolean":
             raise _Refusal(children[0], f"a feature of type {children[0]} cannot be kept: only Boolean features")
         name = self._name(node)
+        if not name:
+            raise _Refusal(node.meta, "a feature named \"\": every feature needs a name")
         if name in self.declared:
             raise _Refusal(node.meta, f"a second feature named {name!r}: names are unique in UVL")
         self.declared.add(name)
