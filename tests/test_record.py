@@ -351,6 +351,16 @@ def test_plot_refuses_a_missing_record_and_a_picture_format_it_does_not_draw(tmp
     assert nothing.output.startswith(f"{tmp_path / 'r.svg'}: 0 spaces, 1 tick")
 
 
+def test_plot_reads_a_record_saved_with_a_byte_order_mark(tmp_path: Path) -> None:
+    """Issue 31: a record opened and saved by a spreadsheet starts with a UTF-8 byte-order
+    mark, and plot refused it ("column '\\ufefftick'"): the mark is not data."""
+    record = tmp_path / "r.csv"
+    record.write_bytes(b"\xef\xbb\xbftick,time,A[0],events\n1,0.001,0.5,\n2,0.002,0.25,\n")
+    result = invoke("plot", str(record))
+    assert result.exit_code == 0, result.output
+    assert result.output.startswith(f"{tmp_path / 'r.svg'}: 1 space, 2 ticks")
+
+
 # ------------------------------------------------------------------ the recorder itself
 PRINTABLE = st.characters(
     exclude_categories=["Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp", "Zs"], include_characters=" "

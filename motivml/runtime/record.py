@@ -449,7 +449,7 @@ class _Lines:
 def read_record(path: Path, points: int = POINTS) -> Record:
     """Read a record of `motivml run --record`, streaming (DocumentError, located, if it is not one)."""
     try:
-        handle = open(path, encoding="utf-8", newline="")
+        handle = open(path, encoding="utf-8-sig", newline="")  # (a byte-order mark, as spreadsheets write, is not data)
     except OSError as exc:
         raise EnvironmentProblem(
             error(Location(str(path)), f"cannot read: {exc.strerror or exc}", "io")
