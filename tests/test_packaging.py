@@ -50,7 +50,7 @@ def test_wheel_contains_schemas_cmake_package_extension_and_console_script(wheel
     assert "motivml/cmake/motivmlConfig.cmake" in names and "motivml/include/motivml/feature.hpp" in names
     assert any(n.endswith("dist-info/licenses/LICENSE") or n.endswith("dist-info/LICENSE") for n in names)
     entry_points = next(n for n in names if n.endswith("entry_points.txt"))
-    assert "motivml = motivml.cli:console" in zipfile.ZipFile(wheel).read(entry_points).decode()
+    assert "motivml = motivml.__main__:run" in zipfile.ZipFile(wheel).read(entry_points).decode()
     extension = [n for n in names if re.fullmatch(r"motivml/_cpp_plugins\..*\.so", n)]
     assert len(extension) == (1 if CPP_READY else 0)
     if CPP_READY:
@@ -147,6 +147,28 @@ def test_a_fresh_environment_runs_the_installed_wheel(wheel: Path, tmp_path: Pat
     assert swapped.returncode == 0, swapped.stdout + swapped.stderr
     assert "swap hands pointscloud: accepted" in swapped.stdout
     assert "plugin pointscloud: 16 depth frames, 2 clusters" in swapped.stdout  # 1 s at 15 Hz, both ends
+
+
+INTERRUPTED_IMPORT = """
+import sys
+class Interrupting:  # Ctrl-C arriving while click is imported, as at a command's first tenth of a second
+    def find_spec(self, name, path=None, target=None):
+        if name == "click":
+            raise KeyboardInterrupt
+sys.meta_path.insert(0, Interrupting())
+sys.argv = ["motivml", "validate", "nothing.json"]
+from motivml.__main__ import run
+run()
+"""
+
+
+def test_ctrl_c_during_the_imports_ends_with_one_line_and_130() -> None:
+    """Issue 31: Ctrl-C in the first second printed a KeyboardInterrupt traceback from the
+    imports. The script's entry imports the command line inside the same guard as the
+    command: one line, exit code 130."""
+    ended = subprocess.run([sys.executable, "-c", INTERRUPTED_IMPORT], capture_output=True, text=True, timeout=60)
+    assert ended.returncode == 130, ended.stderr
+    assert ended.stderr == "interrupted\n" and ended.stdout == ""
 
 
 def test_python_dash_m_motivml_is_the_command(

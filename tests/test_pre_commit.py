@@ -49,7 +49,7 @@ def test_the_entry_is_the_console_script() -> None:
     """pre-commit installs the repository with pip and runs `entry`: its first word is our script."""
     scripts = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]["scripts"]
     assert (
-        shlex.split(hook()["entry"]) == ["motivml", "validate"] and scripts["motivml"] == "motivml.cli:console"
+        shlex.split(hook()["entry"]) == ["motivml", "validate"] and scripts["motivml"] == "motivml.__main__:run"
     )
 
 
