@@ -232,6 +232,21 @@ def test_show_spells_out_control_characters_in_names(tmp_path: Path) -> None:
     assert code == 0 and "(R\\x1b[31m)" in output
 
 
+ESCAPES = "x\x1b]0;owned\x07\x1b[31m\r\x9b2J"  # retitle the terminal, recolour, return, clear (C1 CSI)
+
+
+@pytest.mark.parametrize("broken", [False, True], ids=["valid", "broken"])
+def test_file_names_with_escape_sequences_are_spelt_out(tmp_path: Path, broken: bool) -> None:
+    """Issue 31: file names with escape sequences reached the terminal raw. Every line goes
+    through a console that spells out control characters, escaped by its caller or not."""
+    path = tmp_path / f"{ESCAPES}.json"
+    path.write_text("{bad" if broken else (SIMPLEBOT / "model.json").read_text())
+    code, output = run("validate", str(path))
+    assert code == (1 if broken else 0), output
+    assert "x\\x1b]0;owned\\x07\\x1b[31m\\r\\x9b2J.json" in output
+    assert not any(ch in output for ch in "\x1b\x07\r\x9b")
+
+
 # ------------------------------------------------------- run and ctl: refusals, live view
 ARM = ROOT / "feature_models" / "coordinated_arm"
 

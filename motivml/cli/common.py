@@ -16,8 +16,25 @@ from rich.markup import escape
 from ..documents.robot_folder import MODEL_FILE, VARIANTS_FOLDER, RobotFolder
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, Severity, error, repair_text
 
-out = Console(highlight=False, soft_wrap=True, emoji=False)
-err = Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
+
+class _Console(Console):
+    """rich's Console, whose `print` spells out the control characters of the strings it
+    is given, line by line (`printable`): every line motivml prints to the terminal goes
+    through one of the two below, so no name (a file's, a feature's, a plugin's) reaches
+    the terminal raw, whether or not its caller spelt it out."""
+
+    def print(self, *objects: Any, **options: Any) -> None:
+        super().print(*(_lines_printable(o) if isinstance(o, str) else o for o in objects), **options)
+
+
+def _lines_printable(text: str) -> str:
+    if text.isprintable():
+        return text
+    return "\n".join(map(printable, text.split("\n")))
+
+
+out = _Console(highlight=False, soft_wrap=True, emoji=False)
+err = _Console(stderr=True, highlight=False, soft_wrap=True, emoji=False)
 
 
 def fail(exc: MotivmlError) -> NoReturn:
