@@ -86,9 +86,15 @@ class _Shape:
         return ok
 
     def random_tree(self, window: int = 100) -> None:
+        """Each feature under one of the `window` before it, no deeper than MAX_CHAIN (at
+        100,000 features a window of 30 nests 6,000 deep: more than a document may)."""
         rng = self.rng
+        depth = [0] * self.n
         for i in range(1, self.n):
-            self.parent[i] = max(0, i - 1 - rng.randrange(window))
+            p = max(0, i - 1 - rng.randrange(window))
+            while depth[p] >= MAX_CHAIN:
+                p = self.parent[p]
+            self.parent[i], depth[i] = p, depth[p] + 1
 
     def group_some(self, share: float, sizes: tuple[int, int]) -> None:
         """About `share` of the parents get an OR or XOR group of some of their children."""
