@@ -24,7 +24,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
-from itertools import zip_longest
 from operator import neg
 from typing import TYPE_CHECKING, Any
 
@@ -320,20 +319,12 @@ def _atomic_sets(
                     chained += [([one, -other], (k, j)), ([-one, other], (k, j))]
         # neighbours' pairs share a feature: in an order that puts every other pair first,
         # the pairs that can be shown by one variant come together in cover's batches
-        # and the classes take turns, so that a batch holds pairs of many classes: a
-        # class's own pairs often exclude each other (a chain of sub-features: the first
-        # pair deselects what the next one selects)
         for parity in (0, 1):
             for sign in (1, -1):
-                by_class: dict[int, list[tuple[list[int], tuple[int, int]]]] = {}
                 for target, owner in chained:
                     if owner[1] % 2 == parity and target[0] * sign > 0:
-                        by_class.setdefault(owner[0], []).append((target, owner))
-                for turn in zip_longest(*by_class.values()):
-                    for pair in turn:
-                        if pair is not None:
-                            targets.append(pair[0])
-                            asked.append(pair[1])
+                        targets.append(target)
+                        asked.append(owner)
         # (the first round's pairs are what propagating each first member did not settle)
         possible = hard.cover(targets, with_config=False, witness=witness, batch=True, refute=not star)
         differs = {asked[t] for t, can in enumerate(possible) if can}
