@@ -18,6 +18,7 @@ from click.testing import CliRunner
 from helpers import feature
 from helpers import model_of as read
 from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from test_property_sat import models
 
 from motivml.binding import analysis as analysis_module
@@ -195,6 +196,56 @@ def _atomic_sets_by_brute_force(raw: dict[str, Any]) -> list[list[str]] | None:
 @given(models(max_features=9))
 def test_atomic_set_rounds_alone_equal_brute_force(raw: dict[str, Any]) -> None:
     assert _atomic_sets_from_rounds_alone(raw) == _atomic_sets_by_brute_force(raw)
+
+
+@given(st.lists(st.tuples(st.integers(0, 11), st.integers(0, 11)), max_size=40))
+def test_strongly_connected_components_equal_mutual_reachability(edges: list[tuple[int, int]]) -> None:
+    """analysis._components (iterative Tarjan) against reachability computed the plain way:
+    two nodes share a component iff each reaches the other."""
+    after: dict[int, list[int]] = {}
+    for u, v in edges:
+        after.setdefault(u, []).append(v)
+    component = analysis_module._components(after)
+    assert set(component) >= set(after)
+
+    def reached(u: int) -> set[int]:
+        seen, todo = {u}, [u]
+        while todo:
+            for v in after.get(todo.pop(), []):
+                if v not in seen:
+                    seen.add(v)
+                    todo.append(v)
+        return seen
+
+    reach = {u: reached(u) for u in component}
+    for u in component:
+        for v in component:
+            assert (component[u] == component[v]) == (v in reach[u] and u in reach[v]), (u, v)
+
+
+def test_atomic_sets_start_from_features_that_imply_each_other() -> None:
+    """A mandatory sub-feature and its parent, and a feature and the sub-feature it
+    includes, imply each other by two-literal clauses: one group before any solve."""
+    from motivml.binding import encoding as enc
+
+    raw = feature(
+        "r",
+        [
+            feature("a", [feature("m", isMandatory=True), feature("i", isMandatory=False)], isMandatory=False,
+                    constraints={"featuresIncluded": ["i"]}),
+            feature("b", isMandatory=False),
+        ],
+    )  # fmt: skip
+    model = read(raw)
+    index = model.index
+    with enc.Encoding(model, record=True) as hard:
+        assert hard.recorded is not None
+        import numpy as np
+
+        groups = analysis_module._implied_both_ways(hard.recorded, [[index["a"], index["m"], index["i"], index["b"]]], hard.n, np)
+    assert groups == [[[index["a"], index["m"], index["i"]], [index["b"]]]]
+    assert _atomic_sets_by_brute_force(raw) == [["r"], ["a", "m", "i"], ["b"]]
+    assert sorted(analyse(model, counts=False).atomic_sets) == [["a", "m", "i"], ["b"], ["r"]]
 
 
 def test_atomic_set_rounds_halve_a_class_of_alternatives_and_keep_equal_neighbours() -> None:
