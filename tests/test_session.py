@@ -169,6 +169,26 @@ def test_a_second_run_on_the_same_socket_is_refused_and_leaves_the_first_ones_so
     assert not (run_dir / "control.sock").exists()
 
 
+def test_run_refused_by_a_listening_run_announces_nothing(tmp_path: Path) -> None:
+    """Issue 31: `run` printed its header ("running SimpleBot ...") and then refused,
+    another run listening on its socket. The header comes once the socket is open."""
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    run_dir = tmp_path / "run"
+    first = Session(launch(SIMPLEBOT, "field"), 1.0, "simulated", run_dir=run_dir)
+    first.open()
+    try:
+        args = ["run", str(SIMPLEBOT), "--variant", "field", "--clock", "simulated", "--duration", "0.1"]
+        result = CliRunner().invoke(main, [*args, "--run-dir", str(run_dir)])
+    finally:
+        first.close()
+    assert result.exit_code == 3, result.output
+    assert "another run is listening here" in result.output
+    assert "running" not in result.output and "control:" not in result.output
+
+
 LOGGING_PLUGIN = """
 from motivml.plugins.api import FeaturePlugin
 

@@ -248,13 +248,6 @@ def run_command(
     runtime = robot.runtime
     if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
         out.width = max(out.width, 160)
-    out.print(
-        f"running {escape(robot.folder.name)} variant {escape(name)}: "
-        f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
-        f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, "
-        + scheduling
-        + (f"{duration:g} s" if math.isfinite(duration) else "until stopped")
-    )
 
     def stuck() -> None:  # a second Ctrl-C while the loop is stuck in a plugin
         err.print(
@@ -283,6 +276,14 @@ def run_command(
         session.open()
     except MotivmlError as exc:
         fail(exc)
+    # (after the socket opened: a run refused, another run listening there, announces nothing)
+    out.print(
+        f"running {escape(robot.folder.name)} variant {escape(name)}: "
+        f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
+        f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, "
+        + scheduling
+        + (f"{duration:g} s" if math.isfinite(duration) else "until stopped")
+    )
     if session.server is not None:
         out.print(f"control: {escape(str(session.server.path))} (motivml ctl)")
     if ros2:
