@@ -253,3 +253,37 @@ def test_big_models_are_analysed_in_two_processes_and_small_ones_in_one(monkeypa
     monkeypatch.setattr(check, "PARALLEL_FROM", 5)
     assert check._parallel(model, None) is True
     assert check._parallel(model, False) is False
+
+
+def test_the_explaining_child_builds_its_encoding_only_when_there_is_something_to_explain(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The explain build is the largest thing a child makes (330 MB at 100,000 features):
+    none for a model with neither dead features nor impossible bindings, one for both kinds."""
+    from motivml.binding import encoding as enc
+
+    built: list[bool] = []
+    original = enc.Encoding.__init__
+
+    def counting(self: enc.Encoding, *args: Any, **kwargs: Any) -> None:
+        built.append(bool(kwargs.get("explain")))
+        original(self, *args, **kwargs)
+
+    monkeypatch.setattr(enc.Encoding, "__init__", counting)
+    model = warned()
+    assert check._explain_as_told(model, io.BytesIO(pickle.dumps([]) + pickle.dumps([]))) == []
+    assert built == []
+    expected = analyse_model(model, parallel=False)
+    dead = [d for d in expected if d.rule == "model.dead-feature"]
+    bindings = [d for d in expected if d.rule == "model.impossible-binding"]
+    assert dead and bindings
+    requests: list[bytes] = []  # what analyse_model sends its child, kept here
+    monkeypatch.setattr(InChild, "ask", lambda self, value: requests.append(pickle.dumps(value)))
+    monkeypatch.setattr(InChild, "start", classmethod(lambda cls, job: cls.__new__(cls)))
+    monkeypatch.setattr(InChild, "result", lambda self: None)
+    monkeypatch.setattr(InChild, "close", lambda self: None)
+    analyse_model(model, parallel=True)
+    built.clear()
+    found = check._explain_as_told(model, io.BytesIO(b"".join(requests)))
+    assert built == [True]  # one explain build for both kinds
+    assert found == expected

@@ -91,3 +91,29 @@ def test_a_run_time_conflict_is_shrunk_with_the_variants_literals_assumed() -> N
         assert conflicts, "amcl is not selected: it cannot be active"
         facts = {(encoding.facts[k].kind, encoding.model.features[encoding.facts[k].a].id) for k in conflicts[0]}
     assert facts == {("active", "amcl"), ("start", "root_feature")}
+
+
+@pytest.mark.parametrize("explain", [False, True], ids=["hard build", "explain build"])
+def test_clauses_handed_over_while_they_are_made_are_the_same_clauses(
+    monkeypatch: pytest.MonkeyPatch, explain: bool
+) -> None:
+    """Handed to the solver FLUSH_EVERY at a time (to keep memory down), the clauses, the
+    kept ones of the explain build and the answers are those of one hand-over at the end."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
+    from families import family
+    from helpers import model_of
+
+    model = model_of(family("dense", 300, seed=3))
+
+    def built(every: int) -> tuple[list[list[int]], list[list[int]], bool, list[int]]:
+        monkeypatch.setattr(enc, "FLUSH_EVERY", every)
+        with enc.Encoding(model, explain=explain, record=True) as encoding:
+            assert encoding.recorded is not None
+            kept = list(encoding.kept_clauses()) if explain else []
+            solved = encoding.solve(with_config=False)
+            return encoding.recorded, kept, solved, encoding.assignment()
+
+    assert built(7) == built(1 << 30)
