@@ -114,6 +114,20 @@ def test_clauses_handed_over_while_they_are_made_are_the_same_clauses(
             assert encoding.recorded is not None
             kept = list(encoding.kept_clauses()) if explain else []
             solved = encoding.solve(with_config=False)
-            return encoding.recorded, kept, solved, encoding.assignment()
+            return list(encoding.recorded), kept, solved, encoding.assignment()
 
     assert built(7) == built(1 << 30)
+
+
+def test_recorded_clauses_read_back_as_they_were_made() -> None:
+    made = [[1, -2], [3], [], [-4, 5, 6]]
+    clauses = enc.Clauses()
+    clauses.extend(made[:2])
+    clauses.extend([])
+    clauses.extend(made[2:])
+    assert list(clauses) == made and len(clauses) == 4
+    assert clauses[3] == [-4, 5, 6] and clauses[-1] == [-4, 5, 6] and clauses[1:3] == [[3], []]
+    with pytest.raises(IndexError):
+        clauses[4]
+    literals, lengths = clauses.arrays()
+    assert literals.tolist() == [1, -2, 3, -4, 5, 6] and lengths.tolist() == [2, 1, 0, 3]

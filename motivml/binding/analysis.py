@@ -22,6 +22,7 @@ minute, so each count has a time limit and is reported as not done when it runs 
 
 from __future__ import annotations
 
+from array import array
 from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from operator import neg
@@ -84,11 +85,13 @@ def analyse(
         if not hard.solve(with_config=False):
             return Analysis(True, selection_count=0 if counts else None, variant_count=0 if counts else None)
         selections: list[bytes] = []  # what each variant found selects, one byte per feature
-        first: list[list[int]] = []  # the first CUT_WITNESSES variants found, in full
+        # the first CUT_WITNESSES variants found, in full (as C ints: at 100,000 features
+        # eight Python lists of 400,000 ints were 115 MB)
+        first: list[array[int]] = []
 
         def witness(values: list[int]) -> None:
             if len(first) < CUT_WITNESSES:
-                first.append(values)
+                first.append(array("i", values))
             selections.append(hard.selection_of(values))
 
         step(STEPS[1])
@@ -182,7 +185,7 @@ def _everything(hard: enc.Encoding, model: FeatureModel) -> list[int]:
     return hint
 
 
-def _deepest_cuts(cuts: Cuts, parents: list[int | None], values: list[int]) -> list[int]:
+def _deepest_cuts(cuts: Cuts, parents: list[int | None], values: Sequence[int]) -> list[int]:
     """Per feature, 0 if the variant `values` leaves it out, else 1 + its deepest ancestor
     (or itself) where the variant's cut is valid (the root, where none is)."""
     cut = cuts.valid(values).tolist()
@@ -354,9 +357,7 @@ def _atomic_sets(
     return sorted(final)
 
 
-def _implied_both_ways(
-    clauses: Sequence[Sequence[int]], classes: list[list[int]], n: int, np: Any
-) -> list[list[list[int]]]:
+def _implied_both_ways(clauses: enc.Clauses, classes: list[list[int]], n: int, np: Any) -> list[list[list[int]]]:
     """Each class (features in pre-order) as groups of features that the encoding's
     two-literal clauses make imply each other's selection: the strongly connected
     components of the graph s(x) -> s(y) of those clauses, within the class. A mandatory
@@ -367,8 +368,9 @@ def _implied_both_ways(
     for k, members in enumerate(classes):
         if len(members) > 1:
             cls[members] = k
-    pairs = np.array([clause for clause in clauses if len(clause) == 2], dtype=np.int64).reshape(-1, 2)
-    a, b = pairs[:, 0], pairs[:, 1]
+    literals, lengths = clauses.arrays()
+    starts = (np.cumsum(lengths) - lengths)[lengths == 2]
+    a, b = literals[starts].astype(np.int64), literals[starts + 1].astype(np.int64)
     first = (a < 0) & (b > 0)  # -x | y: x -> y
     second = (b < 0) & (a > 0)
     x = np.concatenate((-a[first], -b[second]))
@@ -517,7 +519,7 @@ class _Bindings:
         features = range(len(model.features))
         selected, early, static = list(map(hard.s, features)), list(map(hard.E, features)), list(map(hard.S, features))
         late, dynamic = list(map(neg, early)), list(map(neg, static))
-        self.hints: list[list[int]] = []
+        self.hints: list[Sequence[int]] = []  # (C ints: four Python lists were 58 MB at 100,000 features)
         # Each feature active too: a selected Early feature is active at start, and a
         # feature fixed Early whose activity the solver decided (inactive) before its
         # selection is a conflict that undoes every decision since; at 100,000 features of
@@ -526,7 +528,7 @@ class _Bindings:
         for times, modes in ((late, static), (early, static), (early, dynamic), (late, dynamic)):
             hint = [0] * (4 * len(features))  # per feature: s(f), its time's literal, its mode's, a(f)
             hint[0::4], hint[1::4], hint[2::4], hint[3::4] = selected, times, modes, active
-            self.hints.append(hint)
+            self.hints.append(array("i", hint))
         # s(f) and E(f) propagate to s(parent) and E(parent) (the sub-feature time); the same
         # for Static (the sub-feature mode)
         position = {owners[k]: at for at, k in enumerate(asked)}
@@ -658,8 +660,8 @@ def variant_cnf(model: FeatureModel) -> VariantCNF:
     (Late, Dynamic: false), so that a variant is counted once, not once per value of what it
     leaves out. Nothing else constrains them: every clause on them has the feature selected."""
     with enc.Encoding(model, record=True) as hard:
-        clauses = hard.recorded
-        assert clauses is not None
+        assert hard.recorded is not None
+        clauses = list(hard.recorded)
         projection: list[int] = []
         for i in range(len(model.features)):
             s, e, st = hard.s(i), hard.E(i), hard.S(i)

@@ -57,8 +57,13 @@ class Cuts:
 
     def __init__(self, model: FeatureModel, clauses: Sequence[Sequence[int]]) -> None:
         n = self.n = len(model.features)
-        lengths = np.fromiter(map(len, clauses), dtype=np.int64, count=len(clauses))
-        lits = np.fromiter(chain.from_iterable(clauses), dtype=np.int64, count=int(lengths.sum()))
+        arrays = getattr(clauses, "arrays", None)  # (the encoding's recorded Clauses: no Python lists)
+        if arrays is not None:
+            flat, lengths = arrays()
+            lits = flat.astype(np.int64)
+        else:
+            lengths = np.fromiter(map(len, clauses), dtype=np.int64, count=len(clauses))
+            lits = np.fromiter(chain.from_iterable(clauses), dtype=np.int64, count=int(lengths.sum()))
         self.count = len(clauses)
         self.owner = np.repeat(np.arange(len(clauses), dtype=np.int64), lengths)
         self.var = np.abs(lits)

@@ -65,7 +65,7 @@ def configuration_repairs(model: FeatureModel, config: Configuration, most: int 
         encoding.set_configuration(config)
         facts = encoding.facts  # hard build: the configuration's facts only
         soft = encoding.literals[: len(facts)]
-        recorded = encoding.recorded or []
+        recorded: Sequence[list[int]] = encoding.recorded if encoding.recorded is not None else []
         found = corrections(recorded, [], soft, most)
     return [tuple(_config_change(model, facts[k], soft[k]) for k in _ordered(facts, mcs)) for mcs in found]
 
