@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .binding.check import analyse_model, check_variant
-from .documents.robot_folder import ARCHITECTURE_FILE, RobotFolder
+from .documents.robot_folder import ARCHITECTURE_FILE, RobotFolder, optional_document
 from .documents.schema import read_checked
 from .errors import Diagnostic, Severity, error
 from .language.model import Configuration, FeatureModel
@@ -138,7 +138,7 @@ def validate(
                 r.config for r in reports[1 : 1 + len(config_paths)] if r.valid and r.config is not None
             ]
             reports.append(validate_coordination(model, coordination_path, architecture, variants))
-        if robot is not None and robot.settings_path.is_file():
+        if robot is not None and optional_document(robot.settings_path) is not None:
             reports.append(validate_plugins(robot, model))
     return reports
 

@@ -290,3 +290,73 @@ def test_a_plugin_folder_removed_during_the_run_is_named_by_its_manifest(tmp_pat
         )  # no line: it is gone
     finally:
         running.close()
+
+
+ROOT_FOLDER = Path(__file__).resolve().parent.parent / "feature_models"
+COMMANDS = {
+    "validate": ["validate", "{folder}"],
+    "configure": ["configure", "{folder}", "--variant", "{variant}", "-o", "{out}"],
+    "run": ["run", "{folder}", "--variant", "{variant}", "--clock", "simulated", "--duration", "0.01", "--no-control"],
+}
+
+
+@pytest.mark.parametrize("kind", ["directory", "broken link", "fifo"])
+@pytest.mark.parametrize(
+    ("document", "robot_name", "variant"),
+    [("robot.json", "simplebot", "field"), ("coordination.json", "coordinated_arm", "swappable")],
+)
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_every_command_refuses_a_robot_document_that_is_not_a_file(
+    tmp_path: Path, kind: str, document: str, robot_name: str, variant: str, command: str
+) -> None:
+    """Issue 31: robot.json or coordination.json that was a directory, a FIFO or a broken
+    link made validate exit 3, while configure and run took it for absent and exited 0
+    (SimpleBot ran with no plugins, the arm with no statechart). Every command now says the
+    same of it, located, exit 3, and writes nothing."""
+    import os
+    import shutil
+
+    folder = tmp_path / robot_name
+    shutil.copytree(ROOT_FOLDER / robot_name, folder)
+    if robot_name == "simplebot":  # (its plugin directories, relative to the repository's)
+        (tmp_path / "plugins").symlink_to(ROOT_FOLDER.parent / "plugins")
+        folder = tmp_path / "a" / "b"
+        folder.parent.mkdir()
+        shutil.move(str(tmp_path / robot_name), str(folder))
+        (tmp_path / "a" / "plugins").symlink_to(ROOT_FOLDER.parent / "plugins")
+    path = folder / document
+    path.unlink()
+    if kind == "directory":
+        path.mkdir()
+    elif kind == "broken link":
+        path.symlink_to(tmp_path / "nowhere.json")
+    else:
+        os.mkfifo(path)
+    out = tmp_path / "out"
+    args = [a.format(folder=folder, variant=variant, out=out) for a in COMMANDS[command]]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 3, result.output
+    assert str(path) in result.output and f"{document} is a file, or absent" in result.output
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("kind", ["directory", "broken link", "fifo"])
+@pytest.mark.parametrize("command", ["validate", "run"])
+def test_a_plugin_manifest_that_is_not_a_file_is_refused_not_skipped(tmp_path: Path, kind: str, command: str) -> None:
+    """Issue 31: a plugin.json that was a directory, FIFO or broken link was skipped
+    silently by validate and run, as if the folder were no plugin."""
+    import os
+
+    folder = robot(tmp_path, {"hector": SLAM})
+    path = folder / "plugins" / "hector" / "plugin.json"
+    path.unlink()
+    if kind == "directory":
+        path.mkdir()
+    elif kind == "broken link":
+        path.symlink_to(tmp_path / "nowhere.json")
+    else:
+        os.mkfifo(path)
+    args = ["validate", str(folder)] if command == "validate" else ["run", str(folder), "--variant", "v", "--clock", "simulated", "--duration", "0.01", "--no-control"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 3, result.output
+    assert str(path) in result.output and "plugin.json is a file, or absent" in result.output

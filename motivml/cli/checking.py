@@ -13,8 +13,8 @@ import click
 from rich.markup import escape
 
 from ..binding import PREFERENCES
-from ..documents.robot_folder import RobotFolder
-from ..errors import EnvironmentProblem, Location, MotivmlError, error
+from ..documents.robot_folder import RobotFolder, optional_document
+from ..errors import MotivmlError
 from ..language.model import OFF, Binding, FeatureState, Mode, Time, token
 from .common import environment_problem, fail, one_variant, out, plural, print_diagnostics, printable, targets
 from .reports import FORMATS, checked, unchecked
@@ -55,9 +55,9 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     try:
         model_path, configs, analyse = targets(target, config, variant)
         folder = RobotFolder(Path(target)) if Path(target).is_dir() else None
-        architecture = _optional(folder.architecture_path) if folder else None
-        coordination = _optional(folder.coordination_path) if folder else None
-        robot = folder if folder and _optional(folder.settings_path) else None
+        architecture = optional_document(folder.architecture_path) if folder else None
+        coordination = optional_document(folder.coordination_path) if folder else None
+        robot = folder if folder and optional_document(folder.settings_path) else None
         reports = validate(model_path, configs, partial, analyse, architecture, coordination, robot)
     except (MotivmlError, OSError) as exc:  # nothing checked: the problem alone, in the format asked for
         problem = exc if isinstance(exc, MotivmlError) else environment_problem(exc)
@@ -77,18 +77,6 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
             if report.kind != "model" or report.analysed or report.diagnostics:
                 _verdict(report, checked_variants=len(reports) > 1 or not configs)
     sys.exit(0 if valid else 1)
-
-
-def _optional(path: Path) -> Path | None:
-    """A robot folder's optional document: None when absent; refused when it is not a file."""
-    if not path.exists() and not path.is_symlink():
-        return None
-    if not path.is_file():
-        what = "a link to nothing" if not path.exists() else "not a regular file"
-        raise EnvironmentProblem(
-            error(Location(str(path)), f"is {what}: a robot folder's {path.name} is a file", "io")
-        )
-    return path
 
 
 def _verdict(report: Report, checked_variants: bool) -> None:

@@ -49,6 +49,20 @@ def _is(test: Callable[[Path], bool], path: Path) -> bool:
         raise EnvironmentProblem(error(Location(str(path)), f"cannot read: {exc.strerror}", "io")) from None
 
 
+def optional_document(path: Path) -> Path | None:
+    """A robot folder's optional document (robot.json, architecture.json,
+    coordination.json, a plugin's plugin.json): None when there is nothing at its place;
+    refused (exit 3, located) when what is there is not a regular file (a folder, a FIFO, a
+    link to nothing), never taken for absent: every command that reads the folder says the
+    same of it."""
+    if not os.path.lexists(path):
+        return None
+    if not _is(Path.is_file, path):
+        what = "a link to nothing" if not path.exists() else "not a regular file"
+        raise EnvironmentProblem(error(Location(str(path)), f"is {what}: {path.name} is a file, or absent", "io"))
+    return path
+
+
 @dataclass(frozen=True)
 class RobotFolder:
     path: Path
@@ -66,6 +80,8 @@ class RobotFolder:
                     "io",
                 )
             )
+        for optional in (folder.architecture_path, folder.coordination_path, folder.settings_path):
+            optional_document(optional)  # (whichever command opens the folder: the same answer)
         return folder
 
     @property

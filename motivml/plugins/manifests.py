@@ -14,7 +14,7 @@ import difflib
 from pathlib import Path
 
 from ..documents.loader import load_file
-from ..documents.robot_folder import MANIFEST_FILE, SETTINGS_FILE, Plugin, RobotFolder
+from ..documents.robot_folder import MANIFEST_FILE, SETTINGS_FILE, Plugin, RobotFolder, optional_document
 from ..documents.schema import PLUGIN, ROBOT, check_document, read_checked
 from ..errors import Diagnostic, EnvironmentProblem, Location, error, warning
 from ..language.model import FeatureModel
@@ -29,7 +29,7 @@ def _read(path: Path, schema: str, what: str) -> tuple[dict[str, object] | None,
 def plugin_directories(robot: RobotFolder) -> tuple[list[Path], list[Diagnostic]]:
     """The plugin directories robot.json declares (none without robot.json)."""
     settings_path = robot.settings_path
-    if not settings_path.is_file():
+    if optional_document(settings_path) is None:
         return [], []
     settings, problems = _read(settings_path, ROBOT, SETTINGS_FILE)
     if settings is None:
@@ -68,7 +68,7 @@ def discover(robot: RobotFolder, model: FeatureModel) -> tuple[dict[str, Plugin]
             ) from None
         for candidate in candidates:
             manifest_path = candidate / MANIFEST_FILE
-            if not manifest_path.is_file():
+            if optional_document(manifest_path) is None:  # (a folder without one is not a plugin)
                 continue
             manifest, problems = _read(manifest_path, PLUGIN, "a plugin manifest")
             diagnostics += problems

@@ -18,7 +18,7 @@ from ..architecture.builder import Assembly, build, empty_assembly
 from ..architecture.document import Architecture, read_architecture
 from ..binding.resolve import Variant, resolve, start_state
 from ..coordination.document import Coordination, VariantBindings, read_coordination
-from ..documents.robot_folder import ARCHITECTURE_FILE, Plugin, RobotFolder
+from ..documents.robot_folder import ARCHITECTURE_FILE, Plugin, RobotFolder, optional_document
 from ..documents.schema import read_checked
 from ..errors import Diagnostic, DocumentError, EnvironmentProblem, Location, Severity, error
 from ..language.model import Configuration, FeatureModel
@@ -77,7 +77,7 @@ class Loaded:
 
 def read_robot_architecture(folder: RobotFolder, model: FeatureModel, required: bool) -> Architecture | None:
     path = folder.architecture_path
-    if not path.is_file():
+    if optional_document(path) is None:
         if not required:
             return None
         raise EnvironmentProblem(
@@ -224,7 +224,7 @@ def read_robot_coordination(
 ) -> Coordination | None:
     """The robot's coordination.json, checked against the model, architecture and variant."""
     path = folder.coordination_path
-    if not path.is_file():
+    if optional_document(path) is None:
         return None
     doc, problems = read_checked(path, lambda d: [])
     if doc is None:
