@@ -125,6 +125,7 @@ def analyse(
         from .cuts import Cuts
 
         cuts = Cuts(model, hard.recorded)
+        first += _covering(hard, model, alive, selections, witness)
         key = list(zip(*(_deepest_cuts(cuts, parents, values) for values in first), strict=True))
         live_asked = [i for i in asked if alive[i]]
         atomic = _atomic_sets(hard, live_asked, core, selections, witness, key)
@@ -168,6 +169,59 @@ def analyse(
             if value is None
         ]
     return analysis
+
+
+COVERING = 4  # variants asked for what no variant found selects yet (`_covering`)
+
+
+def _covering(
+    hard: enc.Encoding,
+    model: FeatureModel,
+    alive: Sequence[bool],
+    selections: list[bytes],
+    witness: Callable[[list[int]], None],
+) -> list[array[int]]:
+    """Up to COVERING more variants for the cuts, each hinted towards selecting the live
+    features that no variant found so far selects (as `_everything` hints, from the
+    emptiest variant). A feature no variant selects is in one candidate class with every
+    other such feature, and the atomic sets' rounds then compare them pair by pair, a
+    search each; a variant that selects many of them, and its cuts, tell most apart at
+    once."""
+    import numpy as np
+
+    n = len(model.features)
+    never_early, never_static = _inherited(model)
+    seen = np.zeros(n, dtype=bool)
+    for row in selections:
+        seen |= np.frombuffer(row, dtype=np.uint8).astype(bool)
+    wanted = np.asarray(alive, dtype=bool) & ~seen
+    found: list[array[int]] = []
+    base = hard.assumptions(with_config=False)
+    for _ in range(COVERING):
+        if wanted.sum() < 2:
+            break
+        hint: list[int] = []
+        with_ancestors: set[int] = set()
+        for i in np.flatnonzero(wanted).tolist():  # (and their ancestors: a feature is selected only with its parent)
+            j: int | None = i
+            while j is not None and j not in with_ancestors:
+                with_ancestors.add(j)
+                j = model.features[j].parent
+        for i in sorted(with_ancestors):
+            early, static = hard.E(i), hard.S(i)
+            hint += [hard.s(i), -early if never_early[i] else early, -static if never_static[i] else static, hard.a(i)]
+        hard.unhint()
+        hard.hint(hint)
+        if not hard.solve_counted(base):
+            break
+        values = hard.assignment()
+        witness(values)
+        chosen = np.frombuffer(selections[-1], dtype=np.uint8).astype(bool)
+        if not (wanted & chosen).any():
+            break
+        wanted &= ~chosen
+        found.append(array("i", values))
+    return found
 
 
 def _everything(hard: enc.Encoding, model: FeatureModel) -> list[int]:
@@ -448,7 +502,12 @@ def impossible_bindings(
     """
     question = _Bindings(hard, model, alive)
     possible = hard.cover(
-        question.asked_targets, with_config=False, hints=question.hints, implied=question.implied, batch=True
+        question.asked_targets,
+        with_config=False,
+        hints=question.hints,
+        implied=question.implied,
+        batch=True,
+        start_empty=True,
     )
     return question.impossible(possible)
 
@@ -490,6 +549,7 @@ def live_features_and_impossible_bindings(
         requires=[None if p is None else position[p] for p in parents]
         + [position[question.owners[k][0]] for k in asked],
         settled=(m, lambda selected: on_alive(same.spread(selected))) if on_alive is not None else None,
+        start_empty=True,
     )
     alive = same.spread(possible[:m])
     return alive, _for_each_member(same, [b for b in question.impossible(possible[m:]) if alive[b[0]]])
