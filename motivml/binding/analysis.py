@@ -103,8 +103,9 @@ def analyse(
         possible = hard.cover(
             [[s[i]] for i in asked] + [[-s[i]] for i in asked],
             with_config=False,
-            # (each feature selected and active: an Early one is active at start, see _Bindings)
-            hints=[[*s, *map(hard.a, range(n))], _everything(hard, model), [s[0], *(-literal for literal in s[1:])]],
+            # (selection alone first: its variant splits the atomic sets' candidates better than
+            # one hinted active too, 173 solves where 733 for the groups shape at 10,000)
+            hints=[s, _everything(hard, model), [s[0], *(-literal for literal in s[1:])]],
             witness=witness,
             batch=True,  # (most of what the hints leave open is possible)
             refute=False,
