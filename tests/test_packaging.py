@@ -171,6 +171,25 @@ def test_ctrl_c_during_the_imports_ends_with_one_line_and_130() -> None:
     assert ended.stderr == "interrupted\n" and ended.stdout == ""
 
 
+def test_ctrl_c_before_the_command_runs_is_caught_by_the_entry(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The same guard, in this process: whatever of the start-up is interrupted."""
+    import motivml.cli
+    from motivml.__main__ import run
+
+    def interrupted() -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(motivml.cli, "console", interrupted)
+    try:
+        with pytest.raises(SystemExit) as ended:
+            run()
+    finally:
+        sys.modules.pop("motivml.__main__", None)  # (as -m finds it: not imported yet)
+    assert ended.value.code == 130 and capsys.readouterr().err == "interrupted\n"
+
+
 def test_python_dash_m_motivml_is_the_command(
     monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
