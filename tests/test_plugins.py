@@ -191,18 +191,24 @@ def test_validate_checks_robot_json_and_manifests_with_a_suggestion(tmp_path: Pa
     assert f"invalid: {folder / 'robot.json'}: 1 error, 0 warnings in the plugins" in result.output
 
 
-@pytest.mark.parametrize("kind", ["directory", "broken link", "fifo"])
-def test_an_optional_document_that_is_not_a_file_is_an_environment_error(tmp_path: Path, kind: str) -> None:
+def not_a_file(path: Path, kind: str) -> None:
+    """Put at `path` what a document is not: a directory, a link to nothing or a FIFO."""
     import os
 
-    folder = robot(tmp_path, {"hector": SLAM})
-    path = folder / "architecture.json"
     if kind == "directory":
         path.mkdir()
     elif kind == "broken link":
-        path.symlink_to(tmp_path / "nowhere.json")
+        path.symlink_to(path.parent / "nowhere.json")
     else:
         os.mkfifo(path)
+
+
+@pytest.mark.parametrize("kind", ["directory", "broken link", "fifo"])
+def test_an_optional_document_that_is_not_a_file_is_an_environment_error(tmp_path: Path, kind: str) -> None:
+
+    folder = robot(tmp_path, {"hector": SLAM})
+    path = folder / "architecture.json"
+    not_a_file(path, kind)
     result = CliRunner().invoke(main, ["validate", str(folder)])
     assert result.exit_code == 3 and "architecture.json" in result.output and "Traceback" not in result.output
 
@@ -313,25 +319,14 @@ def test_every_command_refuses_a_robot_document_that_is_not_a_file(
     link made validate exit 3, while configure and run took it for absent and exited 0
     (SimpleBot ran with no plugins, the arm with no statechart). Every command now says the
     same of it, located, exit 3, and writes nothing."""
-    import os
     import shutil
 
-    folder = tmp_path / robot_name
+    folder = tmp_path / "a" / robot_name  # (SimpleBot's plugin directories are ../../plugins/...)
     shutil.copytree(ROOT_FOLDER / robot_name, folder)
-    if robot_name == "simplebot":  # (its plugin directories, relative to the repository's)
-        (tmp_path / "plugins").symlink_to(ROOT_FOLDER.parent / "plugins")
-        folder = tmp_path / "a" / "b"
-        folder.parent.mkdir()
-        shutil.move(str(tmp_path / robot_name), str(folder))
-        (tmp_path / "a" / "plugins").symlink_to(ROOT_FOLDER.parent / "plugins")
+    (tmp_path / "plugins").symlink_to(ROOT_FOLDER.parent / "plugins")
     path = folder / document
     path.unlink()
-    if kind == "directory":
-        path.mkdir()
-    elif kind == "broken link":
-        path.symlink_to(tmp_path / "nowhere.json")
-    else:
-        os.mkfifo(path)
+    not_a_file(path, kind)
     out = tmp_path / "out"
     args = [a.format(folder=folder, variant=variant, out=out) for a in COMMANDS[command]]
     result = CliRunner().invoke(main, args)
@@ -345,17 +340,11 @@ def test_every_command_refuses_a_robot_document_that_is_not_a_file(
 def test_a_plugin_manifest_that_is_not_a_file_is_refused_not_skipped(tmp_path: Path, kind: str, command: str) -> None:
     """Issue 31: a plugin.json that was a directory, FIFO or broken link was skipped
     silently by validate and run, as if the folder were no plugin."""
-    import os
 
     folder = robot(tmp_path, {"hector": SLAM})
     path = folder / "plugins" / "hector" / "plugin.json"
     path.unlink()
-    if kind == "directory":
-        path.mkdir()
-    elif kind == "broken link":
-        path.symlink_to(tmp_path / "nowhere.json")
-    else:
-        os.mkfifo(path)
+    not_a_file(path, kind)
     args = ["validate", str(folder)] if command == "validate" else ["run", str(folder), "--variant", "v", "--clock", "simulated", "--duration", "0.01", "--no-control"]
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 3, result.output

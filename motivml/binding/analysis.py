@@ -23,7 +23,7 @@ minute, so each count has a time limit and is reported as not done when it runs 
 from __future__ import annotations
 
 from array import array
-from collections.abc import Callable, Hashable, Sequence
+from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass, field
 from operator import neg
 from typing import TYPE_CHECKING, Any
@@ -191,7 +191,7 @@ def _covering(
     import numpy as np
 
     n = len(model.features)
-    never_early, never_static = _inherited(model)
+    inherited = _inherited(model)
     seen = np.zeros(n, dtype=bool)
     for row in selections:
         seen |= np.frombuffer(row, dtype=np.uint8).astype(bool)
@@ -201,18 +201,14 @@ def _covering(
     for _ in range(COVERING):
         if wanted.sum() < 2:
             break
-        hint: list[int] = []
         with_ancestors: set[int] = set()
         for i in np.flatnonzero(wanted).tolist():  # (and their ancestors: a feature is selected only with its parent)
             j: int | None = i
             while j is not None and j not in with_ancestors:
                 with_ancestors.add(j)
                 j = model.features[j].parent
-        for i in sorted(with_ancestors):
-            early, static = hard.E(i), hard.S(i)
-            hint += [hard.s(i), -early if never_early[i] else early, -static if never_static[i] else static, hard.a(i)]
         hard.unhint()
-        hard.hint(hint)
+        hard.hint(_selecting(hard, sorted(with_ancestors), inherited))
         if not hard.solve_counted(base):
             break
         values = hard.assignment()
@@ -232,9 +228,17 @@ def _everything(hard: enc.Encoding, model: FeatureModel) -> list[int]:
     (of features it did not select, any value) can deselect a feature as soon as they are
     decided (an Early child needs an Early parent), and its subtree with it: at 30,000
     features of deep chains, a variant hinted so selected the root alone."""
-    never_early, never_static = _inherited(model)
+    return _selecting(hard, range(len(model.features)), _inherited(model))
+
+
+def _selecting(
+    hard: enc.Encoding, features: Iterable[int], inherited: tuple[list[bool], list[bool]]
+) -> list[int]:
+    """Hints that select `features`, active, Early and Static where each can be (`inherited`:
+    `_inherited`'s never-Early and never-Static)."""
+    never_early, never_static = inherited
     hint: list[int] = []
-    for i in range(len(model.features)):
+    for i in features:
         early, static = hard.E(i), hard.S(i)
         hint += [hard.s(i), -early if never_early[i] else early, -static if never_static[i] else static, hard.a(i)]
     return hint
