@@ -56,6 +56,7 @@ _SENTENCES: list[tuple[str, str]] = [
     (rf"{_ID} is configured (Early|Late)", "time"),
     (rf"{_ID} is configured (Static|Dynamic)", "mode"),
     (rf"{_ID} would be selected", "would-be-selected"),
+    (rf"{_ID} is dead(?: \(below {_ID}\))?", "dead"),
     (rf"{_ID} would be (Early|Late)", "would-be-time"),
     (rf"{_ID} would be (Static|Dynamic)", "would-be-mode"),
     (r"formula ([1-9][0-9]*), `(.+)`, must hold", "formula"),
@@ -166,6 +167,11 @@ def statement_of(
             assert entry.get("props", {}).get(kind) == groups[1], fact
             assert where == _key(base, f"props.{kind}"), fact
             statement = (kind, fid, groups[1])
+    elif kind == "dead":  # what another warning showed: no valid variant selects fid
+        fid, top = groups
+        assert in_model and where == _key(path_of(fid), "id"), fact
+        assert top is None or path_of(fid).startswith(path_of(top) + "."), fact
+        statement = ("deselected", fid)
     else:  # the question asked: "f would be selected", "f would be Early"
         fid = groups[0]
         assert in_model and where == _key(path_of(fid), "id"), fact
@@ -185,6 +191,10 @@ def explanation_statements(
     statements = []
     for fact in diagnostic.facts:
         statement, hypothesis = statement_of(fact, model, config)
+        if fact.text.startswith(f"{statement[-1]} is dead"):  # derived: true of the model itself
+            dead = not ref.consistent(model, [*ref.model_statements(model), ("selected", statement[-1])])
+            assert dead, (fact, "not dead by the reference")
+            hypothesis = True
         assert hypothesis or statement in written, (fact, statement)
         statements.append(statement)
     assert len(set(statements)) == len(statements), ("a statement named twice", diagnostic.facts)

@@ -250,6 +250,22 @@ def test_dead_feature() -> None:
     ]
 
 
+def test_a_dead_feature_is_explained_by_another_explained_before_it() -> None:
+    """The larger dead subtree is explained first, from the model; the other stands on it
+    ("a1 is dead (below a)") instead of repeating its conflict, and never the other way."""
+    ghost = opt("a", [opt("a1"), opt("a2")], mode="Static", inc=["lamp"], exc=["lamp"])
+    model = feature("r", [opt("b", inc=["a1"]), ghost, opt("lamp")])
+    assert analysis(model) == [
+        "warning [model.dead-feature] $.sub[0].id: b is dead: no valid variant selects it, because b includes "
+        "a1, but a1 is dead (below a) and b would be selected: an included feature is selected whenever the "
+        "feature that includes it is (rule 2.3)",
+        "warning [model.dead-feature] $.sub[1].id: a is dead: no valid variant selects it (and so are its 2 "
+        "sub-features), because a includes lamp; a excludes lamp, but a allows only Static binding and a would "
+        "be selected: features that exclude each other can both be selected only as Dynamic alternatives, at "
+        "most one of them Early (rules 2.3 and 3.3)",
+    ]
+
+
 def test_binding_never_possible() -> None:
     model = feature("r", [opt("late", [opt("kid", time="Any", mode="Static")], time="Late", mode="Static")])
     assert analysis(model) == [

@@ -68,6 +68,9 @@ START = "start"  # 4: the active set is part of the selection and satisfies sect
 START_EARLY = "start-early"  # 4: at start, every selected Early feature is active
 ACTIVE = "active"  # run time: a feature is in the active set a reconfiguration asks for
 INACTIVE = "inactive"  # run time: ... or not
+# A query (no selector): a feature already shown dead, so a conflict can say "y is dead" where
+# it would otherwise repeat y's own conflict (`check._dead_warnings`); shrinking drops it last.
+DEAD = "dead"
 # XOR groups: pair by pair (one XOR_PAIR fact each) up to PAIRWISE_UP_TO members, beyond that
 # a linear encoding of the same rule; the explain build keeps the pairs, whose facts name two
 # members, for groups up to PAIRWISE_EXPLAINED members, and one XOR_ALTERNATIVES fact above.
@@ -1024,7 +1027,9 @@ class Encoding:
         by_literal = {literal_of[k]: k for k in core}
         # Facts tried for deletion first are the least likely to stay: the start-state
         # fact goes first, so a conflict that section 2 or 3 explains is not blamed on it.
-        current = sorted(core, key=lambda k: self.facts[k].kind not in (START, START_EARLY))
+        # A fact already shown (a dead feature) goes last: it stands for a conflict of its own,
+        # which the facts before it would otherwise spell out again.
+        current = sorted(core, key=lambda k: (self.facts[k].kind not in (START, START_EARLY), self.facts[k].kind == DEAD))
         rotation = _Rotation(clauses, by_literal, fixed)
         with Solver(name=self.solver_name, bootstrap_with=clauses) as solver:
             i = 0

@@ -94,6 +94,7 @@ VALUE_KINDS = frozenset(
         *enc.CONFIG_KINDS,
         "query-selected",
         "query-binding",
+        enc.DEAD,
         enc.ACTIVE,
         enc.INACTIVE,
     }
@@ -129,6 +130,9 @@ class Explainer:
         self.model = model
         self.config = config
         self.query_words: dict[int, str] = {}
+        # Queries (kind DEAD) of features whose death is explained already: a later conflict
+        # may stand on them (`check._dead_warnings`).
+        self.known_dead: list[int] = []
 
     def _id(self, i: int) -> str:
         return self.model.features[i].id
