@@ -170,6 +170,42 @@ def test_a_10000_member_group_is_a_handful_of_solves() -> None:
     assert result.impossible == analyse(read(_wide_group(9, others=3)), counts=False).impossible
 
 
+def test_show_settles_a_dead_subtree_without_a_solve_per_feature() -> None:
+    """`show`'s states below a dead feature follow from it: a chain of 300 features under a
+    feature that only a search shows dead is a handful of solves (it was one per feature),
+    and the states are right (brute force on a smaller one)."""
+
+    def dead_chain(length: int) -> dict[str, Any]:
+        chain: dict[str, Any] = {"id": f"c{length}", "name": "C", "isMandatory": False, "constraints": ANY}
+        for k in range(length - 1, 0, -1):
+            chain = {"id": f"c{k}", "name": "C", "isMandatory": False, "constraints": ANY, "sub": [chain]}
+        ghost = {"id": "ghost", "name": "Ghost", "isMandatory": False, "sub": [chain]}
+        # y and z are dead by unit propagation, ghost only by a search (y or z, both dead)
+        impossible = {"bindingModeAllowed": "Static", "featuresIncluded": ["lamp"], "featuresExcluded": ["lamp"]}
+        y = {"id": "y", "name": "Y", "isMandatory": False, "constraints": impossible}
+        z = {"id": "z", "name": "Z", "isMandatory": False, "constraints": impossible}
+        lamp = {"id": "lamp", "name": "Lamp", "isMandatory": False, "constraints": ANY}
+        return {"id": "root", "name": "Root", "sub": [ghost, y, z, lamp], "formulas": ["ghost => (y | z)"]}
+
+    small = dead_chain(3)
+    expected = _states_by_brute_force(small, None)
+    model = read(small)
+    assert {f.id: states for f, states in zip(model.features, binding_states(model, None), strict=True)} == expected
+    solves: list[int] = []
+    original = enc.Encoding.close
+
+    def counted(self: enc.Encoding) -> None:
+        solves.append(self.work.solves)
+        original(self)
+
+    model = read(dead_chain(300))
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(enc.Encoding, "close", counted)
+        states = binding_states(model, None)
+    assert all(states[i] == {OFF} for i in model.subtree(model.index["ghost"]))
+    assert sum(solves) < 30, solves
+
+
 ANY = {"bindingTimeAllowed": "Any", "bindingModeAllowed": "Any"}
 
 

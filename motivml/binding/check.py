@@ -255,20 +255,42 @@ def binding_states(model: FeatureModel, config: Configuration | None) -> list[se
     what the solver forces. This is the paper's "binding semantics interpreter", answered
     by `Encoding.cover`.
     """
-    states: tuple[FeatureState, ...] = (OFF, *Binding)
     signs = [(1 if b.early else -1, 1 if b.static else -1) for b in Binding]
     # asked of the first of each class of interchangeable features only (symmetry.py)
     same = Classes(model, config)
+    m, position = len(same.asked), same.position  # (a parent is never in a class: it has sub-features)
+    parents = [model.features[i].parent for i in same.asked]
     with no_gc(), enc.Encoding(model) as hard:
         if config is not None:
             hard.set_configuration(config)
             hard.fix_configuration()  # (every question is asked under it)
+        # Each feature not selected, then selected (the last target that has a variable
+        # gives its hint: selected), a feature's selection only with its parent's: below a
+        # dead feature all is settled without a solve, as `analyse` does. Then the bindings
+        # of the live features. (A model of 10,000 features, 9,600 of them dead, took 9,600
+        # solves and 7 s when each feature's five targets were asked alike.)
+        up = [None if p is None else m + position[p] for p in parents]
+        selected = hard.cover(
+            [*([-hard.s(i)] for i in same.asked), *([hard.s(i)] for i in same.asked)],
+            with_config=config is not None,
+            implied=[*[None] * m, *up],
+            requires=[*[None] * m, *up],
+            batch=True,
+            refute=[True] * m + [False] * m,  # (selections: batches settle them)
+        )
+        alive = [at for at in range(m) if selected[m + at]]
         targets: list[list[int]] = []
-        for i in same.asked:
+        for at in alive:
+            i = same.asked[at]
             s, e, st = hard.s(i), hard.E(i), hard.S(i)
-            targets.append([-s])
             targets += [[s, te * e, ts * st] for te, ts in signs]
-        possible = hard.cover(targets, with_config=config is not None)
-    k = len(states)
-    asked = [tuple(states[j] for j in range(k) if possible[k * at + j]) for at in range(len(same.asked))]
+        bound = iter(hard.cover(targets, with_config=config is not None, batch=True))
+    n = len(signs)
+    bindings: dict[int, list[bool]] = {at: [next(bound) for _ in range(n)] for at in alive}
+    asked: list[tuple[FeatureState, ...]] = []
+    for at in range(m):
+        found: list[FeatureState] = [OFF] if selected[at] else []
+        if at in bindings:
+            found += [b for b, possible in zip(Binding, bindings[at], strict=True) if possible]
+        asked.append(tuple(found))
     return [set(found) for found in same.spread(asked)]  # (a set of its own per feature)
