@@ -96,9 +96,10 @@ def stages(
     model_path: str, config_path: str, cnf_path: str, assumptions_path: str
 ) -> list[tuple[str, float]]:
     from motivml.binding import encoding as enc
-    from motivml.documents.loader import load_file, no_gc
+    from motivml.documents.loader import load_file
     from motivml.documents.schema import check_configuration, check_feature_model
     from motivml.language.reader import read_configuration, read_model
+    from motivml.process import no_gc
 
     times: list[tuple[str, float]] = []
     t = time.perf_counter()

@@ -20,11 +20,11 @@ from test_property_sat import models
 
 from motivml.binding import check
 from motivml.binding.check import analyse_model
-from motivml.documents import forked
-from motivml.documents.forked import InChild
 from motivml.documents.loader import parse
 from motivml.language.model import FeatureModel
 from motivml.language.reader import read_model
+from motivml.process import forked
+from motivml.process.forked import InChild
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="no os.fork here: the analyses run in one process")
 

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from motivml import process
 from motivml.binding import encoding as enc
 from motivml.cli import main
-from motivml.documents import loader
 from motivml.language import reader
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -577,7 +577,7 @@ def ending(monkeypatch: pytest.MonkeyPatch) -> list[str]:
 
     monkeypatch.setattr(os, "_exit", end)
     monkeypatch.setattr(atexit, "_run_exitfuncs", lambda: done.append("atexit"))
-    monkeypatch.setattr(loader, "_process_ends", False)  # (console says it: not for the tests after)
+    monkeypatch.setattr(process, "_process_ends", False)  # (console says it: not for the tests after)
     monkeypatch.setattr(enc, "_LEFT_TILL_EXIT", [])  # (and what it keeps is not theirs either)
     return done
 
@@ -594,15 +594,15 @@ def test_a_command_that_does_one_job_ends_the_process_once_done(
             cli.console()
         assert ending[-2:] == ["atexit", f"ended {code}"]
     assert "valid: " in capsys.readouterr().out
-    assert enc._LEFT_TILL_EXIT and loader._process_ends
+    assert enc._LEFT_TILL_EXIT and process._process_ends
 
 
 def test_a_command_of_many_encodings_keeps_the_last_solver_only(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(loader, "_process_ends", True)
+    monkeypatch.setattr(process, "_process_ends", True)
     monkeypatch.setattr(enc, "_LEFT_TILL_EXIT", [])
     model = reader.load_model(SIMPLEBOT / "model.json")[0]
     assert model is not None
-    with loader.one_command():
+    with process.one_command():
         with enc.Encoding(model) as first:
             pass
         with enc.Encoding(model) as second:
@@ -613,7 +613,7 @@ def test_a_command_of_many_encodings_keeps_the_last_solver_only(monkeypatch: pyt
 def test_a_process_that_ends_at_once_deletes_no_solver(monkeypatch: pytest.MonkeyPatch) -> None:
     """A forked child (`forked._child`) ends with os._exit: its encodings, in a command or
     not, free nothing before its answer."""
-    monkeypatch.setattr(loader, "_at_once", True)
+    monkeypatch.setattr(process, "_at_once", True)
     monkeypatch.setattr(enc, "_LEFT_TILL_EXIT", [])
     model = reader.load_model(SIMPLEBOT / "model.json")[0]
     assert model is not None
@@ -626,10 +626,10 @@ def test_a_process_that_ends_at_once_deletes_no_solver(monkeypatch: pytest.Monke
 
 def test_solvers_are_deleted_when_the_process_goes_on_after_the_command() -> None:
     result = CliRunner().invoke(main, ["validate", str(SIMPLEBOT / "model.json")])
-    assert result.exit_code == 0 and not loader._process_ends and not enc._LEFT_TILL_EXIT
+    assert result.exit_code == 0 and not process._process_ends and not enc._LEFT_TILL_EXIT
     model = reader.load_model(SIMPLEBOT / "model.json")[0]
     assert model is not None
-    with loader.one_command():
+    with process.one_command():
         with enc.Encoding(model) as encoding:
             pass
     assert encoding.solver.solver is None  # (deleted)

@@ -1,4 +1,4 @@
-"""documents.forked (one job in a forked child) and the schema check it runs beside the
+"""process.forked (one job in a forked child) and the schema check it runs beside the
 reading of a big model (schema.read_checked_then)."""
 
 from __future__ import annotations
@@ -13,9 +13,11 @@ import pytest
 from test_check_parallel import no_child_left
 from test_corpus import corpus
 
-from motivml.documents import forked, loader, schema
-from motivml.documents.forked import FAILED, InChild
+from motivml import process
+from motivml.documents import schema
 from motivml.language.reader import load_model
+from motivml.process import forked
+from motivml.process.forked import FAILED, InChild
 
 
 def test_a_child_s_job_comes_back_as_it_returned() -> None:
@@ -133,14 +135,14 @@ def test_the_child_s_life_ends_in_the_child_whatever_its_job_does(monkeypatch: p
     monkeypatch.setattr(forked.os, "_exit", ends)
     monkeypatch.setattr(forked.signal, "signal", lambda *args: None)  # (this process keeps its Ctrl-C,
     monkeypatch.setattr(forked, "die_with_parent", lambda parent: None)  # its parent and its OOM score)
-    monkeypatch.setattr(loader, "_at_once", False)  # (given back when the test ends)
+    monkeypatch.setattr(process, "_at_once", False)  # (given back when the test ends)
     for job, code in ((lambda asked: [pickle.load(asked), 2], 0), (lambda asked: 1 / 0, 1)):
         down, up, parents = os.pipe(), os.pipe(), os.pipe()
         with open(down[1], "wb") as requests:
             requests.write(pickle.dumps(1))
         with pytest.raises(SystemExit) as ended:
             forked._child(job, down[0], up[1], os.getppid(), parents)
-        assert ended.value.code == code and loader.keeping_all()
+        assert ended.value.code == code and process.keeping_all()
         for fd in parents:
             with pytest.raises(OSError):
                 os.fstat(fd)

@@ -259,60 +259,6 @@ def _check_scanned_locations(value: Any, text: str, ready: bool = False) -> None
         assert scanned._index is None and backwards._index is None  # nothing read it all
 
 
-def test_in_one_command_what_a_paused_collector_built_is_frozen_until_the_command_ends() -> None:
-    import gc
-
-    assert gc.get_freeze_count() == 0
-    with loader.no_gc():
-        kept = [[k] for k in range(1000)]
-    assert gc.get_freeze_count() == 0 and gc.isenabled()  # outside a command: nothing frozen
-    with loader.one_command():
-        with loader.no_gc():
-            kept += [[k] for k in range(1000)]
-        assert gc.get_freeze_count() >= 1000 and gc.isenabled()
-        with loader.one_command():  # nested: the outer command gives them back, not this one
-            pass
-        assert gc.get_freeze_count() >= 1000
-    assert gc.get_freeze_count() == 0 and gc.isenabled()
-    assert len(kept) == 2000
-
-
-def test_the_cli_freezes_for_one_shot_commands_only(monkeypatch: pytest.MonkeyPatch) -> None:
-    import contextlib
-    import gc
-
-    from click.testing import CliRunner
-
-    from motivml.cli import main
-
-    entered: list[bool] = []
-    real = loader.one_command
-
-    @contextlib.contextmanager
-    def watched() -> Iterator[None]:
-        entered.append(True)
-        with real():
-            yield
-
-    monkeypatch.setattr(loader, "one_command", watched)
-    runner = CliRunner()
-    result = runner.invoke(main, ["validate", "feature_models/simplebot", "--variant", "field"])
-    assert result.exit_code == 0, result.output
-    assert entered == [True] and gc.get_freeze_count() == 0  # entered, and given back at the end
-    result = runner.invoke(
-        main,
-        ["run", "feature_models/simplebot", "--variant", "field", "--duration", "0.01"]
-        + ["--clock", "simulated", "--no-live", "--no-control"],
-    )
-    assert result.exit_code == 0, result.output
-    assert entered == [True]  # run keeps its own collection policy
-    from click.shell_completion import ShellComplete
-
-    completions = ShellComplete(main, {}, "motivml", "_MOTIVML_COMPLETE").get_completions(["validate"], "--con")
-    assert [c.value for c in completions] == ["--config"]
-    assert entered == [True]  # (click never closes the context it completes in)
-
-
 def test_a_walk_that_stopped_early_is_gone_on_from_only_as_far_as_it_went() -> None:
     """A path that runs past the document stops where it ends; the next walk reuses the
     values of that one only up to there. Each location is the one a fresh document gives."""

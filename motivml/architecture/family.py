@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from ..binding import encoding as enc
-from ..documents.loader import no_gc
 from ..errors import Diagnostic, error
 from ..language.model import FeatureModel
+from ..process import no_gc
 from .document import Architecture, references
 
 

@@ -28,8 +28,8 @@ from dataclasses import dataclass, field
 from operator import neg
 from typing import TYPE_CHECKING, Any
 
-from ..documents.loader import no_gc
 from ..language.model import FeatureModel, Mode, Time
+from ..process import no_gc
 from . import encoding as enc
 from .symmetry import Classes
 

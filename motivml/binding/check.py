@@ -14,10 +14,10 @@ import pickle
 from dataclasses import replace
 from typing import BinaryIO
 
-from ..documents.forked import InChild, can_fork
-from ..documents.loader import no_gc
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import OFF, Binding, Configuration, Feature, FeatureModel, FeatureState, Mode, Time
+from ..process import no_gc
+from ..process.forked import InChild, can_fork
 from . import encoding as enc
 from .analysis import live_features_and_impossible_bindings
 from .explain import Explainer

@@ -37,9 +37,9 @@ from typing import Any, NamedTuple
 
 from pysat.solvers import Solver
 
-from ..documents.loader import keep_till_exit, keeping_all
 from ..language.formula import AND, IFF, IMPLIES, OR, Formula, Var, fold
 from ..language.model import Configuration, FeatureModel, Mode, Time
+from ..process import keep_till_exit, keeping_all
 
 SOLVER = "glucose4"  # forgiving API, assumptions and cores; CaDiCaL aborts the process on misuse
 

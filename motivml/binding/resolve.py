@@ -13,9 +13,9 @@ from collections.abc import Collection
 from dataclasses import dataclass, replace
 from typing import NamedTuple
 
-from ..documents.loader import no_gc
 from ..errors import MotivmlError
 from ..language.model import Binding, Configuration, Entry, Feature, FeatureModel
+from ..process import no_gc
 from . import PREFERENCES
 from . import encoding as enc
 from .check import check_variant

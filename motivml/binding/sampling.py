@@ -31,8 +31,8 @@ from dataclasses import dataclass
 from itertools import combinations
 from math import comb
 
-from ..documents.loader import no_gc
 from ..language.model import Binding, FeatureModel
+from ..process import no_gc
 from . import encoding as enc
 
 LIMIT = 20_000_000  # combinations at most (each is looked at a few times in Python)

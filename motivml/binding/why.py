@@ -19,9 +19,9 @@ from __future__ import annotations
 from collections.abc import Collection
 from dataclasses import dataclass
 
-from ..documents.loader import no_gc
 from ..errors import LocatedFact
 from ..language.model import OFF, Binding, Configuration, FeatureModel, FeatureState, Mode, Time
+from ..process import no_gc
 from . import encoding as enc
 from .explain import Explainer
 

@@ -76,7 +76,7 @@ class LazyGroup(click.Group):
         name, command, rest = super().resolve_command(ctx, args)
         # (not while the shell completes a command line: click never closes that context)
         if command is not None and name not in LONG_RUNNING and not ctx.resilient_parsing:
-            from ..documents.loader import one_command
+            from ..process import one_command
 
             ctx.with_resource(one_command())
             global _one_job
@@ -123,7 +123,7 @@ def console() -> None:
     Where another thread still runs, or the output cannot be flushed (a closed pipe), the
     process ends as Python ends it. Callers in this process (tests, scripts) use `main`.
     """
-    from ..documents.loader import ending_with_the_command
+    from ..process import ending_with_the_command
 
     global _one_job
     _one_job = False

@@ -217,13 +217,14 @@ def import_command(what: str, source: str, output: str) -> None:
     and/or/alt/feature, mandatory, abstract, and its <constraints> rules. An existing
     model.json is not overwritten.
     """
-    from ..documents.loader import load_bytes, no_gc, read_bytes
+    from ..documents.loader import load_bytes, read_bytes
     from ..documents.schema import check_feature_model
     from ..documents.writing import indented_json, write_if_changed
     from ..errors import DocumentError, EnvironmentProblem, Location, error
     from ..language.featureide import read_featureide
     from ..language.reader import read_model
     from ..language.uvl import read_uvl
+    from ..process import no_gc
 
     folder = Path(output)
     model_path = folder / "model.json"

@@ -22,20 +22,19 @@ levels).
 from __future__ import annotations
 
 import bisect
-import contextlib
 import functools
-import gc
 import json
 import os
 import re
 import stat
 import sys
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import DocumentError, EnvironmentProblem, Location, error
+from ..process import no_gc
 
 MAX_BYTES = 64 * 1024 * 1024
 MAX_DEPTH = 10_000
@@ -621,84 +620,6 @@ def _fast(text: str, max_depth: int) -> tuple[bool, Any]:
     if ok and not held and _depth(value) > max_depth:
         return False, None
     return ok, value
-
-
-_freezing = False  # inside `one_command`: what a pause built is frozen when it ends
-
-
-@contextlib.contextmanager
-def no_gc() -> Iterator[None]:
-    """Pause the cyclic garbage collector while building many objects.
-
-    JSON values hold no reference cycles, and each full collection walks every object
-    alive: with a 100,000-feature model in memory that made parsing several times slower.
-    Inside `one_command`, the objects are frozen when the pause ends, so that the first
-    collection after it does not walk them all either.
-    """
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            if _freezing:
-                gc.freeze()
-            gc.enable()
-
-
-_process_ends = False  # this process ends when its one command does (`ending_with_the_command`)
-
-
-def ending_with_the_command() -> None:
-    """Say that this process ends when its command does (the motivml program, whose
-    one-job commands end it at once): inside `one_command`, what the end of the process
-    frees anyway need not be freed before (`keep_till_exit`)."""
-    global _process_ends
-    _process_ends = True
-
-
-_at_once = False  # this process ends with os._exit once its job is done (`ending_at_once`)
-
-
-def ending_at_once() -> None:
-    """Say that this process ends with `os._exit` once its job is done (a child forked by
-    `forked.InChild`): nothing it holds need ever be freed (`keeping_all`)."""
-    global _at_once
-    _at_once = True
-
-
-def keep_till_exit() -> bool:
-    """Whether a large object no longer needed (a solver: 0.1 s to delete at 100,000
-    features) may be left for the end of the process, which is near."""
-    return _at_once or (_process_ends and _freezing)
-
-
-def keeping_all() -> bool:
-    """Whether every such object is left, not just the last one (`ending_at_once`)."""
-    return _at_once
-
-
-@contextlib.contextmanager
-def one_command() -> Iterator[None]:
-    """The time of one command of a process that does little else (the CLI's validate,
-    configure, analyse ...).
-
-    When a pause of the collector (`no_gc`) ends, the objects alive then (a model, its
-    encoding) are frozen (`gc.freeze`): the collections that follow skip them, instead of
-    the first one walking every object the pause built (0.6 s of a 3 s `validate --config`
-    at 100,000 features). Frozen objects are still freed by reference counting, and are
-    given back to the collector (`gc.unfreeze`) when the command ends. Long-running
-    commands (run, the configurator) do not use this: they keep their own collection policy.
-    """
-    global _freezing
-    before = _freezing
-    _freezing = True
-    try:
-        yield
-    finally:
-        _freezing = before
-        if not before:
-            gc.unfreeze()
 
 
 def _depth(value: Any) -> int:

@@ -24,9 +24,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from ..process import no_gc
+from ..process.forked import Failed, InChild, can_fork
 from .fastschema import Check, Unsupported, compile_schema
-from .forked import Failed, InChild, can_fork
-from .loader import Document, JSONPath, load_file, no_gc
+from .loader import Document, JSONPath, load_file
 
 if TYPE_CHECKING:  # imported where a document is invalid: it takes ~60 ms to import
     from jsonschema import Draft202012Validator

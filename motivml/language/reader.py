@@ -14,9 +14,10 @@ import re
 from pathlib import Path
 from typing import Any
 
-from ..documents.loader import Document, no_gc
+from ..documents.loader import Document
 from ..documents.schema import check_configuration, check_feature_model, read_checked_then, read_with_problems
 from ..errors import Diagnostic, Severity, error, warning
+from ..process import no_gc
 from .formula import FormulaError, parse
 from .model import ANY, Configuration, Entry, Feature, FeatureModel, Group, Mode, Time
 

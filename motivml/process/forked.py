@@ -7,6 +7,11 @@ model's schema check while the model is read), and `binding.check` explains a mo
 warnings so while it searches. Only where `os.fork` exists and this process runs no other
 thread (a fork copies the calling thread alone: another one may hold a lock the child
 needs); elsewhere, and whenever the child fails, the caller does the job itself.
+
+Not `concurrent.futures.ProcessPoolExecutor` with a fork context: its workers are forked
+before the job exists and receive it pickled, whereas the point here is a child that
+inherits the job's large unpicklable state (a parsed model, a solver) at the moment of the
+fork, is sent further requests while it works (`ask`), and dies with its parent.
 """
 
 from __future__ import annotations
@@ -159,7 +164,7 @@ def _child(
     try:
         import pickle
 
-        from .loader import ending_at_once
+        from . import ending_at_once
 
         for fd in unused:
             os.close(fd)
