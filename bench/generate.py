@@ -4,7 +4,7 @@
 (deep, as real 100k-feature models are: about n/50 levels), about a fifth of the parents with
 an OR or XOR group, ~30% of the ungrouped children mandatory, ~10% of the features in
 includes/excludes, and mixed bindings (~20% Late, ~15% Dynamic). The configuration is built
-first (top-down, obeying semantics.md sections 2-4) and the constraints are then drawn so
+first (top-down, obeying reference.md sections 2-4) and the constraints are then drawn so
 that it stays valid, so the benchmark measures a realistic *valid* check end to end.
 
     python bench/generate.py 10000 --seed 1 -o /tmp/m10k   # writes model.json, variants/full.json

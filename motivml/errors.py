@@ -54,7 +54,7 @@ class LocatedFact:
 
 @dataclass(frozen=True)
 class Change:
-    """One change of a repair (semantics.md section 6), in the user's words and as data.
+    """One change of a repair (reference.md section 6), in the user's words and as data.
 
     `change` is "select" (value True or False), "time" (Early, Late) or "mode" (Static,
     Dynamic) for a configuration; "load" or "unload" (value True: add it to the request,

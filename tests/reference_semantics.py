@@ -1,9 +1,10 @@
 """Reference semantics of MoTiVML feature models and configurations.
 
 An independent cross-check for the product (which decides validity with a SAT solver):
-written only from /work/shared/spec/semantics.md ("the spec" below), with the Python 3.11
-standard library and no import from the package.  Section numbers in comments are the
-spec's.  Everything works on the raw parsed JSON documents of spec section 1.
+written only from the project's specification ("the spec" below: first the team's shared
+semantics document, now guidelines/reference.md, whose sections have the same numbers),
+with the Python 3.11 standard library and no import from the package.  Section numbers in
+comments are the spec's.  Everything works on the raw parsed JSON documents of spec section 1.
 
 Public functions:
     valid_variants(model, config)        every valid variant, as {selected id: (early, static)}

@@ -213,7 +213,7 @@ class NotMinimal(AssertionError):
 
 def assert_minimal_conflict(model: dict[str, Any], statements: list[tuple[str, ...]]) -> None:
     """Per the reference: the statements together have no variant, and without any one of
-    them they have one (a minimal unsatisfiable subset, semantics.md section 4)."""
+    them they have one (a minimal unsatisfiable subset, reference.md section 4)."""
     assert_conflict(model, statements)
     for k, dropped in enumerate(statements):
         rest = statements[:k] + statements[k + 1 :]

@@ -1,4 +1,4 @@
-"""Decisions files (semantics.md section 1): `configure --save-decisions` writes entries from
+"""Decisions files (reference.md section 1): `configure --save-decisions` writes entries from
 which `configure` derives the same variant, and `"partial": true` files validate as partial."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""FeatureIDE XML import and export (semantics.md section 8): counts kept, refusals located.
+"""FeatureIDE XML import and export (reference.md section 8): counts kept, refusals located.
 
 Random FeatureIDE models are built here as plain data, written as XML and counted by brute
 force from that data alone; the product imports the XML, and its selections are counted by

@@ -1,4 +1,4 @@
-"""Cross-tree formulas (semantics.md 2.4): syntax, located errors, words, run time.
+"""Cross-tree formulas (reference.md 2.4): syntax, located errors, words, run time.
 
 Their meaning against brute force is in test_property_sat.py (random models with random
 formulas, judged by reference_semantics.py's own parser) and test_reconfigure.py (the

@@ -1,4 +1,4 @@
-"""Change impact (semantics.md section 4) and `motivml diff`."""
+"""Change impact (reference.md section 4) and `motivml diff`."""
 
 from __future__ import annotations
 

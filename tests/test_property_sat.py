@@ -1,6 +1,6 @@
 """Property: the SAT encoding agrees with brute-force enumeration of the spec.
 
-`reference_semantics.py` was written separately, straight from semantics.md, as a
+`reference_semantics.py` was written separately, straight from the specification, as a
 backtracking enumeration of sections 2-4; here both judge random models of up to 12
 features and random (partial) configurations.
 """

@@ -1,4 +1,4 @@
-"""Run-time reconfiguration (semantics.md section 4): every refusal reason, and brute force."""
+"""Run-time reconfiguration (reference.md section 4): every refusal reason, and brute force."""
 
 from __future__ import annotations
 
@@ -344,7 +344,7 @@ def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataO
 def assert_repairs_mend(
     reference: Reference, active: set[str], action: str, features: tuple[str, ...], refused: Refused
 ) -> None:
-    """A refused request's repairs (semantics.md section 6), judged by brute force: each,
+    """A refused request's repairs (reference.md section 6), judged by brute force: each,
     made to the request, gives a request the reference accepts, and no part of it does;
     every conflict carries the same list, fewest changes first."""
     repairs = refused.diagnostics[0].repairs

@@ -1,4 +1,4 @@
-"""Checks tests/reference_semantics.py against /work/shared/spec/semantics.md.
+"""Checks tests/reference_semantics.py against the specification (guidelines/reference.md).
 
 Section 5 test vectors: every one of the 16 binding combinations of each row, valid ones and
 invalid ones, as its own case.  Then a few single-sentence checks, and a cross-check of the

@@ -1,4 +1,4 @@
-"""Repairs (semantics.md section 6): minimal changes to a configuration that make it valid.
+"""Repairs (reference.md section 6): minimal changes to a configuration that make it valid.
 
 Each repair is applied to the configuration's JSON here, by hand, and the result judged by
 the brute-force reference alone (`reference_semantics`): the applied repair is valid, no

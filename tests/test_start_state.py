@@ -1,4 +1,4 @@
-"""The start state of semantics.md section 4 equals the brute-force reference's.
+"""The start state of reference.md section 4 equals the brute-force reference's.
 
 The expected active set comes from tests/reference_semantics.py alone (every active set
 the rules allow, then the spec's order: fewest Late activations, then pre-order); the

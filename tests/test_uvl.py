@@ -1,4 +1,4 @@
-"""UVL import and export (semantics.md section 8): round trips, counts, refusals, the CLI.
+"""UVL import and export (reference.md section 8): round trips, counts, refusals, the CLI.
 
 Random UVL models are built here as plain data, written as UVL text and counted by brute
 force from that data alone (no code of the product's); the product imports the text, and

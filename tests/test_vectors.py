@@ -1,4 +1,4 @@
-"""The test vectors of semantics.md section 5, one test each, through the SAT encoding."""
+"""The test vectors of reference.md section 5, one test each, through the SAT encoding."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Analyses of a model alone (semantics.md section 7): core, dead and false-optional
+"""Analyses of a model alone (reference.md section 7): core, dead and false-optional
 features, atomic sets, impossible bindings, and exact counts.
 
 Every question but the counts is asked of one hard (selector-free) build of the one

@@ -10,7 +10,7 @@ from them on the one encoding:
   configuration's minimal repairs (section 6); `apply` makes one of them;
 * `why(feature)`: the located reasons, as `show --why` gives them.
 
-The decisions are kept as the decisions file they will be saved as (semantics.md section
+The decisions are kept as the decisions file they will be saved as (reference.md section
 1, `"partial": true`): after each change that text is read back by the same reader as a file
 on disk, so a conflict's facts point at the lines the saved file will have.
 """
@@ -39,7 +39,7 @@ class Decision:
 
 
 def decisions_text(config: Configuration, extra: dict[str, object] | None = None) -> str:
-    """A configuration as a decisions file (semantics.md section 1): `"partial": true`, its
+    """A configuration as a decisions file (reference.md section 1): `"partial": true`, its
     entries only, in their order; `extra` keys (a document's `x-` keys) first."""
     properties: list[dict[str, object]] = []
     for entry in config.entries.values():

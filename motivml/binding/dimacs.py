@@ -1,4 +1,4 @@
-"""DIMACS export (semantics.md section 8): a model's CNF as FeatureIDE and model counters read it.
+"""DIMACS export (reference.md section 8): a model's CNF as FeatureIDE and model counters read it.
 
     c 1 root_feature          one line per feature: its variable, its id (pre-order)
     c 2 slam

@@ -1,4 +1,4 @@
-"""The one SAT encoding of MoTiVML (semantics.md sections 2, 3 and the start state of 4).
+"""The one SAT encoding of MoTiVML (reference.md sections 2, 3 and the start state of 4).
 
 Variables, per feature f (index i in definition order): s(f) selected, E(f) Early,
 S(f) Static, a(f) active at start. Every model statement the rules apply to is a *fact*
@@ -1349,7 +1349,7 @@ class Encoding:
         assumed but never blamed. The facts are every model fact except START_EARLY (a
         Dynamic Early feature may be unloaded at run time) and, per feature, "active" or
         "inactive" as asked: a conflict names the model statements and the features whose
-        activity contradicts them (semantics.md section 4: A satisfies section 2).
+        activity contradicts them (reference.md section 4: A satisfies section 2).
         """
         if not self.explain:
             raise ValueError("active_set_conflicts() needs Encoding(model, explain=True)")
@@ -1368,7 +1368,7 @@ class Encoding:
         return self.conflicts(limit=limit, order=[*chosen, *model], fixed=fixed)
 
     def start_state(self, late: Sequence[int], variant: Sequence[int] | None = None) -> list[int] | None:
-        """The active set at start (semantics.md section 4), as feature indices; None if none.
+        """The active set at start (reference.md section 4), as feature indices; None if none.
 
         Call after `set_configuration` with a complete variant, or give the variant's
         literals as `variant` (s of every feature, E and S of each selected one). `late`

@@ -1,6 +1,6 @@
 """Change impact: what moving a running robot from one variant to another takes.
 
-semantics.md section 4, feature by feature between two resolved variants of one model:
+reference.md section 4, feature by feature between two resolved variants of one model:
 *rebuild* if the feature enters or leaves the set of Static Early features (they are
 compiled in); otherwise *restart* if a Static Late feature leaves the selection or changes
 its binding, or the feature changes mode; otherwise *run time* (a Dynamic feature enters,

@@ -1,4 +1,4 @@
-"""Repairs (semantics.md section 6): the smallest changes that make something refused valid.
+"""Repairs (reference.md section 6): the smallest changes that make something refused valid.
 
 A repair of an invalid configuration changes the configuration's own entries (deselect F,
 select F, set F's time, set F's mode); the model never changes. The minimal repairs are the

@@ -1,6 +1,6 @@
 """Resolution: from a (possibly partial) configuration to one complete variant.
 
-What the configuration fixes is kept; the solver decides the rest (semantics.md section 4):
+What the configuration fixes is kept; the solver decides the rest (reference.md section 4):
 undecided features are left out unless the model needs them, and open bindings take the
 published defaults, Early and Static, unless the user prefers Late or Dynamic. The three
 wishes are optimised together, lexicographically (fewest undecided features selected, then
@@ -137,7 +137,7 @@ def as_configuration(variant: Variant) -> Configuration:
 
 
 def start_state(variant: Variant) -> list[Feature]:
-    """The active set at start (semantics.md section 4), in definition order.
+    """The active set at start (reference.md section 4), in definition order.
 
     Every selected Early feature, completed with the fewest Late ones (earlier features
     first among equals). A resolved variant always has one (its start state is part of

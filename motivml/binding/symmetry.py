@@ -3,7 +3,7 @@
 Two features are interchangeable when swapping them maps every valid variant to a valid
 variant: the same parent, the same group (or both ungrouped with the same `isMandatory`),
 the same allowed time and mode, no sub-features, and no include, exclude or formula naming
-either (nor a configuration entry that differs). Every rule of semantics.md sections 2-4
+either (nor a configuration entry that differs). Every rule of reference.md sections 2-4
 treats such features alike: a group's rules are the same for each member, the sub-feature
 rules look only at the parent, and the start state exists for a variant iff it exists for
 the swapped one.

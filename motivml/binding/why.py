@@ -9,7 +9,7 @@ Each answer is a statement about the feature and the chain of located facts behi
   configuration facts it contradicts is the reason, in the words `validate` uses;
 * a value left open is said to be, with what `configure` makes of it and why.
 
-With a variant, the start state is answered too (semantics.md section 4): an Early feature
+With a variant, the start state is answered too (reference.md section 4): an Early feature
 is active at start because every selected Early feature is; a Late one when the start
 state needs it.
 """

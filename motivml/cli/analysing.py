@@ -1,4 +1,4 @@
-"""analyse: what a feature model allows (semantics.md section 7)."""
+"""analyse: what a feature model allows (reference.md section 7)."""
 
 from __future__ import annotations
 

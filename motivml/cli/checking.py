@@ -212,7 +212,7 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
 
     Both are resolved as `configure` resolves them (give the same --prefer). Each feature
     whose selection or binding differs is a rebuild, a restart or a run-time change
-    (semantics.md section 4). Exit 0 when every change can be made at run time, 4 when one
+    (reference.md section 4). Exit 0 when every change can be made at run time, 4 when one
     needs a rebuild or a restart, 1 when a variant is invalid.
     """
     from ..binding import impact

@@ -152,7 +152,7 @@ def run_command(
     """Build the motion architecture of a variant's active features and run it at a fixed rate.
 
     The active set at start is every Early feature plus the fewest Late ones the model
-    needs (semantics.md section 4); exactly their spaces, mappings, modules and components
+    needs (reference.md section 4); exactly their spaces, mappings, modules and components
     run. Ends with a summary: each component's status and when its criterion fired, each
     module's learning state, the final space values and the loop's timing.
 

@@ -1,4 +1,4 @@
-"""FeatureIDE XML (semantics.md section 8): `<featureModel>` read into a feature model
+"""FeatureIDE XML (reference.md section 8): `<featureModel>` read into a feature model
 document, and a model written as one.
 
 In FeatureIDE the element of a feature says how its *children* are grouped: `<and>` (each

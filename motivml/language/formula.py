@@ -1,4 +1,4 @@
-"""Cross-tree formulas (semantics.md 2.4): the syntax of UVL's Boolean level over feature ids.
+"""Cross-tree formulas (reference.md 2.4): the syntax of UVL's Boolean level over feature ids.
 
     slam => lidar | camera          !(gps & indoor)          a <=> (b & !c)
 

@@ -2,12 +2,12 @@
 
 A `FeatureModel` holds its features in pre-order (definition order): index 0 is the root,
 a parent comes before its children. That order is the one generated files and reports
-use, and the tie-break of the start state (semantics.md section 4).
+use, and the tie-break of the start state (reference.md section 4).
 
 Where a feature came from is kept as its JSON path, computed on demand from the parent
 links (paths of deep features are long, and most are never shown).
 
-A binding (semantics.md section 3) is one `Binding` everywhere: the variant, the generated
+A binding (reference.md section 3) is one `Binding` everywhere: the variant, the generated
 files, the change impact, the run time and the coordination checks all speak it, and its
 spellings (the document's words, the two letters, the C macro) come from it alone. What
 the model allows and what a configuration entry asks for may leave time or mode open

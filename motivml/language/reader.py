@@ -21,7 +21,7 @@ from ..process import no_gc
 from .formula import FormulaError, parse
 from .model import ANY, Configuration, Entry, Feature, FeatureModel, Group, Mode, Time
 
-# Tokens the schema admits, to values, and the model's defaults (semantics.md section 1).
+# Tokens the schema admits, to values, and the model's defaults (reference.md section 1).
 # Dicts and plain strings: enum calls and member lookups cost ~0.25 us each, and a model
 # of 100,000 features takes 200,000 of them.
 _TIMES: dict[str, Time | None] = {**{t.value: t for t in Time}, ANY: None}

@@ -1,4 +1,4 @@
-"""UVL (semantics.md section 8): read a UVL model into a feature model document, write one back.
+"""UVL (reference.md section 8): read a UVL model into a feature model document, write one back.
 
 UVL is the product-line community's exchange language (FeatureIDE, flamapy, UVLHub). Its
 Boolean level maps onto MoTiVML one to one: `mandatory` and `optional` children, `or` and

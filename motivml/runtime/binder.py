@@ -3,7 +3,7 @@
 `Binder` owns the running robot's active set. A request (`load`, `unload`, `reload`,
 `swap`) goes through three steps, one request at a time:
 
-1. **check**: `Reconfigurer.plan` applies semantics.md section 4 on the SAT encoding. A
+1. **check**: `Reconfigurer.plan` applies reference.md section 4 on the SAT encoding. A
    refused request changes nothing, and the refusal says why in `validate`'s words;
 2. **prepare**, on the caller's thread, never the control thread: the architecture of the
    new active set is built (the elements that stay are the same objects, with their

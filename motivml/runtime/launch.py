@@ -2,7 +2,7 @@
 
 `launch(folder, variant)` reads the robot folder's model and variant, resolves the variant
 (`configure.resolve`, so a partial variant is completed the way `configure` would), computes
-the active set at start (semantics.md section 4: every Early feature, plus the fewest Late
+the active set at start (reference.md section 4: every Early feature, plus the fewest Late
 ones the model needs), reads `architecture.json` and builds the elements of exactly the
 active features. Every failure is a typed, located error: an invalid variant is explained
 as `validate` explains it (exit 1), a robot without an architecture is an environment

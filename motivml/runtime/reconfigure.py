@@ -1,4 +1,4 @@
-"""Reconfiguration at run time: loads and unloads as checked transactions (semantics.md section 4).
+"""Reconfiguration at run time: loads and unloads as checked transactions (reference.md section 4).
 
 A `Request` asks to load, unload, reload or swap features of a running variant. `plan`
 turns it into the new active set, or refuses it with the reason and changes nothing:
@@ -90,7 +90,7 @@ class Reconfigurer:
     def plan(self, active: Collection[str], request: Request, repairs: bool = True) -> Plan:
         """The new active set of an accepted request; `Refused` says why not, and (with
         `repairs`) how the request could change to be accepted, where moving other features
-        would help (semantics.md section 6)."""
+        would help (reference.md section 6)."""
         root = self.explainer.model_location(0)
         if request.action not in (*ACTIONS, "set"):
             raise Refused(
