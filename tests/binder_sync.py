@@ -17,7 +17,7 @@ from types import TracebackType
 from motivml.runtime.binder import Outcome
 from motivml.runtime.launch import Robot
 from motivml.runtime.loop import Commit
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import change
 
 HANG_GUARD = 30.0  # s: only ever reached if something is stuck
 
@@ -68,7 +68,7 @@ def ask(robot: Robot, text: str) -> Outcome:
     for the commit without a time limit: a busy machine cannot make it give up.)"""
     action, *features = text.split()
     with Handover(robot) as handover:
-        future = robot.binder.submit(Request(action, tuple(features)), timeout=None)
+        future = robot.binder.submit(change(action, features), timeout=None)
         future.add_done_callback(lambda _: handover.handed.set())
         assert handover.handed.wait(HANG_GUARD), (
             f"{text}: the binder neither answered nor handed a change over"

@@ -26,7 +26,7 @@ from motivml.plugins import bridge as bridges
 from motivml.plugins.bridge import Bridge, Link, LinkBroken, socket_pairs
 from motivml.ros2 import door as doors
 from motivml.runtime.launch import launch
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import Set
 from motivml.runtime.session import Session
 
 ROS = importlib.util.find_spec("rclpy") is not None
@@ -294,7 +294,7 @@ def test_the_door_passes_on_changes_from_elsewhere_and_the_loop_health(
     monkeypatch.setattr(doors, "DIAGNOSTICS_PERIOD", 0.05)
     door = doors.start(running.robot, "/ward")
     try:
-        outcome = running.robot.binder.request(Request.set(["kartoslam"], ["hectorslam"]))
+        outcome = running.robot.binder.request(Set(("kartoslam",), ("hectorslam",)))
         assert outcome.accepted, outcome.reason
         until(lambda: any(m.get("event") == "outcome" for m in heard(door)), what="the news")
         health = until(lambda: [m for m in heard(door) if m.get("event") == "health"], what="the health")
@@ -382,7 +382,7 @@ def test_a_door_whose_bridge_dies_carries_on_without_it(running: Session, monkey
     door = doors.start(running.robot, "/ward")
     with pytest.raises(LinkBroken):
         door.bridge.call("die", 5.0)
-    outcome = running.robot.binder.request(Request.set(["kartoslam"], ["hectorslam"]))
+    outcome = running.robot.binder.request(Set(("kartoslam",), ("hectorslam",)))
     assert outcome.accepted, outcome.reason  # the news is lost, the change is not
     until(lambda: not door._health.is_alive(), what="the health reports to end")
     door.close()

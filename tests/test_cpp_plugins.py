@@ -18,7 +18,7 @@ from motivml.documents.robot_folder import Plugin
 from motivml.plugins.api import PluginContext
 from motivml.plugins.python import PluginError
 from motivml.runtime.launch import Robot, launch
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import Load
 
 ROOT = Path(__file__).resolve().parent.parent
 GESTURES = ROOT / "plugins" / "cpp" / "gestures"
@@ -247,7 +247,7 @@ def test_a_cpp_plugin_reads_and_writes_spaces(testing_library: Path, tmp_path: P
     robot = launch(cpp_robot(tmp_path, testing_library, {"x": "testing_plugins::Echo"}), "v")
     try:
         robot.runtime.send("In", [0.25, -1.5])
-        assert robot.binder.request_between_ticks(Request("load", ("x",))).accepted
+        assert robot.binder.request_between_ticks(Load(("x",))).accepted
         robot.runtime.run(0.003)
         assert robot.runtime.assembly.values["Out"].tolist() == [0.5, -3.0]
         assert robot.runtime.status().plugins == (("x", "3 echoes"),)
@@ -261,7 +261,7 @@ def test_a_cpp_start_that_throws_refuses_the_load_and_a_throwing_stop_is_noted(
 ) -> None:
     robot = launch(cpp_robot(tmp_path, testing_library, {"y": "testing_plugins::Broken"}), "v")
     try:
-        outcome = robot.binder.request_between_ticks(Request("load", ("y",)))
+        outcome = robot.binder.request_between_ticks(Load(("y",)))
         assert (
             not outcome.accepted and outcome.reason == "start() of plugin y failed: RuntimeError: no sensor"
         )
@@ -282,7 +282,7 @@ def test_a_cpp_step_that_throws_is_a_fault_that_unloads_its_feature(
     robot = launch(folder, "v")
     try:
         robot.binder.make_changes_between_ticks()  # as a simulated run does
-        assert robot.binder.request_between_ticks(Request("load", ("x",))).accepted
+        assert robot.binder.request_between_ticks(Load(("x",))).accepted
         robot.runtime.run(0.005)
         assert robot.runtime.ticks == 5 and robot.runtime.failure is None  # the loop went on
         assert [(f.feature, f.error) for f in robot.runtime.faults] == [("x", "IndexError: lost track")]

@@ -23,7 +23,7 @@ from motivml.documents.loader import parse as parse_json
 from motivml.language.formula import Binary, FormulaError, Not, Var, parse
 from motivml.language.reader import read_configuration, read_model
 from motivml.runtime.reconfigure import Reconfigurer, Refused
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import Load
 
 
 def shape(node: Any) -> str:
@@ -200,7 +200,7 @@ def test_the_run_time_holds_formulas_over_the_active_set() -> None:
     assert active == {"bot"}
     with Reconfigurer(variant, configuration) as reconfigurer:
         with pytest.raises(Refused) as refused:
-            reconfigurer.plan(active, Request("load", ("lidar",)))
+            reconfigurer.plan(active, Load(("lidar",)))
         (diagnostic,) = refused.value.diagnostics
         assert diagnostic.rule == "2.4"
         assert diagnostic.message == (
@@ -208,7 +208,7 @@ def test_the_run_time_holds_formulas_over_the_active_set() -> None:
             "inactive: at every moment the active set satisfies every formula of the model (rule 2.4, "
             "section 4)"
         )
-        plan = reconfigurer.plan(active, Request("load", ("lidar", "camera")))
+        plan = reconfigurer.plan(active, Load(("lidar", "camera")))
         assert set(plan.after) == {"bot", "lidar", "camera"}
 
 

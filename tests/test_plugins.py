@@ -233,9 +233,9 @@ def slam_robot(tmp_path: Path, code: str = SLAM_CODE) -> Path:
 
 def load(robot: Any, action: str, *features: str) -> Any:
     """A request made between two ticks, as the control thread makes it."""
-    from motivml.runtime.requests import Request
+    from motivml.runtime.requests import change
 
-    return robot.binder.request_between_ticks(Request(action, features))
+    return robot.binder.request_between_ticks(change(action, features))
 
 
 def test_a_failed_reload_leaves_the_running_plugin_and_its_module_as_they_were(tmp_path: Path) -> None:

@@ -18,7 +18,7 @@ from motivml.errors import repair_text
 from motivml.language.model import FeatureModel
 from motivml.language.reader import read_configuration, read_model
 from motivml.runtime.reconfigure import Plan, Reconfigurer, Refused
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import Load, Reload, Set, Swap, Unload, change
 from tests.test_property_sat import configurations, formula_texts, models
 
 ANY = {"time": "Any", "mode": "Any"}
@@ -71,10 +71,10 @@ def refused(robot: tuple[Reconfigurer, set[str]], *requests: str) -> Refused:
     reconfigurer, active = robot
     for text in requests[:-1]:
         action, *features = text.split()
-        active = set(reconfigurer.plan(active, Request(action, tuple(features))).after)
+        active = set(reconfigurer.plan(active, change(action, features)).after)
     action, *features = requests[-1].split()
     with pytest.raises(Refused) as refusal:
-        reconfigurer.plan(active, Request(action, tuple(features)))
+        reconfigurer.plan(active, change(action, features))
     return refusal.value
 
 
@@ -87,16 +87,16 @@ def refusal(robot: tuple[Reconfigurer, set[str]], *requests: str) -> str:
 def test_the_start_state_and_accepted_requests(robot: tuple[Reconfigurer, set[str]]) -> None:
     reconfigurer, active = robot
     assert active == {"bot", "base", "lidar"}
-    plan = reconfigurer.plan(active, Request("load", ("slam", "hector")))
+    plan = reconfigurer.plan(active, Load(("slam", "hector")))
     assert plan.loads == ("slam", "hector") and plan.unloads == ()
-    swap = reconfigurer.plan(plan.after, Request("swap", ("hector", "karto")))
+    swap = reconfigurer.plan(plan.after, Swap("hector", "karto"))
     assert swap.after == {"bot", "base", "lidar", "slam", "karto"}
-    camera = reconfigurer.plan(swap.after, Request("load", ("camera",)))
-    unit = reconfigurer.plan(camera.after, Request("load", ("gestures",)))
+    camera = reconfigurer.plan(swap.after, Load(("camera",)))
+    unit = reconfigurer.plan(camera.after, Load(("gestures",)))
     assert unit.loads == ("gestures", "hands")  # a Dynamic feature and its mandatory children
-    subtree = reconfigurer.plan(unit.after, Request("unload", ("slam",)))
+    subtree = reconfigurer.plan(unit.after, Unload(("slam",)))
     assert subtree.unloads == ("karto", "slam")  # children first
-    reload = reconfigurer.plan(subtree.after, Request("reload", ("lidar",)))
+    reload = reconfigurer.plan(subtree.after, Reload(("lidar",)))
     assert reload.after == subtree.after and reload.loads == reload.unloads == ("lidar",)
 
 
@@ -104,19 +104,19 @@ def test_the_start_state_and_accepted_requests(robot: tuple[Reconfigurer, set[st
 def test_a_set_request_loads_and_unloads_in_one_reconfiguration(robot: tuple[Reconfigurer, set[str]]) -> None:
     """What one ROS parameter call asks: features on and off together, checked as one."""
     reconfigurer, active = robot
-    slam = reconfigurer.plan(active, Request.set(["slam", "hector"], []))
-    both = reconfigurer.plan(slam.after, Request.set(["karto", "sonar"], ["hector", "lidar"]))
+    slam = reconfigurer.plan(active, Set(("slam", "hector"), ()))
+    both = reconfigurer.plan(slam.after, Set(("karto", "sonar"), ("hector", "lidar")))
     assert both.loads == ("karto", "sonar") and both.unloads == ("lidar", "hector")  # reverse definition order
     assert both.after == {"bot", "base", "slam", "karto", "sonar"}
     assert str(both.request) == "set +karto +sonar -hector -lidar"
     with pytest.raises(Refused) as xor:  # karto alone would leave slam's XOR group with two members
-        reconfigurer.plan(slam.after, Request.set(["karto"], []))
+        reconfigurer.plan(slam.after, Set(("karto",), ()))
     assert xor.value.breaks_relations
     with pytest.raises(Refused) as twice:
-        reconfigurer.plan(slam.after, Request.set(["karto"], ["karto"]))
+        reconfigurer.plan(slam.after, Set(("karto",), ("karto",)))
     assert twice.value.diagnostics[0].message == "karto cannot be loaded and unloaded in one request"
     with pytest.raises(Refused) as nothing:
-        reconfigurer.plan(slam.after, Request.set([], []))
+        reconfigurer.plan(slam.after, Set((), ()))
     assert nothing.value.diagnostics[0].rule == "reconfigure.usage"
 
 
@@ -176,7 +176,7 @@ def test_a_refusal_changes_nothing(robot: tuple[Reconfigurer, set[str]]) -> None
     reconfigurer, active = robot
     before = set(active)
     with pytest.raises(Refused):
-        reconfigurer.plan(active, Request("swap", ("lidar", "unused")))
+        reconfigurer.plan(active, Swap("lidar", "unused"))
     assert active == before
 
 
@@ -329,7 +329,7 @@ def test_any_request_sequence_matches_brute_force_and_stays_valid(data: st.DataO
                 continue
             expected = reference.apply(active, action, features)
             try:
-                plan: Plan | None = reconfigurer.plan(active, Request(action, features))
+                plan: Plan | None = reconfigurer.plan(active, change(action, features))
             except Refused as refused:
                 plan = None
                 assert_repairs_mend(reference, active, action, features, refused)
@@ -396,7 +396,7 @@ def test_every_refused_load_and_unload_gets_repairs_that_brute_force_accepts(raw
         for f in model.features[1:]:
             action = "unload" if f.id in active else "load"
             try:
-                reconfigurer.plan(active, Request(action, (f.id,)))
+                reconfigurer.plan(active, change(action, (f.id,)))
             except Refused as refused:
                 assert_repairs_mend(reference, active, action, (f.id,), refused)
                 mendable = refused.breaks_relations or refused.diagnostics[0].rule == "reconfigure.parent"

@@ -14,7 +14,7 @@ from motivml.plugins import registry
 from motivml.plugins.api import PluginContext
 from motivml.plugins.manifests import discover
 from motivml.runtime import launch as launching
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import Swap
 
 ROOT = Path(__file__).resolve().parent.parent
 SIMPLEBOT = ROOT / "feature_models" / "simplebot"
@@ -86,7 +86,7 @@ def test_a_registered_kind_loads_starts_swaps_and_closes_its_plugins(fake_kind: 
     try:
         assert fake_kind == ["loader for ['hectorslam', 'kartoslam', 'orbslam']", "start hectorslam"]
         assert robot.runtime.plugins["hectorslam"].instance.status() == "echoing"
-        outcome = robot.binder.request_between_ticks(Request("swap", ("hectorslam", "kartoslam")))
+        outcome = robot.binder.request_between_ticks(Swap("hectorslam", "kartoslam"))
         assert outcome.accepted
         assert fake_kind[-2:] == ["start kartoslam", "stop hectorslam"]
     finally:
@@ -98,7 +98,7 @@ def test_a_failed_start_is_discarded_by_its_loader_and_refused(fake_kind: list[s
     FakeLoader.failing = {"kartoslam"}
     robot = launching.launch(SIMPLEBOT, "field")
     try:
-        outcome = robot.binder.request_between_ticks(Request("swap", ("hectorslam", "kartoslam")))
+        outcome = robot.binder.request_between_ticks(Swap("hectorslam", "kartoslam"))
         assert not outcome.accepted and "start() of plugin kartoslam failed" in outcome.reason
         assert fake_kind[-2:] == ["start kartoslam", "discard kartoslam"]
         assert set(robot.runtime.plugins) == {"hectorslam"}

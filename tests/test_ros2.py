@@ -279,11 +279,11 @@ def test_a_killed_node_of_a_static_feature_stops_the_run(ward: Callable[..., Run
 def test_a_reload_restarts_the_node_and_keeps_the_active_set(ward: Callable[..., Running]) -> None:
     from lifecycle_msgs.msg import TransitionEvent
 
-    from motivml.runtime.requests import Request
+    from motivml.runtime.requests import Reload
 
     robot = ward()
     transitions = robot.client.subscribe(TransitionEvent, "/person_detection/transition_event")
-    outcome = robot.session.robot.binder.request(Request("reload", ("camera",)))
+    outcome = robot.session.robot.binder.request(Reload(("camera",)))
     assert outcome.accepted, outcome.reason
     assert robot.client.state("person_detection") == "active"
     def reached() -> list[str] | None:  # primary states the node reached (ids under 10)
@@ -311,10 +311,10 @@ def test_a_late_subscriber_gets_the_current_active_set(ward: Callable[..., Runni
 
 def test_a_change_through_ctl_reaches_the_parameters(ward: Callable[..., Running]) -> None:
     """One binder, two front doors: what another door changes, the node shows."""
-    from motivml.runtime.requests import Request
+    from motivml.runtime.requests import Swap
 
     robot = ward()
-    outcome = robot.session.robot.binder.request(Request("swap", ("camera", "thermal")))
+    outcome = robot.session.robot.binder.request(Swap("camera", "thermal"))
     assert outcome.accepted
     until(
         lambda: robot.client.parameters("camera", "thermal") == {"camera": False, "thermal": True},

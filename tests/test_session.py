@@ -10,7 +10,7 @@ import pytest
 
 from motivml.errors import EnvironmentProblem
 from motivml.runtime.launch import launch
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import Load, Swap
 from motivml.runtime.session import Session
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,8 +25,8 @@ def _run(session: Session) -> None:
 
 def test_scheduled_requests_are_answered_and_their_changes_reported_once() -> None:
     plan = [
-        (1.0, Request("swap", ("kartoslam", "hectorslam"))),
-        (0.5, Request("swap", ("hectorslam", "kartoslam"))),
+        (1.0, Swap("kartoslam", "hectorslam")),
+        (0.5, Swap("hectorslam", "kartoslam")),
     ]
     session = Session(launch(SIMPLEBOT, "field"), 2.0, "simulated", plan)
     _run(session)
@@ -43,7 +43,7 @@ def test_scheduled_requests_are_answered_and_their_changes_reported_once() -> No
 
 
 def test_a_refused_scheduled_request_changes_nothing() -> None:
-    session = Session(launch(SIMPLEBOT, "field"), 1.0, "simulated", [(0.1, Request("load", ("kartoslam",)))])
+    session = Session(launch(SIMPLEBOT, "field"), 1.0, "simulated", [(0.1, Load(("kartoslam",)))])
     _run(session)
     session.close()
     (answer,) = session.answers()

@@ -22,7 +22,7 @@ from motivml.errors import DocumentError
 from motivml.plugins.python import PluginError
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import RealClock
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import Load
 
 ROOT = Path(__file__).resolve().parent.parent
 DL = ("Late", "Dynamic")
@@ -294,7 +294,7 @@ def test_the_loop_keeps_ticking_while_a_plugin_prepares(
     loop = threading.Thread(target=runtime.run, args=(60.0, RealClock()))
     try:
         loop.start()
-        future = robot.binder.submit(Request("load", ("d",)), timeout=None)
+        future = robot.binder.submit(Load(("d",)), timeout=None)
         assert gate.started.wait(HANG_GUARD)  # d is being prepared, on the binder's thread
         target.append(runtime.ticks + 50)
         assert ticked.wait(HANG_GUARD)  # fifty ticks later...
@@ -729,7 +729,7 @@ def test_a_change_the_loop_does_not_take_in_time_is_withdrawn(tmp_path: Path) ->
     folder = lifecycle_robot(tmp_path, {"a": {}, "a2": {}}, entries=LATE_A2)
     robot = launch(folder, "v")
     try:
-        outcome = robot.binder.request(Request("load", ("a2",)), timeout=0.01)  # nothing ticks
+        outcome = robot.binder.request(Load(("a2",)), timeout=0.01)  # nothing ticks
         assert not outcome.accepted
         assert outcome.reason == "the control loop did not take the change within 0.01 s: nothing changed"
         assert [text for _, _, text in robot.runtime.notes[-2:]] == [
@@ -748,12 +748,12 @@ def test_between_ticks_a_request_from_another_thread_waits_for_the_control_threa
     robot = launch(folder, "v")
     try:
         robot.binder.make_changes_between_ticks()  # as a simulated run does
-        late = robot.binder.request(Request("load", ("a2",)), timeout=0.01)  # nothing ticks
+        late = robot.binder.request(Load(("a2",)), timeout=0.01)  # nothing ticks
         assert not late.accepted
         assert late.reason == "the control loop did not take the request within 0.01 s: nothing changed"
         robot.runtime.tick()
         assert robot.runtime.changes == [] and set(robot.runtime.plugins) == {"a"}  # it was taken back
-        future = robot.binder.submit(Request("load", ("a2",)))  # from the binder's thread, as the socket
+        future = robot.binder.submit(Load(("a2",)))  # from the binder's thread, as the socket
         for _ in range(1_000_000):
             if future.done():
                 break
@@ -775,7 +775,7 @@ def test_a_fault_whose_feature_already_left_the_loop_is_only_noted(tmp_path: Pat
     loop.start()
     try:
         assert both.wait(30)  # a and a2 raised in the same tick; a's unload takes a2 with it
-        barrier = robot.binder.submit(Request("load", ("nothing",)))  # after both fault handlers
+        barrier = robot.binder.submit(Load(("nothing",)))  # after both fault handlers
         assert not barrier.result(timeout=30).accepted
     finally:
         robot.runtime.stop()

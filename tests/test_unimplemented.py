@@ -12,7 +12,7 @@ from motivml.cli import main
 from motivml.language.reader import load_model
 from motivml.plugins.manifests import missing
 from motivml.runtime.launch import launch
-from motivml.runtime.requests import Request
+from motivml.runtime.requests import Load
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -68,7 +68,7 @@ def test_a_load_of_such_a_feature_is_accepted_with_a_warning_or_refused_with_str
     folder = hollow_robot(tmp_path)
     robot = launch(folder, "v")
     try:
-        outcome = robot.binder.request_between_ticks(Request("load", ("d",)))
+        outcome = robot.binder.request_between_ticks(Load(("d",)))
         assert outcome.accepted and [d.rule for d in outcome.diagnostics] == ["run.unimplemented"]
         assert "d is now active and Dynamic, but nothing implements it" in outcome.diagnostics[0].message
         assert robot.runtime.notes[-1][2] == "load d: nothing implements d: active as a feature only"
@@ -76,7 +76,7 @@ def test_a_load_of_such_a_feature_is_accepted_with_a_warning_or_refused_with_str
         robot.close()
     strict = launch(folder, "v", strict=True)
     try:
-        outcome = strict.binder.request_between_ticks(Request("load", ("d",)))
+        outcome = strict.binder.request_between_ticks(Load(("d",)))
         assert not outcome.accepted and "d would be active and Dynamic" in outcome.reason
         assert "d" not in strict.binder.active
     finally:

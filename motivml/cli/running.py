@@ -20,7 +20,7 @@ from rich.table import Table
 
 from ..binding import PREFERENCES
 from ..errors import EnvironmentProblem, Location, MotivmlError, error
-from ..runtime.requests import ACTIONS, Request
+from ..runtime.requests import VERBS, Event, Request, RequestError, parse
 from .common import (
     MAX_SECONDS,
     Number,
@@ -196,18 +196,16 @@ def run_command(
             keep_to_cpus(cpus)  # before any thread starts: every thread of the run inherits it
         except ValueError as exc:
             raise click.BadParameter(str(exc), param_hint="--cpus") from None
-    plan: list[tuple[float, Request]] = []
+    plan: list[tuple[float, Request | Event]] = []
     for at, text in scheduled:
-        action, *features = text.split() or [""]
-        if action == "event" and len(features) == 1:
-            plan.append((at, Request("event", (features[0],))))
-            continue
-        if action not in ACTIONS or not features or (action == "swap" and len(features) != 2):
+        verb, *words = text.split() or [""]
+        try:
+            plan.append((at, parse(verb, words)))
+        except RequestError as exc:
             raise click.BadParameter(
-                f"{text!r}: a request is load|unload|reload FEATURE..., swap OUT IN, or event NAME",
+                f"{text!r}: {exc}; a request is load|unload|reload FEATURE..., swap OUT IN, or event NAME",
                 param_hint="--at",
-            )
-        plan.append((at, Request(action, tuple(features))))
+            ) from None
     for at, request in plan:
         if not math.isfinite(at) or at >= duration:
             raise click.BadParameter(
@@ -297,7 +295,7 @@ def run_command(
         session.doors.append(door.close)
         out.print(f"ROS 2: node {escape(door.name)} (features.<id>.active parameters)")
     coordinator = session.coordinator
-    if coordinator is None and any(request.action == "event" for _, request in plan):
+    if coordinator is None and any(isinstance(request, Event) for _, request in plan):
         session.close()
         raise click.BadParameter(
             "events go to a coordination statechart, and this robot has none", param_hint="--at"
@@ -523,15 +521,14 @@ def ctl_command(
     assert target is not None and variant is not None and op is not None
     if op in ("status", "dump") and features:
         raise click.UsageError(f"{op} takes no features")
-    if op not in ("status", "dump") and not features:
-        raise click.UsageError(f"{op} needs at least one feature")
-    if op == "swap" and len(features) != 2:
-        raise click.UsageError("swap needs two features: the one to unload, then the one to load")
-    if op == "event" and len(features) != 1:
-        raise click.UsageError("event needs one name")
+    if op not in ("status", "dump"):
+        try:
+            parse(op, features)
+        except RequestError as exc:
+            raise click.UsageError(str(exc)) from None
     folder = Path(run_dir) if run_dir else Path("build") / Path(target).resolve().name / variant / "run"
     address = None if run_dir else _registered(target, variant)
-    change = op in ACTIONS  # answered once committed or refused: waited for, however long
+    change = op in VERBS  # answered once committed or refused: waited for, however long
     try:
         answer = send(
             folder,

@@ -6,7 +6,7 @@ holds rclpy: see `motivml.plugins.bridge`). This side, in the run's process, hol
 * it tells the bridge what the node shows (the selected features, their bindings, the
   active set), and starts the node;
 * it answers the node's `set` calls (one `set_parameters(_atomically)` call: the features
-  wanted on and off) with one `Request.set` to the binder, on the link's reading thread;
+  wanted on and off) with one `Set` request to the binder, on the link's reading thread;
 * it tells the node every outcome of the binder (`Binder.watchers`: ctl's changes and a
   fault's unloads too), and, once a second, the loop's health for `/diagnostics`.
 """
@@ -23,7 +23,7 @@ from ..plugins.bridge import Bridge, LinkBroken
 from ..plugins.ros2 import ros2_missing
 from ..runtime.binder import Outcome
 from ..runtime.launch import Robot
-from ..runtime.requests import Request
+from ..runtime.requests import Set
 
 DIAGNOSTICS_PERIOD = 1.0  # s
 MISSED_WARNING = 0.01  # the loop's status is WARN when more than this share of its deadlines were missed
@@ -105,7 +105,7 @@ class Door:
         loads = [f for f, on in wanted.items() if on and f not in active]
         unloads = [f for f, on in wanted.items() if not on and f in active]
         if loads or unloads:
-            outcome = self.binder.request(Request.set(loads, unloads), timeout=self.timeout)
+            outcome = self.binder.request(Set(tuple(loads), tuple(unloads)), timeout=self.timeout)
             if not outcome.accepted:
                 return {"accepted": False, "reason": outcome.reason}
         told, now = self._told  # (this request's own outcome among them)

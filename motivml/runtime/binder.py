@@ -42,7 +42,7 @@ from ..plugins.python import PluginError, plugin_error
 from ..plugins.registry import loaders
 from .loop import AppliedReconfiguration, Commit, Fault, Running, Runtime
 from .reconfigure import Plan, Reconfigurer, Refused
-from .requests import Request
+from .requests import Reload, Request, Unload
 
 
 @dataclass
@@ -415,7 +415,7 @@ class Binder:
         moved = set(plan.loads) | set(plan.unloads)
         if self.architecture is not None and moved & self._bring_elements:
             assembly, _ = build(self.architecture, set(plan.after), self.runtime.rate, self.runtime.assembly)
-        reload = plan.request.action == "reload"
+        reload = isinstance(plan.request, Reload)
         add: dict[str, Running] = {}
         preparing = Preparing(assembly)
         try:
@@ -465,7 +465,7 @@ class Binder:
         while node is not None:
             feature = model.features[node].id
             if feature in self.active and not self.static[feature]:
-                request = Request("unload", (feature,), cause=f"after the fault of {fault.feature}")
+                request = Unload((feature,), cause=f"after the fault of {fault.feature}")
                 self._trying.now = True  # a refused try is not news: only the outcome below is
                 try:
                     outcome = self.request_between_ticks(request) if self.between_ticks else self.request(request)

@@ -28,9 +28,10 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import EnvironmentProblem, Location, error
+from . import requests
 from .binder import Binder
 from .loop import Runtime
-from .requests import ACTIONS, Request
+from .requests import VERBS, RequestError
 
 SOCKET = "control.sock"
 LINE_LIMIT = 1 << 16  # bytes per request line
@@ -172,17 +173,19 @@ class ControlServer:
             self.coordinator.event(name)
             self.runtime.note(f"event {name} (from the control socket)")
             return {"ok": True, "op": op, "name": name}
-        if op not in ACTIONS:
+        if op not in VERBS:
             return {
                 "ok": False,
-                "error": f"unknown op {op!r} (ops: {', '.join((*ACTIONS, 'status', 'dump'))})",
+                "error": f"unknown op {op!r} (ops: {', '.join((*VERBS, 'event', 'status', 'dump'))})",
             }
         features = request.get("features")
         if not isinstance(features, list) or not features or not all(isinstance(f, str) for f in features):
             return {"ok": False, "error": f'{op} needs "features": a non-empty list of feature ids'}
-        if op == "swap" and len(features) != 2:
-            return {"ok": False, "error": "swap needs two features: the one to unload, then the one to load"}
-        outcome = self.binder.request(Request(op, tuple(features)))
+        try:
+            asked = requests.change(op, features)
+        except RequestError as exc:
+            return {"ok": False, "error": str(exc)}
+        outcome = self.binder.request(asked)
         answer: dict[str, Any] = {"ok": True, "op": op, "features": features, "accepted": outcome.accepted}
         if outcome.accepted and outcome.change is not None:
             change = outcome.change

@@ -22,9 +22,9 @@ from sismic.model import BasicState, CompoundState, FinalState, Statechart, Tran
 from ..architecture.builder import ComponentInstance
 from ..coordination.document import Coordination
 from ..errors import describe_exception
+from . import requests
 from .binder import Binder
 from .loop import Runtime
-from .requests import Request
 
 ROOT = "motivml.root"  # the hidden root state (no state id has a dot)
 MAX_STEPS = 1000  # per advance: a chart that takes more does not settle
@@ -153,7 +153,11 @@ class Coordinator:
             c.running, c.contribution = False, None
 
         def reconfigure(action: str, features: list[str]) -> None:
-            request = Request(action, tuple(features))
+            try:
+                request = requests.change(action, features)
+            except requests.RequestError as exc:  # (the document's check admits none of these)
+                runtime.note(f"coordination: {action} {' '.join(features)}: {exc}")
+                return
             if self.simulated:
                 outcome = self.binder.request_between_ticks(request)
                 verdict = "accepted" if outcome.accepted else f"refused: {outcome.reason}"

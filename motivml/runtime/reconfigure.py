@@ -32,7 +32,8 @@ from ..binding.repair import request_corrections
 from ..binding.resolve import Variant
 from ..errors import Change, Diagnostic, Location, MotivmlError, Repair, error
 from ..language.model import Configuration
-from .requests import ACTIONS, Request
+from . import requests
+from .requests import Request
 
 
 class Refused(MotivmlError):
@@ -92,17 +93,8 @@ class Reconfigurer:
         `repairs`) how the request could change to be accepted, where moving other features
         would help (reference.md section 6)."""
         root = self.explainer.model_location(0)
-        if request.action not in (*ACTIONS, "set"):
-            raise Refused(
-                error(
-                    root,
-                    f"unknown action {request.action!r} (actions: {', '.join(ACTIONS)})",
-                    "reconfigure.usage",
-                )
-            )
-        wanted = 2 if request.action == "swap" else None
-        named = request.features + request.unloading
-        if not named or (wanted is not None and len(request.features) != wanted):
+        named = requests.named(request)
+        if not named:
             raise Refused(
                 error(
                     root,
@@ -121,20 +113,22 @@ class Reconfigurer:
                         "reconfigure.unknown",
                     )
                 )
-        features = tuple(dict.fromkeys(request.features))  # a feature named twice counts once
-        if request.action == "swap" and len(features) != 2:
+        if isinstance(request, requests.Swap) and request.out == request.into:
             raise Refused(
                 error(root, "swap takes two different features (out, then in)", "reconfigure.usage")
             )
-        unloading = tuple(dict.fromkeys(request.unloading))
-        both = [f for f in features if f in unloading]
-        if both:
-            raise self._refuse(
-                both[0], f"{both[0]} cannot be loaded and unloaded in one request", "reconfigure.usage"
-            )
-        request = Request(request.action, features, unloading, request.cause)
+        # (a feature named twice counts once)
+        if isinstance(request, requests.Set):
+            request = replace(request, loads=tuple(dict.fromkeys(request.loads)), unloads=tuple(dict.fromkeys(request.unloads)))
+            both = [f for f in request.loads if f in request.unloads]
+            if both:
+                raise self._refuse(
+                    both[0], f"{both[0]} cannot be loaded and unloaded in one request", "reconfigure.usage"
+                )
+        elif not isinstance(request, requests.Swap):
+            request = replace(request, features=tuple(dict.fromkeys(request.features)))
         before = frozenset(active)
-        if request.action == "reload":
+        if isinstance(request, requests.Reload):
             for feature in request.features:
                 self._check_unload(feature, before, "reload")
             return Plan(
@@ -146,13 +140,12 @@ class Reconfigurer:
             )
         to_unload: set[str] = set()
         to_load: set[str] = set()
-        outs = {"unload": request.features, "swap": request.features[:1], "set": request.unloading}
-        ins = {"load": request.features, "swap": request.features[1:], "set": request.features}
-        for feature in outs.get(request.action, ()):
+        outs, ins = _moves(request)
+        for feature in outs:
             self._check_unload(feature, before, "unload")
             subtree = {self.model.features[i].id for i in self.model.subtree(self.model.index[feature])}
             to_unload |= subtree & before
-        for feature in ins.get(request.action, ()):
+        for feature in ins:
             self._check_load(feature, before - to_unload)
             to_load |= self._unit(feature)
         after = (before - to_unload) | to_load
@@ -295,3 +288,16 @@ class Reconfigurer:
         self, kind: type[BaseException] | None, value: BaseException | None, tb: TracebackType | None
     ) -> None:
         self.close()
+
+
+def _moves(request: Request) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(the features a request unloads, those it loads), as it names them."""
+    if isinstance(request, requests.Swap):
+        return (request.out,), (request.into,)
+    if isinstance(request, requests.Set):
+        return request.unloads, request.loads
+    if isinstance(request, requests.Unload):
+        return request.features, ()
+    if isinstance(request, requests.Load):
+        return (), request.features
+    return (), ()  # (Reload: planned above)

@@ -1,29 +1,137 @@
-"""What a client may ask of a running robot: plain data, cheap to import (the CLI parses with it)."""
+"""What a client may ask of a running robot: plain data, cheap to import (the CLI parses with it).
+
+A request is one of five small values, each saying what it moves: `Load`, `Unload` and
+`Reload` name features, `Swap` the one to unload and the one to load, `Set` the ones to load
+and the ones to unload in one reconfiguration (the ROS 2 node's parameters). An `Event` goes
+to the coordination statechart and is kept apart: it changes no feature itself.
+
+Every door parses with `parse`: `run --at`, `motivml ctl`, the control socket and the
+statechart's actions, so a request means the same and is refused in the same words
+wherever it comes from. (The ROS 2 node builds its `Set` directly: its parameters are
+already features and values.)
+"""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypeAlias
 
-ACTIONS = ("load", "unload", "reload", "swap")  # the verbs of `run --at` and `motivml ctl`
+VERBS = ("load", "unload", "reload", "swap")  # the requests of `run --at` and `motivml ctl` that move features
+
+
+class RequestError(ValueError):
+    """A request that is not one: its message says what a request of that verb takes."""
 
 
 @dataclass(frozen=True)
-class Request:
-    action: str  # load | unload | reload | swap | set
-    features: tuple[str, ...]  # swap: (the one to unload, the one to load); set: the ones to load
-    unloading: tuple[str, ...] = ()  # set: the ones to unload
+class Load:
+    """Load these features (each with its selected mandatory sub-features)."""
+
+    features: tuple[str, ...]
     cause: str = ""  # why the run asked it itself (a fault), shown after the request
 
-    @staticmethod
-    def set(loads: Iterable[str], unloads: Iterable[str]) -> Request:
-        """Load some features and unload others in one reconfiguration (the ROS 2 node's
-        parameters: one call setting `features.<id>.active`, true or false, is one of these)."""
-        return Request("set", tuple(loads), tuple(unloads))
+    def __str__(self) -> str:
+        return _said(f"load {' '.join(self.features)}", self.cause)
+
+
+@dataclass(frozen=True)
+class Unload:
+    """Unload these features (each with its subtree)."""
+
+    features: tuple[str, ...]
+    cause: str = ""
 
     def __str__(self) -> str:
-        if self.action == "set":
-            text = " ".join(["set", *(f"+{f}" for f in self.features), *(f"-{f}" for f in self.unloading)])
-        else:
-            text = f"{self.action} {' '.join(self.features)}"
-        return f"{text} ({self.cause})" if self.cause else text
+        return _said(f"unload {' '.join(self.features)}", self.cause)
+
+
+@dataclass(frozen=True)
+class Reload:
+    """Unload these features and load them again, their new implementations if changed."""
+
+    features: tuple[str, ...]
+    cause: str = ""
+
+    def __str__(self) -> str:
+        return _said(f"reload {' '.join(self.features)}", self.cause)
+
+
+@dataclass(frozen=True)
+class Swap:
+    """Unload one feature and load another in one reconfiguration (run-time alternatives)."""
+
+    out: str
+    into: str
+    cause: str = ""
+
+    def __str__(self) -> str:
+        return _said(f"swap {self.out} {self.into}", self.cause)
+
+
+@dataclass(frozen=True)
+class Set:
+    """Load some features and unload others in one reconfiguration (the ROS 2 node's
+    parameters: one call setting `features.<id>.active`, true or false, is one of these)."""
+
+    loads: tuple[str, ...]
+    unloads: tuple[str, ...] = ()
+    cause: str = ""
+
+    def __str__(self) -> str:
+        text = " ".join(["set", *(f"+{f}" for f in self.loads), *(f"-{f}" for f in self.unloads)])
+        return _said(text, self.cause)
+
+
+Request: TypeAlias = Load | Unload | Reload | Swap | Set
+
+
+@dataclass(frozen=True)
+class Event:
+    """An event to the coordination statechart."""
+
+    name: str
+
+    def __str__(self) -> str:
+        return f"event {self.name}"
+
+
+def parse(verb: str, words: Sequence[str]) -> Request | Event:
+    """The request `verb words...` (as `run --at` and `motivml ctl` write it); RequestError
+    says what is wrong with it."""
+    if verb == "event":
+        if len(words) != 1:
+            raise RequestError("event needs one name")
+        return Event(words[0])
+    if verb not in VERBS:
+        raise RequestError(f"unknown request {verb!r} (requests: {', '.join((*VERBS, 'event'))})")
+    if verb == "swap":
+        if len(words) != 2:
+            raise RequestError("swap needs two features: the one to unload, then the one to load")
+        return Swap(words[0], words[1])
+    if not words:
+        raise RequestError(f"{verb} needs at least one feature")
+    if verb == "load":
+        return Load(tuple(words))
+    return Unload(tuple(words)) if verb == "unload" else Reload(tuple(words))
+
+
+def change(verb: str, words: Sequence[str]) -> Request:
+    """`parse` of a request that moves features (not an event)."""
+    request = parse(verb, words)
+    if isinstance(request, Event):
+        raise RequestError(f"unknown request {verb!r} (requests: {', '.join(VERBS)})")
+    return request
+
+
+def named(request: Request) -> tuple[str, ...]:
+    """Every feature the request names, in its order."""
+    if isinstance(request, Swap):
+        return (request.out, request.into)
+    if isinstance(request, Set):
+        return request.loads + request.unloads
+    return request.features
+
+
+def _said(text: str, cause: str) -> str:
+    return f"{text} ({cause})" if cause else text

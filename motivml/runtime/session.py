@@ -48,7 +48,7 @@ from .loop import (
     Snapshot,
 )
 from .record import Recorder, columns
-from .requests import Request
+from .requests import Event, Request
 from .runs import Run, register, unregister
 
 EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by SIGINT
@@ -114,7 +114,7 @@ class Session:
         robot: Robot,
         duration: float,
         clock: str,
-        plan: Sequence[tuple[float, Request]] = (),
+        plan: Sequence[tuple[float, Request | Event]] = (),
         run_dir: Path | None = None,
         on_stuck: Callable[[], None] = _exit_now,
         variant: str | None = None,
@@ -275,10 +275,10 @@ class Session:
         """Each tick, on the control thread: make the requests that are due; True ends the run."""
         while self.plan and rt.time >= self.plan[0][0] - 1e-12:
             _, request = self.plan.pop(0)
-            if request.action == "event":
+            if isinstance(request, Event):
                 assert self.coordinator is not None
-                self.coordinator.event(request.features[0])
-                rt.note(f"event {request.features[0]}")
+                self.coordinator.event(request.name)
+                rt.note(f"event {request.name}")
             elif self.simulated:  # deterministic: committed right here, between two ticks
                 self._answers.append(
                     (rt.time, rt.ticks, request, self.robot.binder.request_between_ticks(request))
