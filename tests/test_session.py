@@ -11,7 +11,7 @@ import pytest
 from motivml.errors import EnvironmentProblem
 from motivml.runtime.launch import launch
 from motivml.runtime.requests import Load, Swap
-from motivml.runtime.session import Session
+from motivml.runtime.session import End, Session
 
 ROOT = Path(__file__).resolve().parent.parent
 SIMPLEBOT = ROOT / "feature_models" / "simplebot"
@@ -49,6 +49,28 @@ def test_a_refused_scheduled_request_changes_nothing() -> None:
     (answer,) = session.answers()
     assert not answer.outcome.accepted and answer.outcome.diagnostics
     assert session.new_changes() == []
+
+
+def test_how_a_run_ended_gives_its_record_row_and_its_exit_code() -> None:
+    """One `End` says how the run ended; the exit code follows from it and from what went
+    wrong on the way (checked here by setting what a signal or a failed stop() would)."""
+    import signal
+
+    session = Session(launch(SIMPLEBOT, "field"), 0.1, "simulated")
+    _run(session)
+    session.close()
+    assert session.end() is End.ELAPSED and session._ending() == "its duration elapsed"
+    assert session.exit_code() == 0
+    session.stopped_by = signal.SIGTERM  # a service manager's stop: a normal end
+    assert session.end() is End.SIGNALLED and session._ending() == "stopped by SIGTERM"
+    assert session.exit_code() == 0
+    session.stopped_by = signal.SIGINT
+    assert session.exit_code() == 130
+    session.stopped_by = None
+    session.robot.binder.failed_stops.append("kartoslam")
+    assert session.end() is End.ELAPSED and session.exit_code() == 1
+    session.stats = None
+    assert session.end() is End.NO_RESULT and session.exit_code() == 3
 
 
 def test_the_feed_reads_tick_time_and_rate() -> None:

@@ -320,7 +320,7 @@ def run_command(
     if session.stats is None:
         out.print("[bold red]the run ended without a result[/]")
         session.close()  # the plugins stopped, and the record (if any) completed
-        sys.exit(3)
+        sys.exit(session.exit_code())
     for answer in session.answers():
         verdict = "accepted" if answer.outcome.accepted else "refused, nothing changed"
         out.print(escape(f"request at {answer.time:.3f} s (tick {answer.tick}): {answer.request}: {verdict}"))
@@ -356,15 +356,7 @@ def run_command(
             err.print(f"[bold red]{escape(str(d.location))}[/]: {escape(d.message)}")
     elif recorder is not None and session.recorded is not None:
         out.print(f"recorded {plural(session.recorded, 'tick')} in {escape(str(recorder.path))}")
-    sys.exit(
-        EXIT_INTERRUPTED
-        if session.stopped_by == signal.SIGINT
-        else 1
-        if diverged or runtime.failure is not None or session.unsettled or failed_stops
-        else 3
-        if session.record_problem is not None
-        else 0  # a run stopped by SIGTERM (a service manager's stop) ended normally
-    )
+    sys.exit(session.exit_code())
 
 
 def _recorder(record: str | None) -> Recorder | None:

@@ -23,6 +23,7 @@ the exit code from the session's verdict. Everything with threads or signals is 
 
 from __future__ import annotations
 
+import enum
 import os
 import signal
 import threading
@@ -53,6 +54,20 @@ from .runs import Run, register, unregister
 
 EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by SIGINT
 SIGNALS = (signal.SIGINT, signal.SIGTERM)  # each ends the run cleanly
+
+
+class End(enum.Enum):
+    """How a run ended, the first that holds of these in this order: the record's last event
+    says it (`Session.ending`), and with what went wrong on the way it gives the exit code
+    (`Session.exit_code`)."""
+
+    SIGNALLED = "signalled"  # SIGINT (Ctrl-C) or SIGTERM (a service manager's stop)
+    FAILED = "failed"  # a feature's step raised
+    FINISHED = "finished"  # the coordination reached a final state
+    COORDINATION_STOPPED = "coordination stopped"  # the coordination could not go on
+    NO_RESULT = "no result"  # the loop ended without its statistics
+    STOPPED = "stopped"  # asked to stop (the control socket, a test)
+    ELAPSED = "elapsed"  # its duration elapsed
 
 
 def keep_to_cpus(text: str) -> frozenset[int]:
@@ -242,25 +257,61 @@ class Session:
         except MotivmlError as exc:
             self.record_problem = exc
 
-    def _ending(self) -> str:
-        """Why the run ended, in a few words (the record's last event)."""
+    def end(self) -> End:
+        """How the run ended (once it has)."""
         runtime, coordinator = self.runtime, self.coordinator
         if self.stopped_by is not None:
+            return End.SIGNALLED
+        if runtime.failure is not None:
+            return End.FAILED
+        if coordinator is not None and coordinator.finished is not None:
+            return End.FINISHED
+        if coordinator is not None and coordinator.unsettled:
+            return End.COORDINATION_STOPPED
+        if self.stats is None:
+            return End.NO_RESULT
+        return End.STOPPED if runtime.stop_requested.is_set() else End.ELAPSED
+
+    def _ending(self) -> str:
+        """How the run ended, in a few words (the record's last event)."""
+        end, runtime = self.end(), self.runtime
+        if end is End.SIGNALLED:
+            assert self.stopped_by is not None
             why = f"stopped by {signal.Signals(self.stopped_by).name}"
-        elif runtime.failure is not None:
+        elif end is End.FAILED:
+            assert runtime.failure is not None
             why = f"{runtime.failure.feature} failed: the run stopped"
-        elif coordinator is not None and coordinator.finished is not None:
-            why = f"the coordination reached its final state {coordinator.finished[2]}"
-        elif coordinator is not None and coordinator.unsettled:
-            why = "the coordination stopped the run"
-        elif self.stats is None:
-            why = "the loop ended without a result"
-        elif runtime.stop_requested.is_set():
-            why = "stopped"
+        elif end is End.FINISHED:
+            assert self.coordinator is not None and self.coordinator.finished is not None
+            why = f"the coordination reached its final state {self.coordinator.finished[2]}"
         else:
-            why = "its duration elapsed"
+            why = {
+                End.COORDINATION_STOPPED: "the coordination stopped the run",
+                End.NO_RESULT: "the loop ended without a result",
+                End.STOPPED: "stopped",
+                End.ELAPSED: "its duration elapsed",
+            }[end]
         diverged = runtime.diverged()
         return why + (f"; {', '.join(diverged)} diverged" if diverged else "")
+
+    def exit_code(self) -> int:
+        """The run's exit code, once it is closed: 3 without a result, 130 after Ctrl-C, 1
+        when a feature failed, the coordination could not go on, a system diverged or a
+        plugin's stop() raised, 3 when the record could not be completed, else 0 (a run
+        stopped by SIGTERM, a service manager's stop, ended normally)."""
+        end = self.end()
+        if self.stats is None:
+            return 3
+        if end is End.SIGNALLED and self.stopped_by == signal.SIGINT:
+            return EXIT_INTERRUPTED
+        if (
+            self.runtime.diverged()
+            or self.runtime.failure is not None
+            or self.unsettled
+            or self.robot.binder.failed_stops
+        ):
+            return 1
+        return 3 if self.record_problem is not None else 0
 
     def _interrupt(self, signum: int, frame: FrameType | None) -> None:
         if self.interrupted.is_set():  # a second signal: the loop is stuck (a plugin that never returns)
