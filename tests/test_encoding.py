@@ -131,3 +131,26 @@ def test_recorded_clauses_read_back_as_they_were_made() -> None:
         clauses[4]
     literals, lengths = clauses.arrays()
     assert literals.tolist() == [1, -2, 3, -4, 5, 6] and lengths.tolist() == [2, 1, 0, 3]
+
+
+@pytest.mark.parametrize("members", [40, 4000])  # (the second: hinted in numpy, over VECTOR_FROM // 8 literals)
+def test_a_hint_selects_one_member_of_each_large_xor_group_at_most(
+    monkeypatch: pytest.MonkeyPatch, members: int
+) -> None:
+    from helpers import model_of
+
+    leaves = [{"id": f"{g}m{k}", "name": "M", "group": "XOR", "isMandatory": False} for g in "ab" for k in range(members)]
+    a = {"id": "a", "name": "A", "isMandatory": False, "sub": leaves[:members]}
+    b = {"id": "b", "name": "B", "isMandatory": False, "sub": leaves[members:]}
+    small = [{"id": f"c{k}", "name": "C", "group": "XOR", "isMandatory": False} for k in range(3)]
+    model = model_of({"id": "r", "name": "R", "sub": [a, b, {"id": "c", "name": "C", "isMandatory": False, "sub": small}]})
+    with enc.Encoding(model) as encoding:
+        told: list[list[int]] = []
+        monkeypatch.setattr(encoding.solver, "set_phases", lambda literals: told.append(list(literals)))
+        everything = [encoding.s(i) for i in range(len(model.features))]
+        encoding.hint([-everything[0], *everything[1:]])
+        (hinted,) = told
+        selected = {model.features[abs(literal) // 4].id for literal in hinted if literal > 0}
+    # the first member of each large group, every feature that is not one, the small group whole
+    assert selected == {"a", "b", "am0", "bm0", "c", "c0", "c1", "c2"}
+    assert len(hinted) == len(model.features) and hinted[0] < 0

@@ -584,6 +584,7 @@ class Encoding:
         self._model_by_literal: dict[int, int] | None = None  # (see _by_literal)
         self.work = Work()  # what `cover` did
         self._xor_member: dict[int, int] | None = None  # s(member) -> its XOR group (`hint`)
+        self._xor_group_of: Any = None  # the same as a numpy table by variable (`_hint_in_numpy`)
         self._unhinted: list[int] | None = None  # (`unhint`)
         self.solver_name = solver
         # The clauses go to the solver FLUSH_EVERY at a time while they are made: held all
@@ -1100,6 +1101,11 @@ class Encoding:
             self.solver.set_phases(literals)
             self.work.phases += len(literals)
             return
+        if not isinstance(literals, (list, array)):
+            literals = list(literals)
+        if len(literals) >= VECTOR_FROM // 8:
+            self._hint_in_numpy(literals)
+            return
         hinted: set[int] = set()
         out: list[int] = []
         for literal in literals:
@@ -1112,6 +1118,28 @@ class Encoding:
             out.append(literal)
         self.solver.set_phases(out)
         self.work.phases += len(out)
+
+    def _hint_in_numpy(self, literals: Sequence[int]) -> None:
+        """`hint`'s rule over many literals at once (the wide family's 32 hints of 40,000
+        literals each took 0.07 s of a 0.8 s `analyse`, one dict lookup per literal)."""
+        import numpy as np  # lazy: only large models get here
+
+        values = np.asarray(literals, dtype=np.int64)
+        highest = int(np.abs(values).max())
+        if self._xor_group_of is None or len(self._xor_group_of) <= highest:  # variable -> its large XOR group, or -1
+            assert self._xor_member is not None
+            table = np.full(max(self._top, highest) + 1, -1, dtype=np.int64)
+            table[np.fromiter(self._xor_member, dtype=np.int64)] = np.fromiter(self._xor_member.values(), dtype=np.int64)
+            self._xor_group_of = table
+        groups = np.where(values > 0, self._xor_group_of[np.abs(values)], -1)
+        at = np.flatnonzero(groups >= 0)  # selected members of large groups, in order
+        if len(at):
+            _, first = np.unique(groups[at], return_index=True)
+            later = np.ones(len(at), dtype=bool)
+            later[first] = False
+            values[at[later]] = -values[at[later]]  # all but each group's first: deselected
+        self.solver.set_phases(values.tolist())
+        self.work.phases += len(values)
 
     def cover(
         self,
