@@ -507,18 +507,64 @@ def test_an_unreadable_plugin_folder_exits_3_with_the_path(monkeypatch: pytest.M
     assert code == 3 and "plugins/python: cannot read: Permission denied" in output, output
 
 
-@pytest.mark.skipif(os.geteuid() == 0, reason="root reads a folder at mode 000")
-def test_a_robot_folder_at_mode_000_exits_3(tmp_path: Path) -> None:
-    import shutil
+UNREADABLE_COMMANDS = [
+    ["validate", "{bot}"],
+    ["configure", "{bot}", "--variant", "field", "-o", "{out}"],
+    ["analyse", "{bot}"],
+    ["show", "{bot}"],
+    ["run", "{bot}", "--variant", "field", "--duration", "0.1", "--clock", "simulated", "--no-live", "--no-control"],
+    ["export", "uvl", "{bot}", "-o", "{out}.uvl"],
+    ["sample", "{bot}", "-o", "{out}"],
+    ["graph", "{bot}", "-o", "{out}"],
+    ["diff", "{bot}", "field", "lab"],
+]
 
-    folder = tmp_path / "bot"
-    shutil.copytree(SIMPLEBOT, folder)
-    folder.chmod(0)
+
+def test_a_robot_folder_at_mode_000_exits_3_for_every_command() -> None:
+    """Issue 31: click refused an unreadable TARGET itself ("is not readable", exit 2); the
+    documented code for the environment is 3, with the path. Root reads anything, so as root
+    the commands run in a child that has become `nobody` (after running each command once
+    on a readable copy: the child cannot read Python's own modules under /root either)."""
+    import json
+    import shutil
+    import tempfile
+
+    top = Path(tempfile.mkdtemp())
     try:
-        code, output = run("validate", str(folder))
+        top.chmod(0o755)
+        shutil.copytree(SIMPLEBOT, top / "warm")
+        shutil.copytree(SIMPLEBOT, top / "bot")
+        (top / "bot").chmod(0)
+
+        def commands(bot: str, out: str) -> list[list[str]]:
+            return [[word.format(bot=top / bot, out=top / out) for word in c] for c in UNREADABLE_COMMANDS]
+
+        if os.geteuid() != 0:
+            results = [(run(*c)) for c in commands("bot", "out")]
+        else:
+            for c in commands("warm", "warm-out"):
+                run(*c)
+            read, write = os.pipe()
+            pid = os.fork()
+            if pid == 0:  # pragma: no cover (the child)
+                try:
+                    os.close(read)
+                    os.setgid(65534)
+                    os.setuid(65534)
+                    os.write(write, json.dumps([run(*c) for c in commands("bot", "out")]).encode())
+                finally:
+                    os._exit(0)
+            os.close(write)
+            with os.fdopen(read, "rb") as answers:
+                results = json.loads(answers.read() or b"[]")
+            os.waitpid(pid, 0)
+        assert len(results) == len(UNREADABLE_COMMANDS)
+        for c, (code, output) in zip(UNREADABLE_COMMANDS, results, strict=True):
+            assert code == 3, (c, output)
+            assert "Permission denied" in output and "Traceback" not in output, (c, output)
     finally:
-        folder.chmod(0o755)
-    assert code == 3 and "Permission denied" in output
+        (top / "bot").chmod(0o755)
+        shutil.rmtree(top)
 
 
 def test_a_learner_above_the_size_bound_is_warned_about_located(tmp_path: Path) -> None:

@@ -28,7 +28,7 @@ MAX_COUNT_SECONDS = 1e6  # the longest wait for a count that the system's poll t
 
 
 @click.command("analyse")
-@click.argument("target", default=".", type=click.Path())
+@click.argument("target", default=".", type=click.Path(readable=False))
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @click.option("--no-counts", is_flag=True, help="Leave out the selection and variant counts.")
 @click.option(
@@ -174,10 +174,10 @@ class _Bar:
 
 
 @click.command("sample")
-@click.argument("target", default=".", type=click.Path())
+@click.argument("target", default=".", type=click.Path(readable=False))
 @click.option("--t", "t", type=click.IntRange(1, 3), default=2, show_default=True, help="Cover every combination of t feature values.")
 @click.option("--bindings", is_flag=True, help="A selected feature's values are also Early, Late, Static and Dynamic.")
-@click.option("-o", "--output", required=True, type=click.Path(file_okay=False), help="Folder for the sample's decisions files.")
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False, readable=False), help="Folder for the sample's decisions files.")
 def sample_command(target: str, t: int, bindings: bool, output: str) -> None:
     """Write a t-wise sample: a few valid variants such that every valid combination of t
     feature values (selected or not; with --bindings, also each time and mode) is in one.

@@ -30,9 +30,9 @@ if TYPE_CHECKING:
 
 
 @click.command("validate")
-@click.argument("target", default=".", type=click.Path())
+@click.argument("target", default=".", type=click.Path(readable=False))
 @click.option(
-    "--config", "config", type=click.Path(), help="A configuration file to check against the model."
+    "--config", "config", type=click.Path(readable=False), help="A configuration file to check against the model."
 )
 @click.option("--variant", help="A variant of the robot folder: variants/NAME.json.")
 @click.option("--partial", is_flag=True, help="Accept features without an entry (left to the configurator).")
@@ -98,12 +98,12 @@ def _verdict(report: Report, checked_variants: bool) -> None:
 
 
 @click.command("configure")
-@click.argument("target", default=".", type=click.Path())
+@click.argument("target", default=".", type=click.Path(readable=False))
 @click.option("--variant", help="The variant of the robot folder: variants/NAME.json.")
 @click.option(
-    "--config", "config", type=click.Path(), help="A configuration file, instead of --variant (named by its stem)."
+    "--config", "config", type=click.Path(readable=False), help="A configuration file, instead of --variant (named by its stem)."
 )
-@click.option("-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant>/).")
+@click.option("-o", "--output", type=click.Path(readable=False), help="Output folder (default build/<robot>/<variant>/).")
 @click.option(
     "--prefer",
     type=click.Choice(PREFERENCES),
@@ -113,7 +113,7 @@ def _verdict(report: Report, checked_variants: bool) -> None:
 @click.option("--prefix", default="MOTIVML_", show_default=True, help="Prefix of the C++ macros.")
 @click.option(
     "--save-decisions",
-    type=click.Path(dir_okay=False),
+    type=click.Path(dir_okay=False, readable=False),
     help="Also write the smallest decisions file from which configure derives this variant again.",
 )
 def configure_command(
@@ -197,7 +197,7 @@ def configure_command(
 
 
 @click.command("diff")
-@click.argument("target", type=click.Path())
+@click.argument("target", type=click.Path(readable=False))
 @click.argument("first")
 @click.argument("second")
 @click.option(
@@ -265,8 +265,8 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
 
 
 @click.command("show")
-@click.argument("target", default=".", type=click.Path())
-@click.option("--config", "config", type=click.Path(), help="A configuration file.")
+@click.argument("target", default=".", type=click.Path(readable=False))
+@click.option("--config", "config", type=click.Path(readable=False), help="A configuration file.")
 @click.option("--variant", help="A variant of the robot folder: variants/NAME.json.")
 @click.option(
     "--why", "why_feature", metavar="FEATURE", help="Why FEATURE is selected or not, and bound as it is."

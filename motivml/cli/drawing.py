@@ -17,16 +17,16 @@ from .common import fail, one_variant, out, plural, print_diagnostics, shown
 
 
 @click.command("graph")
-@click.argument("target", default=".", type=click.Path())
+@click.argument("target", default=".", type=click.Path(readable=False))
 @click.option(
     "--variant", help="Draw this variant: its selection and bindings, and the architecture it starts with."
 )
 @click.option(
-    "--config", "config", type=click.Path(), help="Draw this configuration file, as --variant draws a variant."
+    "--config", "config", type=click.Path(readable=False), help="Draw this configuration file, as --variant draws a variant."
 )
 @click.option("--format", "fmt", type=click.Choice(["dot", "graphml"]), default="dot", show_default=True)
 @click.option(
-    "-o", "--output", type=click.Path(), help="Output folder (default build/<robot>/<variant or model>/)."
+    "-o", "--output", type=click.Path(readable=False), help="Output folder (default build/<robot>/<variant or model>/)."
 )
 def graph_command(target: str, variant: str | None, config: str | None, fmt: str, output: str | None) -> None:
     """Draw the feature model and the motion architecture of a robot folder.
@@ -73,11 +73,11 @@ def graph_command(target: str, variant: str | None, config: str | None, fmt: str
 
 
 @click.command("plot")
-@click.argument("record", type=click.Path(dir_okay=False), metavar="RECORD.csv")
+@click.argument("record", type=click.Path(dir_okay=False, readable=False), metavar="RECORD.csv")
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False),
+    type=click.Path(dir_okay=False, readable=False),
     metavar="PICTURE",
     help="The picture: .svg or .png (default: RECORD with .svg for .csv).",
 )
@@ -119,11 +119,11 @@ def plot_command(record: str, output: str | None) -> None:
 
 @click.command("export")
 @click.argument("what", type=click.Choice(["scxml", "dimacs", "uvl", "featureide"]))
-@click.argument("target", default=".", type=click.Path())
+@click.argument("target", default=".", type=click.Path(readable=False))
 @click.option(
     "-o",
     "--output",
-    type=click.Path(dir_okay=False),
+    type=click.Path(dir_okay=False, readable=False),
     help="Output file (default build/<robot>/coordination.scxml, or model.dimacs, model.uvl, model.xml there).",
 )
 @click.option(
@@ -203,8 +203,8 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
 
 @click.command("import")
 @click.argument("what", type=click.Choice(["uvl", "featureide"]))
-@click.argument("source", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", required=True, type=click.Path(file_okay=False), help="The robot folder to create.")
+@click.argument("source", type=click.Path(dir_okay=False, readable=False))
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False, readable=False), help="The robot folder to create.")
 def import_command(what: str, source: str, output: str) -> None:
     """Read a UVL or FeatureIDE XML model into a new robot folder: OUTPUT/model.json and an
     empty variants/.

@@ -25,9 +25,9 @@ HINT = "[x]/[ ] yours  -x-/--- forced  ( ) open; in bold yours, dim forced, * op
 
 
 @click.command("menuconfig")
-@click.argument("target", default=".", type=click.Path())
+@click.argument("target", default=".", type=click.Path(readable=False))
 @click.option("--variant", help="The variant of the robot folder to edit: variants/NAME.json (new or not).")
-@click.option("--config", "config", type=click.Path(), help="A configuration file to edit (new or not).")
+@click.option("--config", "config", type=click.Path(readable=False), help="A configuration file to edit (new or not).")
 @click.option(
     "--prefer",
     multiple=True,

@@ -41,12 +41,12 @@ if TYPE_CHECKING:
 
 
 @click.command("run")
-@click.argument("target", type=click.Path())
+@click.argument("target", type=click.Path(readable=False))
 @click.option("--variant", help="The variant of the robot folder: variants/NAME.json.")
 @click.option(
     "--config",
     "config",
-    type=click.Path(),
+    type=click.Path(readable=False),
     help="A configuration file, instead of --variant (the run goes by its stem, for ctl --variant).",
 )
 @click.option(
@@ -79,7 +79,7 @@ if TYPE_CHECKING:
 )
 @click.option(
     "--run-dir",
-    type=click.Path(file_okay=False),
+    type=click.Path(file_okay=False, readable=False),
     help="Where the control socket goes (default build/<robot>/<variant>/run).",
 )
 @click.option(
@@ -125,7 +125,7 @@ if TYPE_CHECKING:
 )
 @click.option(
     "--record",
-    type=click.Path(dir_okay=False),
+    type=click.Path(dir_okay=False, readable=False),
     metavar="FILE.csv",
     help="Record the spaces' values at every tick and what happened at it (reconfigurations, coordination "
     "states, faults) in FILE.csv; draw it with motivml plot.",
@@ -466,10 +466,10 @@ def _summary(runtime: Runtime, stats: RunStats) -> None:
 
 
 @click.command("ctl")
-@click.argument("target", type=click.Path(), required=False, metavar="TARGET")
+@click.argument("target", type=click.Path(readable=False), required=False, metavar="TARGET")
 @click.option("--variant", help="The variant that runs (to find its run).")
 @click.option(
-    "--run-dir", type=click.Path(file_okay=False), help="The run's directory, if run was given one."
+    "--run-dir", type=click.Path(file_okay=False, readable=False), help="The run's directory, if run was given one."
 )
 @click.option("--list", "listing", is_flag=True, help="List the runs ctl can reach, and exit.")
 @click.argument(
