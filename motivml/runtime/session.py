@@ -79,14 +79,18 @@ def keep_to_cpus(text: str) -> frozenset[int]:
     cpus: set[int] = set()
     for part in text.split(","):
         first, dash, last = part.strip().partition("-")
-        if not first.isdigit() or (dash and not last.isdigit()):
-            raise ValueError(f"{text!r} is not a list of CPUs such as 0, 2-3 or 0,2")
-        cpus.update(range(int(first), int(last or first) + 1))
+        if not _number(first) or (dash and not _number(last)):
+            raise ValueError(f"{_shown(text)!r} is not a list of CPUs such as 0, 2-3 or 0,2")
+        low, high = int(first), int(last or first)
+        if high >= MAX_CPUS:  # (before a range of millions is made)
+            raise ValueError(f"CPU {high} is beyond the {MAX_CPUS} CPUs a process can be kept to")
+        cpus.update(range(low, high + 1))
     if not hasattr(os, "sched_setaffinity"):
         raise ValueError("this system cannot keep a process to some CPUs (Linux can)")
     allowed = os.sched_getaffinity(0)
     if not cpus or not cpus <= allowed:
-        raise ValueError(f"CPUs {sorted(cpus - allowed) or text} are not among this process's CPUs {sorted(allowed)}")
+        missing = _ranges(cpus - allowed) or _shown(text)
+        raise ValueError(f"CPUs {missing} are not among this process's CPUs {_ranges(allowed)}")
     os.sched_setaffinity(0, cpus)
     from ..plugins import bridge
 
@@ -95,6 +99,28 @@ def keep_to_cpus(text: str) -> frozenset[int]:
     others = frozenset(allowed - cpus)
     bridge.BRIDGE_CPUS = others or None
     return frozenset(cpus)
+
+
+MAX_CPUS = 8192  # Linux's largest CPU set (CONFIG_NR_CPUS): `--cpus` names CPUs below it
+
+
+def _number(text: str) -> bool:
+    return text.isascii() and text.isdigit() and len(text) <= 12
+
+
+def _shown(text: str) -> str:
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _ranges(cpus: set[int] | frozenset[int]) -> str:
+    """CPUs as `--cpus` writes them: "0-3,8"."""
+    runs: list[list[int]] = []  # [first, last] of each run of consecutive CPUs
+    for cpu in sorted(cpus):
+        if runs and cpu == runs[-1][1] + 1:
+            runs[-1][1] = cpu
+        else:
+            runs.append([cpu, cpu])
+    return ",".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
 
 
 def _exit_now() -> None:
