@@ -1,6 +1,7 @@
 """Pictures of a run's record (`motivml plot`): each space's numbers over time, events marked.
 
-One panel per space, stacked on one time axis, a line per number (`[0]`, `[1]`, ...); in a
+One panel per space, stacked on one time axis (at most PANELS: the first ones, or those
+asked for), a line per number (`[0]`, `[1]`, ..., at most LINES per space); in a
 record thinned to buckets (a long run) the line goes down to each bucket's lowest value and
 up to its highest, so a one-tick peak still shows. Every event is a vertical line across all
 panels, its kind told by colour and dash: reconfigurations (solid blue), refused ones
@@ -19,8 +20,10 @@ gives the same file.
 
 from __future__ import annotations
 
+import difflib
 import io
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -30,6 +33,8 @@ from .errors import DocumentError, EnvironmentProblem, Location, error
 from .runtime.record import Record, RecordedEvent
 
 FORMATS = ("svg", "png")
+PANELS = 24  # spaces drawn at most, one panel each (3,000 panels ran past two minutes)
+LINES = 12  # numbers drawn at most per panel, the first ones
 LABELS = 24  # events written beside their line; more would be unreadable
 LABEL_LENGTH = 40  # characters of one label
 CROWDED = 0.015  # labels closer than this share of the time axis stand side by side
@@ -82,10 +87,32 @@ def labelled(record: Record) -> list[tuple[RecordedEvent, str]]:
     return sorted(chosen, key=lambda c: c[0].tick)
 
 
-def draw(record: Record, fmt: str) -> bytes:
-    """The picture of a record, as the bytes of an SVG or PNG file."""
+def panels(record: Record, spaces: Sequence[str] = ()) -> list[tuple[str, int, int]]:
+    """(space, its size, its first column) of the spaces drawn: those named, in the record's
+    order, or else the first PANELS; ValueError names a space the record does not have, or
+    too many."""
+    where: dict[str, tuple[int, int]] = {}
+    column = 0
+    for space, size in record.spaces:
+        where[space] = (size, column)
+        column += size
+    unknown = [s for s in spaces if s not in where]
+    if unknown:
+        close = difflib.get_close_matches(unknown[0], list(where), n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        raise ValueError(f"the record has no space {unknown[0]!r}{hint}")
+    chosen = [space for space, _ in record.spaces if space in set(spaces)] if spaces else [s for s, _ in record.spaces]
+    if spaces and len(chosen) > PANELS:
+        raise ValueError(f"{len(chosen)} spaces asked: a picture draws at most {PANELS}")
+    return [(space, *where[space]) for space in chosen[:PANELS]]
+
+
+def draw(record: Record, fmt: str, spaces: Sequence[str] = ()) -> bytes:
+    """The picture of a record, as the bytes of an SVG or PNG file: the spaces `panels`
+    chooses, at most LINES numbers of each."""
     if fmt not in FORMATS:
         raise ValueError(f"{fmt!r}: the formats are {', '.join(FORMATS)}")
+    drawn = panels(record, spaces)
     try:
         import matplotlib
         from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -111,14 +138,13 @@ def draw(record: Record, fmt: str) -> bytes:
     )
     with style, warnings.catch_warnings():
         warnings.simplefilter("ignore")  # e.g. a panel of gaps only: drawn empty, not warned about
-        panels = max(len(record.spaces), 1)
-        figure = Figure(figsize=(9.0, 1.2 + 1.7 * panels), layout="constrained")
+        count = max(len(drawn), 1)
+        figure = Figure(figsize=(9.0, 1.2 + 1.7 * count), layout="constrained")
         FigureCanvasAgg(figure)
-        axes = figure.subplots(panels, 1, sharex=True, squeeze=False)[:, 0]
-        column = 0
-        for ax, (space, size) in zip(axes, record.spaces, strict=False):
+        axes = figure.subplots(count, 1, sharex=True, squeeze=False)[:, 0]
+        for ax, (space, size, column) in zip(axes, drawn, strict=False):
             colours = matplotlib.colormaps["tab10"]
-            for i in range(size):
+            for i in range(min(size, LINES)):
                 colour = colours(i % 10)
                 low, high = record.low[:, column + i], record.high[:, column + i]
                 if record.bucket == 1:
@@ -130,9 +156,8 @@ def draw(record: Record, fmt: str) -> bytes:
                         color=colour,
                         label=f"[{i}]",
                     )
-            column += size
-            ax.set_ylabel(space)
-            if size <= 12:
+            ax.set_ylabel(space if size <= LINES else f"{space} [0-{LINES - 1} of {size}]")
+            if size <= LINES:
                 ax.legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, frameon=False)
         if not record.spaces:
             axes[0].set_yticks([])

@@ -361,6 +361,37 @@ def test_plot_reads_a_record_saved_with_a_byte_order_mark(tmp_path: Path) -> Non
     assert result.output.startswith(f"{tmp_path / 'r.svg'}: 1 space, 2 ticks")
 
 
+def test_plot_draws_at_most_24_spaces_and_12_numbers_of_each_and_says_so(tmp_path: Path) -> None:
+    """Issue 31: a record of 3,000 spaces ran past two minutes (a panel each). The first 24
+    are drawn, or those named with --space; a space of many numbers shows its first 12."""
+    header = ["tick", "time", *(f"S{k}[0]" for k in range(30)), *(f"Wide[{i}]" for i in range(20)), "events"]
+    rows = [",".join(header)] + [",".join([str(t), f"{t / 1000}", *["0.5"] * 50, ""]) for t in (1, 2)]
+    record_path = tmp_path / "r.csv"
+    record_path.write_text("\n".join(rows) + "\n")
+
+    def axes_and_texts(picture: Path) -> tuple[int, list[str]]:
+        svg = ET.parse(picture).getroot()
+        axes = [g for g in svg.iter(f"{SVG}g") if re.fullmatch(r"axes_\d+", g.get("id", ""))]
+        return len(axes), ["".join(t.itertext()).strip() for t in svg.iter(f"{SVG}text")]
+
+    first = invoke("plot", str(record_path))
+    assert first.exit_code == 0, first.output
+    assert first.output.splitlines()[:2] == [
+        f"{tmp_path / 'r.svg'}: 24 of 31 spaces, 2 ticks (0.001 to 0.002 s), 0 events marked",
+        "  (a picture draws at most 24 spaces: choose others with --space)",
+    ]
+    count, texts = axes_and_texts(tmp_path / "r.svg")
+    assert count == 24 and "S23" in texts and "S24" not in texts
+    chosen = invoke("plot", str(record_path), "--space", "Wide", "--space", "S29")
+    assert chosen.exit_code == 0 and "2 of 31 spaces" in chosen.output, chosen.output
+    count, texts = axes_and_texts(tmp_path / "r.svg")
+    assert count == 2 and "S29" in texts and "Wide [0-11 of 20]" in texts
+    unknown = invoke("plot", str(record_path), "--space", "Wid")
+    assert unknown.exit_code == 2 and "the record has no space 'Wid' (did you mean 'Wide'?)" in unknown.output
+    many = invoke("plot", str(record_path), *[f"--space=S{k}" for k in range(25)])
+    assert many.exit_code == 2 and "25 spaces asked: a picture draws at most 24" in many.output
+
+
 # ------------------------------------------------------------------ the recorder itself
 PRINTABLE = st.characters(
     exclude_categories=["Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp", "Zs"], include_characters=" "

@@ -81,14 +81,22 @@ def graph_command(target: str, variant: str | None, config: str | None, fmt: str
     metavar="PICTURE",
     help="The picture: .svg or .png (default: RECORD with .svg for .csv).",
 )
-def plot_command(record: str, output: str | None) -> None:
+@click.option(
+    "--space",
+    "spaces",
+    multiple=True,
+    metavar="SPACE",
+    help="Draw this space (repeatable; default: the first 24 of the record).",
+)
+def plot_command(record: str, output: str | None, spaces: tuple[str, ...]) -> None:
     """Draw a run's record (motivml run --record RECORD.csv): one panel per space, its
     numbers over time, and the run's events as vertical lines: reconfigurations, refusals,
     faults, coordination states and criteria, each kind in its own colour and dash, the
     most telling ones labelled.
 
     A long run is thinned to a few thousand points per number, each showing the lowest and
-    highest value of its stretch of ticks. A file that is not a record is refused with its
+    highest value of its stretch of ticks. At most 24 spaces are drawn (the first ones, or
+    those given with --space), at most 12 numbers of each. A file that is not a record is refused with its
     line (exit 1). The picture is replaced in one rename: never half-written.
     """
     path = Path(record)
@@ -104,15 +112,23 @@ def plot_command(record: str, output: str | None) -> None:
 
     try:
         read = read_record(path)
-        picture = plot.draw(read, fmt)
+        try:
+            drawn = plot.panels(read, spaces)
+        except ValueError as exc:
+            raise click.BadParameter(shown(str(exc)), param_hint="--space") from None
+        picture = plot.draw(read, fmt, spaces)
         write_if_changed(target.parent, {target.name: picture})
     except MotivmlError as exc:
         fail(exc)
     events = plot.marked(read)
+    total = len(read.spaces)
+    some = f"{len(drawn)} of {plural(total, 'space')}" if len(drawn) < total else plural(total, "space")
     out.print(
-        f"{escape(str(target))}: {plural(len(read.spaces), 'space')}, {plural(read.ticks, 'tick')} "
+        f"{escape(str(target))}: {some}, {plural(read.ticks, 'tick')} "
         f"({read.start:g} to {read.end:g} s), {plural(len(events) + read.more_events, 'event')} marked"
     )
+    if len(drawn) < total and not spaces:
+        out.print(f"  (a picture draws at most {plot.PANELS} spaces: choose others with --space)")
     for event, text in plot.labelled(read):
         out.print(shown(f"  {event.time:.3f} s (tick {event.tick}): {text}"))
 
