@@ -302,6 +302,24 @@ def test_a_file_where_the_socket_goes_is_not_replaced(tmp_path: Path) -> None:
         robot.close()
 
 
+def test_a_run_directory_of_another_user_is_refused_as_the_registry_refuses_it(tmp_path: Path) -> None:
+    """Issue 31: a run as root put its socket in a --run-dir another user owns; the run
+    registry refused the same case. (The folder is ours: os.getuid is made to say that
+    someone else runs.)"""
+    run_dir = tmp_path / "run"
+    run_dir.mkdir(mode=0o700)
+    robot = launch(SIMPLEBOT, "field")
+    try:
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(os, "getuid", lambda: run_dir.stat().st_uid + 1)
+            with pytest.raises(EnvironmentProblem) as caught:
+                ControlServer(run_dir, robot.runtime, robot.binder).open()
+        assert caught.value.diagnostics[0].message.startswith("belongs to another user: not opening a control socket")
+        assert not (run_dir / "control.sock").exists()
+    finally:
+        robot.close()
+
+
 def test_a_run_that_hangs_up_without_answering_is_said_so(tmp_path: Path) -> None:
     run_dir = tmp_path / "run"
     run_dir.mkdir()

@@ -90,13 +90,19 @@ class ControlServer:
 
     def _make_run_dir(self) -> None:
         """A new run directory is made 0700; an existing one keeps its mode, and is refused
-        if others may write in it (the system's shared temporary folder, say)."""
+        if it belongs to another user or others may write in it (the system's shared
+        temporary folder, say), as the registry of runs refuses its own."""
         try:
             self.run_dir.mkdir(parents=True, mode=0o700)
         except FileExistsError:
             info = self.run_dir.stat()
             if not stat.S_ISDIR(info.st_mode):
                 raise
+            if info.st_uid != os.getuid():  # (a root run's socket in a user's folder, or the other way)
+                raise _problem(
+                    self.run_dir,
+                    "belongs to another user: not opening a control socket here; choose another --run-dir",
+                ) from None
             if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
                 raise _problem(
                     self.run_dir,
