@@ -6,6 +6,7 @@ import json
 import shutil
 import sys
 import threading
+import time
 import types
 from collections.abc import Iterator
 from pathlib import Path
@@ -22,7 +23,7 @@ from motivml.errors import DocumentError
 from motivml.plugins.python import PluginError
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import RealClock
-from motivml.runtime.requests import Load
+from motivml.runtime.requests import Load, Swap
 
 ROOT = Path(__file__).resolve().parent.parent
 DL = ("Late", "Dynamic")
@@ -309,6 +310,44 @@ def test_the_loop_keeps_ticking_while_a_plugin_prepares(
         loop.join(HANG_GUARD)
         robot.close()
     assert not loop.is_alive()
+
+
+def test_a_requests_latency_counts_the_time_it_waited_behind_another(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 31: ctl reported a change's latency from when the binder took it up, not from
+    when it arrived: a request that waited behind another's slow start() said 2 ms. The
+    second request here arrives while the first is held and commits after the first: its
+    latency is at least the time from its arrival to the first one's commit."""
+    gate = types.ModuleType("motivml_test_gate")
+    gate.started, gate.release = threading.Event(), threading.Event()  # type: ignore[attr-defined]
+    monkeypatch.setitem(sys.modules, gate.__name__, gate)
+    hold = "import motivml_test_gate as gate; gate.started.set(); gate.release.wait(30)"
+    folder = make_robot(tmp_path, {"a": {}, "b": {}, "d": {"start": hold}})
+    robot = launch(folder, "v")
+    runtime = robot.runtime
+    target: list[int] = []
+    ticked = threading.Event()
+    runtime.hooks.append(lambda: ticked.set() if target and runtime.ticks >= target[0] else None)
+    loop = threading.Thread(target=runtime.run, args=(60.0, RealClock()))
+    try:
+        loop.start()
+        first = robot.binder.submit(Load(("d",)), timeout=None)
+        assert gate.started.wait(HANG_GUARD)  # d is being prepared, holding the binder
+        second = robot.binder.submit(Swap("a", "b"), timeout=None)
+        arrived_by = time.perf_counter()
+        target.append(runtime.ticks + 20)
+        assert ticked.wait(HANG_GUARD)  # twenty ticks of waiting behind the first
+        gate.release.set()
+        one, two = first.result(HANG_GUARD), second.result(HANG_GUARD)
+        assert one.accepted and two.accepted and one.change is not None and two.change is not None
+        assert two.change.clock >= one.change.clock
+        assert two.latency >= one.change.clock - arrived_by > 0
+    finally:
+        gate.release.set()
+        runtime.stop()
+        loop.join(HANG_GUARD)
+        robot.close()
 
 
 def test_scheduled_requests_make_a_deterministic_session() -> None:

@@ -60,7 +60,7 @@ class Outcome:
     accepted: bool
     plan: Plan | None = None
     change: AppliedReconfiguration | None = None  # when it took effect
-    latency: float = 0.0  # s, from the request to its commit
+    latency: float = 0.0  # s, from the request's arrival (behind others included) to its commit
     diagnostics: list[Diagnostic] = field(default_factory=list)  # why not (accepted: warnings)
     breaks_relations: bool = False  # refused because the new active set breaks the model's relations
 
@@ -101,7 +101,7 @@ class Binder:
         self.static = {d.feature.id: d.binding.static for d in variant.decisions}
         self._lock = threading.Lock()
         self.between_ticks = False  # simulated clock: changes are made on the control thread
-        self._inbox: queue.SimpleQueue[tuple[Request, Future[Outcome]]] = queue.SimpleQueue()
+        self._inbox: queue.SimpleQueue[tuple[Request, Future[Outcome], float]] = queue.SimpleQueue()
         self._bring_elements = (
             {e.feature for e in architecture.elements()} if architecture is not None else set()
         )  # features whose coming or going changes the architecture
@@ -204,8 +204,8 @@ class Binder:
 
     # --------------------------------------------------------------- requests
     def submit(self, request: Request, timeout: float | None = 5.0) -> Future[Outcome]:
-        """Run a request on the binder's worker thread."""
-        return self._executor.submit(self.request, request, timeout)
+        """Run a request on the binder's worker thread (its latency counted from now)."""
+        return self._executor.submit(self.request, request, timeout, time.perf_counter())
 
     def make_changes_between_ticks(self) -> None:
         """Simulated clock: every change is made on the control thread, between two ticks.
@@ -219,15 +219,18 @@ class Binder:
 
     def _empty_inbox(self) -> None:
         while not self._inbox.empty():
-            request, future = self._inbox.get()
+            request, future, arrived = self._inbox.get()
             if future.set_running_or_notify_cancel():
-                future.set_result(self.request_between_ticks(request))
+                future.set_result(self.request_between_ticks(request, arrived))
 
-    def request(self, request: Request, timeout: float | None = 5.0) -> Outcome:
-        """Check, prepare and commit one request; wait (up to `timeout`) for its commit."""
+    def request(self, request: Request, timeout: float | None = 5.0, arrived: float | None = None) -> Outcome:
+        """Check, prepare and commit one request; wait (up to `timeout`) for its commit. Its
+        latency counts from `arrived` (default: now), the time it waited behind another
+        request included."""
+        began = time.perf_counter() if arrived is None else arrived
         if self.between_ticks:
             future: Future[Outcome] = Future()
-            self._inbox.put((request, future))
+            self._inbox.put((request, future, began))
             try:
                 return future.result(timeout)
             except TimeoutError:
@@ -244,7 +247,6 @@ class Binder:
                     )
                 return future.result()
         with self._lock:
-            began = time.perf_counter()
             prepared = self._check_and_prepare(request)
             if isinstance(prepared, Outcome):
                 return prepared
@@ -279,14 +281,14 @@ class Binder:
             commit.done.wait()
             return self._committed(plan, commit, began)
 
-    def request_between_ticks(self, request: Request) -> Outcome:
+    def request_between_ticks(self, request: Request, arrived: float | None = None) -> Outcome:
         """A request made by the control thread itself, between two ticks: committed at once.
 
         For scheduled requests on the simulated clock (`motivml run --at`): the same check
         and preparation, then the commit applied here instead of by the next tick.
         """
         with self._lock:
-            began = time.perf_counter()
+            began = time.perf_counter() if arrived is None else arrived
             prepared = self._check_and_prepare(request)
             if isinstance(prepared, Outcome):
                 return prepared
