@@ -266,6 +266,35 @@ def test_ctl_usage_errors_exit_2_before_any_connection(tmp_path: Path, args: lis
     assert code == 2 and message in output
 
 
+def test_a_simulated_run_prints_the_same_bytes_however_late_its_output_is_read(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Issue 31: a change stamped with the wall clock ("15:28:53.222 tick 2000: swap ...")
+    was printed when the command looked at the run before it ended, which it does or not as
+    the machine is busy. Here it looks once after the whole run (the worst case) and once
+    never during it: the same output."""
+    from motivml.runtime.session import Session
+
+    args = ["run", str(SIMPLEBOT), "--variant", "field", "--duration", "0.5", "--clock", "simulated"]
+    args += ["--no-live", "--no-control", "--at", "0.2", "swap hectorslam kartoslam"]
+    real_wait = Session.wait
+    looked: list[bool] = []
+
+    def late(self: Session, timeout: float) -> bool:
+        if not looked:  # the first look comes after the run has ended, as on a busy machine
+            looked.append(real_wait(self, 60))
+            return False
+        return real_wait(self, timeout)
+
+    monkeypatch.setattr(Session, "wait", late)
+    code, looked_late = run(*args)
+    assert code == 0 and looked == [True], looked_late
+    monkeypatch.setattr(Session, "wait", lambda self, timeout: real_wait(self, 60))
+    code, at_the_end = run(*args)
+    assert code == 0 and looked_late == at_the_end
+    assert "changed at 0.200 s (tick 200): swap hectorslam kartoslam" in at_the_end
+
+
 def test_run_with_an_event_for_a_robot_without_coordination_is_a_usage_error(tmp_path: Path) -> None:
     code, output = run(
         "run",
