@@ -76,7 +76,7 @@ def configurations(draw: st.DrawFn, model: dict[str, Any]) -> dict[str, Any]:
     while stack:
         node = stack.pop()
         stack.extend(node.get("sub", []))
-        choice = draw(st.sampled_from(["absent", "off", "on", "on", "on"]))
+        choice = draw(st.sampled_from(["absent", "off", "off with props", "on", "on", "on"]))
         if choice == "absent":
             continue
         if choice == "off":
@@ -86,6 +86,9 @@ def configurations(draw: st.DrawFn, model: dict[str, Any]) -> dict[str, Any]:
             "time": draw(st.sampled_from(["Early", "Late", "Any"])),
             "mode": draw(st.sampled_from(["Static", "Dynamic", "Any"])),
         }
+        if choice == "off with props":  # (ignored while deselected; they hold once selected)
+            properties.append({"id": node["id"], "selected": False, "props": props})
+            continue
         properties.append({"id": node["id"], "props": props})
     return {"properties": properties}
 

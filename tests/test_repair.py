@@ -35,7 +35,7 @@ def facts_of(configuration: dict[str, Any]) -> list[Fact]:
     for entry in configuration["properties"]:
         selected = entry.get("selected", True)
         found.append((entry["id"], "select", selected))
-        props = entry.get("props", {}) if selected else {}
+        props = entry.get("props", {})  # (a deselected entry's too: they hold once it is selected)
         for key in ("time", "mode"):
             if props.get(key, "Any") != "Any":
                 found.append((entry["id"], key, props[key]))
@@ -43,13 +43,14 @@ def facts_of(configuration: dict[str, Any]) -> list[Fact]:
 
 
 def applied(configuration: dict[str, Any], changes: list[tuple[str, str, Any]]) -> dict[str, Any]:
-    """The configuration with each (feature, change, new value) made, the way a person would."""
+    """The configuration with each (feature, change, new value) made, the way a person would:
+    a (de)selection turns `selected` over and leaves the entry's props as they are (issue 31:
+    a repair that selected an entry whose props could not hold did not work)."""
     result = copy.deepcopy(configuration)
     entries = {entry["id"]: entry for entry in result["properties"]}
     for fid, change, value in changes:
         entry = entries[fid]
         if change == "select":
-            entry.pop("props", None)
             if value:
                 entry.pop("selected", None)
             else:
@@ -116,6 +117,19 @@ def smaller_sets(items: Sequence[T], below: int, data: st.DataObject) -> Iterabl
         chosen = data.draw(st.lists(st.integers(0, len(items) - 1), min_size=size, max_size=size, unique=True))
         parts.append(tuple(items[k] for k in chosen))
     return parts
+
+
+def test_a_repair_that_selects_an_entry_turns_over_its_props_where_they_cannot_hold() -> None:
+    """Issue 31: under a root whose mandatory `a` allows Any, an entry deselecting `a` with
+    props Early and Dynamic got "select a"; applied (props kept), the product refused it,
+    for a required feature must be Static. The repair is both changes."""
+    model = feature("r", [feature("a", time="Any", mode="Any")])
+    configuration = {"properties": [{"id": "a", "selected": False, "props": {"time": "Early", "mode": "Dynamic"}}]}
+    (error, *_) = variant_errors(model, configuration)
+    assert [repair_text(r) for r in error.repairs] == ["select a and make a Static"]
+    (repair,) = error.repairs
+    assert ref.is_valid(model, applied(configuration, as_changes(repair)))
+    assert not ref.is_valid(model, applied(configuration, [("a", "select", True)]))
 
 
 def test_a_feature_deselected_by_a_repair_takes_its_selected_sub_features_with_it() -> None:

@@ -31,23 +31,23 @@ MOST = 5  # repairs shown, fewest changes first ("a handful at most")
 
 
 def corrections(
-    clauses: Iterable[list[int]], hard: Sequence[int], soft: Sequence[int], most: int = MOST
+    clauses: Iterable[list[int]], hard: Sequence[int], soft: Sequence[Sequence[int]], most: int = MOST
 ) -> list[list[int]]:
-    """Minimal correction subsets of the `soft` unit literals under `clauses` and the `hard`
-    units, fewest first, at most `most`: each as indices into `soft`. [] when the hard part
-    alone is unsatisfiable, or when every soft literal can hold."""
+    """Minimal correction subsets of the `soft` clauses (most of them units) under `clauses`
+    and the `hard` units, fewest first, at most `most`: each as indices into `soft`. [] when
+    the hard part alone is unsatisfiable, or when every soft clause can hold."""
     from pysat.examples.rc2 import RC2
     from pysat.formula import WCNF
 
     formula = WCNF()
     formula.extend(clauses)
     formula.extend([literal] for literal in hard)
-    formula.extend([[literal] for literal in soft], weights=[1] * len(soft))
+    formula.extend([list(clause) for clause in soft], weights=[1] * len(soft))
     found: list[list[int]] = []
     with RC2(formula, solver="g4") as maxsat:
         for values in maxsat.enumerate(block=-1):
             truth = set(values)
-            falsified = [k for k, literal in enumerate(soft) if literal not in truth]
+            falsified = [k for k, clause in enumerate(soft) if truth.isdisjoint(clause)]
             if not falsified:
                 break
             found.append(falsified)
@@ -63,11 +63,29 @@ def configuration_repairs(model: FeatureModel, config: Configuration, most: int 
     valid variant at all)."""
     with enc.Encoding(model, record=True) as encoding:
         encoding.set_configuration(config)
-        facts = encoding.facts  # hard build: the configuration's facts only
-        soft = encoding.literals[: len(facts)]
+        facts = list(encoding.facts)  # hard build: the configuration's facts only
+        literals = encoding.literals[: len(facts)]
+        soft = [[literal] for literal in literals]
+        # A deselected entry keeps its props: once a repair selects the feature ("select a"
+        # turns `selected` over, as a person would), they hold. So each is a fact "if a is
+        # selected, it is Early" that a repair may have to turn over too (a repair that
+        # selected a Dynamic entry where only Static works did not work, applied).
+        for entry in config.entries.values():
+            i = model.index.get(entry.id)
+            if entry.selected or i is None:
+                continue
+            for kind, value, variable, first in (
+                (enc.CONFIG_TIME, entry.time, encoding.E(i), Time.EARLY),
+                (enc.CONFIG_MODE, entry.mode, encoding.S(i), Mode.STATIC),
+            ):
+                if value is not None:
+                    literal = variable if value is first else -variable
+                    facts.append(enc.EncodedFact(kind, i))
+                    literals.append(literal)
+                    soft.append([-encoding.s(i), literal])
         recorded: Sequence[list[int]] = encoding.recorded if encoding.recorded is not None else []
         found = corrections(recorded, [], soft, most)
-    return [tuple(_config_change(model, facts[k], soft[k]) for k in _ordered(facts, mcs)) for mcs in found]
+    return [tuple(_config_change(model, facts[k], literals[k]) for k in _ordered(facts, mcs)) for mcs in found]
 
 
 def _ordered(facts: Sequence[enc.EncodedFact], mcs: list[int]) -> list[int]:
@@ -120,5 +138,5 @@ def request_corrections(
             moves.append((i, i not in wanted))
         else:
             hard.append(literal)
-    found = corrections(encoding.kept_clauses(), hard, soft, most)
+    found = corrections(encoding.kept_clauses(), hard, [[literal] for literal in soft], most)
     return [[moves[k] for k in mcs] for mcs in found]
