@@ -266,6 +266,26 @@ def test_ctl_usage_errors_exit_2_before_any_connection(tmp_path: Path, args: lis
     assert code == 2 and message in output
 
 
+def test_configure_refuses_output_folders_it_did_not_make_and_names_that_are_not_plain(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 31: `--config DIR/..json` (stem `.`) wrote into build/ROBOT/ and made it a link;
+    `-o .` left `..generations` and `..lock` here; `-o proj` made a checkout a link."""
+    import shutil
+
+    monkeypatch.chdir(tmp_path)
+    shutil.copy(SIMPLEBOT / "variants" / "field.json", tmp_path / "..json")
+    code, output = run("configure", str(SIMPLEBOT), "--config", str(tmp_path / "..json"))
+    assert code == 2 and "a variant's name ('.') must be a plain file name" in output
+    code, output = run("configure", str(SIMPLEBOT), "--variant", "field", "-o", ".")
+    assert code == 3 and "is not a plain folder name" in output
+    (tmp_path / "proj" / ".git").mkdir(parents=True)
+    code, output = run("configure", str(SIMPLEBOT), "--variant", "field", "-o", "proj")
+    assert code == 3 and "is a folder motivml did not make" in output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["..json", "proj"]  # nothing beside
+    assert [p.name for p in (tmp_path / "proj").iterdir()] == [".git"]
+
+
 def test_a_simulated_run_prints_the_same_bytes_however_late_its_output_is_read(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

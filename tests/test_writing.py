@@ -37,8 +37,10 @@ def test_a_generation_replaces_the_files_and_keeps_unchanged_ones_untouched(tmp_
 
 
 def test_a_real_folder_becomes_the_first_generation_with_what_else_it_holds(tmp_path: Path) -> None:
+    """An earlier version's output (it holds a file written here) with a person's notes."""
     out = tmp_path / "out"
     out.mkdir()
+    (out / "lock").write_text("an earlier version's\n")
     (out / "notes.txt").write_text("mine\n")
     (out / "pictures").mkdir()
     (out / "pictures" / "a.svg").write_text("<svg/>")
@@ -46,6 +48,29 @@ def test_a_real_folder_becomes_the_first_generation_with_what_else_it_holds(tmp_
     write_generation(out, SECOND)
     assert contents(out) == {**SECOND, "notes.txt": "mine\n"}
     assert (out / "pictures" / "a.svg").read_text() == "<svg/>"
+
+
+def test_a_folder_motivml_did_not_make_and_names_that_are_not_plain_are_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 31: `configure -o proj` turned a checkout into a link with the generated files
+    among its own; `-o .` left `..generations` and `..lock` in the current folder."""
+    checkout = tmp_path / "proj"
+    (checkout / ".git").mkdir(parents=True)
+    (checkout / "README.md").write_text("mine\n")
+    with pytest.raises(EnvironmentProblem, match="is a folder motivml did not make"):
+        write_generation(checkout, FIRST)
+    assert sorted(os.listdir(tmp_path)) == ["proj"] and not checkout.is_symlink()
+    assert sorted(os.listdir(checkout)) == [".git", "README.md"]
+    monkeypatch.chdir(checkout)
+    for name in (".", "..", str(checkout)):
+        with pytest.raises(EnvironmentProblem, match="is not a plain folder name"):
+            write_generation(Path(name) if name != str(checkout) else Path("/"), FIRST)
+    assert sorted(os.listdir(checkout)) == [".git", "README.md"]
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    write_generation(empty, FIRST)  # (an empty folder loses nothing)
+    assert contents(empty) == FIRST
 
 
 @pytest.mark.parametrize("crash_at", ["_write_new", "_fsync_dir", "_link", "_remove_stale"])

@@ -112,10 +112,16 @@ def one_variant(config: str | None, variant: str | None) -> str:
     the output folder and the run's registration name it)."""
     _not_both(config, variant)
     if variant is not None:
-        return variant
-    if config is None:
+        name = variant
+    elif config is None:
         raise click.UsageError("give --variant NAME (variants/NAME.json of the robot folder) or --config FILE")
-    return Path(config).stem
+    else:
+        name = Path(config).stem
+    # (a folder and a registration are named by it: build/ROBOT/. was build/ROBOT itself)
+    if name in ("", ".", "..") or "/" in name or "\x00" in name:
+        given = f"--variant {variant!r}" if variant is not None else f"--config {config!r}"
+        raise click.UsageError(f"{given}: a variant's name ({name!r}) must be a plain file name")
+    return name
 
 
 def _not_both(config: str | None, variant: str | None) -> None:

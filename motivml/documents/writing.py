@@ -125,14 +125,37 @@ def write_generation(folder: Path, files: dict[str, str]) -> dict[str, bool]:
     files it shares byte for byte hard-linked (their times kept, so builds do not redo
     work), anything else the folder holds carried over, and then the link is replaced in
     one rename. Generations no link points to (an older one, or one a killed run left)
-    are removed. A real folder in the way (from an earlier version) becomes the first
-    generation, with everything it holds.
+    are removed. A real folder in the way becomes the first generation, with everything it
+    holds, if motivml made it (an earlier version's output: it holds one of `files`) or it is
+    empty; any other is refused, untouched (a checkout named as the output would have become
+    a link). So is a name that is not a plain folder name (`-o .`, a variant named `.`),
+    before anything is made beside it.
     """
     import fcntl
 
     parent, name = folder.parent, folder.name
+    if name in ("", ".", "..") or folder.resolve() == folder.resolve().parent:
+        raise EnvironmentProblem(
+            error(Location(str(folder)), "is not a plain folder name: choose an output folder by its name", "io")
+        )
     store = parent / GENERATIONS.format(name)
     current_path = folder
+    if folder.is_dir() and not folder.is_symlink():
+        try:
+            held = os.listdir(folder)
+        except OSError as exc:
+            raise EnvironmentProblem(
+                error(Location(str(folder)), f"cannot read: {exc.strerror or exc}", "io")
+            ) from None
+        if held and not set(held) & set(files):
+            raise EnvironmentProblem(
+                error(
+                    Location(str(folder)),
+                    f"is a folder motivml did not make (it holds {sorted(held)[0]!r} and none of the files "
+                    "written here): choose another output folder",
+                    "io",
+                )
+            )
     try:
         parent.mkdir(parents=True, exist_ok=True)
         with open(parent / LOCK.format(name), "a") as lock:
