@@ -242,7 +242,7 @@ def test_a_loop_stuck_in_a_plugin_still_completes_its_record(tmp_path: Path) -> 
     folder = lifecycle_robot(tmp_path / "bot", {"a": {}, "a2": {"start": gate, "step": stuck_step}})
     stuck = threading.Event()
     recorder = Recorder.create(tmp_path / "r.csv")
-    session = Session(launch(folder, "v"), 1.0, "simulated", on_stuck=stuck.set, record=recorder)
+    session = Session(launch(folder, "v"), 1.0, "simulated", on_stuck=lambda signum: stuck.set(), record=recorder)
     session.open()
     session.start()
     plugin = session.runtime.plugins["a2"].instance

@@ -107,7 +107,7 @@ def test_a_socket_that_cannot_open_closes_the_robot(tmp_path: Path) -> None:
 def test_ctrl_c_ends_the_run_and_a_second_one_calls_on_stuck() -> None:
     """The handler itself, called as the signal would call it: first stop, then give up."""
     stuck = threading.Event()
-    session = Session(launch(SIMPLEBOT, "field"), 3600.0, "real", on_stuck=stuck.set)
+    session = Session(launch(SIMPLEBOT, "field"), 3600.0, "real", on_stuck=lambda signum: stuck.set())
     session.open()
     session.start()  # on the main thread: the session owns SIGINT now
     assert signal.getsignal(signal.SIGINT) == session._interrupt
@@ -119,9 +119,29 @@ def test_ctrl_c_ends_the_run_and_a_second_one_calls_on_stuck() -> None:
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
+def test_a_second_sigterm_on_a_stuck_loop_leaves_no_socket_and_no_registration(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 31: a second SIGTERM ended the process with 130 and left the control socket
+    and the run's registration for ctl to find. Both go first, and the code says SIGTERM."""
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path))
+    ended: list[int] = []
+    session = Session(launch(SIMPLEBOT, "field"), 3600.0, "real", (), tmp_path / "run", on_stuck=ended.append)
+    session.open()
+    assert session.server is not None and session.registered is not None
+    socket_path, entry = session.server.path, session.registered.entry
+    assert socket_path.is_socket() and entry.exists()
+    session.start()
+    session._interrupt(signal.SIGTERM, None)
+    assert session.wait(60)
+    session._interrupt(signal.SIGTERM, None)  # as if the loop had not stopped
+    assert ended == [signal.SIGTERM] and not socket_path.exists() and not entry.exists()
+    session.close()
+
+
 def test_sigterm_stops_the_run_like_ctrl_c_and_is_remembered() -> None:
     stuck = threading.Event()
-    session = Session(launch(SIMPLEBOT, "field"), float("inf"), "real", on_stuck=stuck.set)
+    session = Session(launch(SIMPLEBOT, "field"), float("inf"), "real", on_stuck=lambda signum: stuck.set())
     session.open()
     session.start()
     assert signal.getsignal(signal.SIGTERM) == session._interrupt

@@ -247,11 +247,11 @@ def run_command(
     if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
         out.width = max(out.width, 160)
 
-    def stuck() -> None:  # a second Ctrl-C while the loop is stuck in a plugin
+    def stuck(signum: int) -> None:  # a second Ctrl-C (or SIGTERM) while the loop is stuck in a plugin
         err.print(
             "[bold red]interrupted twice[/]: the control loop did not stop (a plugin's step that never returns?); exiting now"
         )
-        os._exit(EXIT_INTERRUPTED)
+        os._exit(128 + signum)  # (130 after Ctrl-C, as before; 143 after SIGTERM)
 
     folder = (
         (Path(run_dir) if run_dir else Path("build") / robot.folder.name / name / "run")

@@ -11,8 +11,9 @@ the exit code from the session's verdict. Everything with threads or signals is 
 * Ctrl-C (SIGINT) and a service manager's SIGTERM, when the session runs on the main
   thread, end the run as its duration would: the loop stops between two ticks, the
   plugins' stop() runs, the socket is removed and the caller prints its summary. A second
-  signal means the loop is stuck in a plugin, and `on_stuck` is called (by default the
-  process exits with 130 at once);
+  signal means the loop is stuck in a plugin: the socket and the registration are removed
+  and `on_stuck(signum)` is called (by default the process exits at once, with 130 after
+  Ctrl-C and 143 after SIGTERM);
 * the control socket is registered in the per-user runs directory (`runs.py`), so that
   `motivml ctl` finds the run from anywhere, and unregistered when the socket closes;
 * with a `Recorder` (`run --record FILE`), the run is recorded from its first tick, and
@@ -123,8 +124,8 @@ def _ranges(cpus: set[int] | frozenset[int]) -> str:
     return ",".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
 
 
-def _exit_now() -> None:
-    os._exit(EXIT_INTERRUPTED)
+def _exit_now(signum: int) -> None:
+    os._exit(128 + signum)  # (130 for Ctrl-C, 143 for SIGTERM: what a shell says of them)
 
 
 @dataclass(frozen=True)
@@ -157,7 +158,7 @@ class Session:
         clock: str,
         plan: Sequence[tuple[float, Request | Event]] = (),
         run_dir: Path | None = None,
-        on_stuck: Callable[[], None] = _exit_now,
+        on_stuck: Callable[[int], None] = _exit_now,
         variant: str | None = None,
         priority: int | None = None,
         record: Recorder | None = None,
@@ -264,6 +265,15 @@ class Session:
         while self.doors:
             self.doors.pop()()
 
+    def _leave_no_trace(self) -> None:
+        """Before the process ends at once (`on_stuck`): no registration and no socket left
+        for `ctl` to find (the plugins cannot be stopped: one of them holds the loop)."""
+        if self.registered is not None:
+            unregister(self.registered)
+            self.registered = None
+        if self.server is not None:
+            self.server.close()
+
     def close(self) -> None:
         """Stop the plugins and the binder's thread (after `stop_watching`), then complete the
         record (`recorded`, or `record_problem`) with what their stop() said."""
@@ -342,7 +352,8 @@ class Session:
     def _interrupt(self, signum: int, frame: FrameType | None) -> None:
         if self.interrupted.is_set():  # a second signal: the loop is stuck (a plugin that never returns)
             self._finish_record(end="the loop was stuck in a plugin's step: interrupted twice")
-            self.on_stuck()
+            self._leave_no_trace()
+            self.on_stuck(signum)
             return
         self.stopped_by = signum
         self.interrupted.set()
