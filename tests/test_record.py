@@ -186,6 +186,26 @@ def test_a_stop_that_raises_at_the_end_is_in_the_last_row(tmp_path: Path) -> Non
     ]
 
 
+def test_a_run_killed_outright_while_recording_leaves_no_file(tmp_path: Path) -> None:
+    """Issue 31: `kill -9` during --record left a hidden temporary file beside the record.
+    The record is written to a file without a name until the run ends: nothing is left."""
+    target = tmp_path / "run.csv"
+    command = [sys.executable, "-m", "motivml.cli", "run", str(ARM), "--variant", "swappable", "--no-live"]
+    command += ["--no-control", "--duration", "60", "--at", "0.05", "swap dmp_reach attractor_reach"]
+    process = subprocess.Popen(
+        [*command, "--record", str(target)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=ROOT
+    )
+    assert process.stdout is not None
+    with process.stdout:
+        for line in process.stdout:  # the swap is seen: the record has rows by now
+            if "swap dmp_reach attractor_reach" in line:
+                break
+        process.kill()
+    process.wait(timeout=60)
+    assert process.returncode == -signal.SIGKILL
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_ctrl_c_on_the_real_clock_leaves_a_complete_record(tmp_path: Path) -> None:
     """Ctrl-C once the swap is seen (no guess at timing): every tick run is recorded, once."""
     target = tmp_path / "run.csv"

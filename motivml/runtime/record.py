@@ -37,10 +37,12 @@ blocks behind, so that memory stays bounded however fast it ticks; on the real c
 queue is not bounded (a block of a second at 1 kHz is a few tens of kilobytes). So a record
 streams: an hour at 1 kHz is 3.6 million rows on disk, never in memory.
 
-The record is written to a hidden file beside FILE (`.FILE.*.tmp`) and renamed to FILE
-when the run ends, however it ends (its duration, Ctrl-C, SIGTERM, a failing plugin, a
-loop stuck in a plugin's step and interrupted twice): FILE is a complete record or is not
-there, never half of one. A process killed outright (SIGKILL) leaves only the hidden file.
+The record is written to a file without a name in FILE's folder (Linux's O_TMPFILE; where
+a file system has none, a hidden `.FILE.*.tmp`), given a hidden name when the run ends and
+renamed to FILE, however it ends (its duration, Ctrl-C, SIGTERM, a failing plugin, a loop
+stuck in a plugin's step and interrupted twice): FILE is a complete record or is not
+there, never half of one. A process killed outright (SIGKILL) leaves nothing: a file
+without a name is freed with its last descriptor.
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ import math
 import os
 import queue
 import re
+import secrets
 import tempfile
 import threading
 from collections.abc import Iterator, Sequence
@@ -138,7 +141,7 @@ class Recorder:
     rest and renames the file into place; `discard` removes it (a run that never started).
     """
 
-    def __init__(self, path: Path, temporary: Path, handle: IO[str]) -> None:
+    def __init__(self, path: Path, temporary: Path | None, handle: IO[str]) -> None:
         self.path = path
         self.temporary = temporary
         self.rows = 0  # written so far
@@ -160,16 +163,24 @@ class Recorder:
             if path.is_dir():
                 raise IsADirectoryError(21, "a folder is in the way")
             path.parent.mkdir(parents=True, exist_ok=True)
-            descriptor, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(name, 0o666 & ~umask)  # a record is shared like any output, not mkstemp's 0600
+            name: str | None = None
+            try:  # (the mode less the umask, as any output: a record is shared like one)
+                if not os.path.isdir("/proc/self/fd"):  # (where it would be named at the end)
+                    raise NotImplementedError
+                descriptor = os.open(path.parent, os.O_TMPFILE | os.O_WRONLY | os.O_CLOEXEC, 0o666)
+            except (AttributeError, NotImplementedError, OSError) as exc:  # a hidden name from the start
+                if isinstance(exc, PermissionError):
+                    raise
+                descriptor, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+                umask = os.umask(0)
+                os.umask(umask)
+                os.chmod(name, 0o666 & ~umask)  # (not mkstemp's 0600)
             handle = os.fdopen(descriptor, "w", encoding="utf-8", newline="", buffering=1 << 16)
         except OSError as exc:
             raise EnvironmentProblem(
                 error(Location(str(path)), f"cannot write the record: {exc.strerror or exc}", "io")
             ) from None
-        return cls(path, Path(name), handle)
+        return cls(path, Path(name) if name is not None else None, handle)
 
     # ------------------------------------------------------------------ running
     def start(
@@ -347,6 +358,11 @@ class Recorder:
             self._queue.put(None)
         self._thread.join()
         try:
+            self._handle.flush()
+            if self.temporary is None:  # a file without a name: named now, beside FILE
+                temporary = self.path.parent / f".{self.path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+                _name(self._handle.fileno(), temporary)
+                self.temporary = temporary
             self._handle.close()
         except OSError as exc:
             self._problem = self._problem or exc
@@ -356,6 +372,7 @@ class Recorder:
                 error(Location(str(self.path)), f"cannot write the record: {_reason(self._problem)}", "io")
             )
         try:
+            assert self.temporary is not None
             os.replace(self.temporary, self.path)
         except OSError as exc:
             self._remove()
@@ -381,10 +398,22 @@ class Recorder:
             self._handle.close()
         except OSError:
             pass
-        try:
-            self.temporary.unlink()
-        except OSError:
-            pass
+        if self.temporary is not None:
+            try:
+                self.temporary.unlink()
+            except OSError:
+                pass
+
+
+def _name(descriptor: int, path: Path) -> None:
+    """Give the file without a name open as `descriptor` the name `path`: linkat(2) through
+    /proc/self/fd, following the link (os.link follows it only given a directory
+    descriptor: otherwise it calls link(2), which links /proc's symbolic link itself)."""
+    fds = os.open("/proc/self/fd", os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    try:
+        os.link(str(descriptor), path, src_dir_fd=fds, follow_symlinks=True)
+    finally:
+        os.close(fds)
 
 
 def _reason(exc: BaseException) -> str:
