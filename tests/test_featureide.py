@@ -286,3 +286,18 @@ def test_export_refuses_a_name_that_xml_cannot_hold(character: str, tmp_path: Pa
     result = CliRunner().invoke(main, ["export", "featureide", str(model), "-o", str(out)])
     assert result.exit_code == 0, result.output
     parseString(out.read_bytes())  # (well-formed)
+
+
+def test_an_xor_group_beside_other_children_is_written_in_n_log_n_names() -> None:
+    """Issue 31: an XOR group of a parent with other children is written as rules, and a
+    group of 3,000 was written pairwise (4.5 million rules, 348 MB). The selections read
+    back are the model's (brute force), and 3,000 members take a few megabytes."""
+
+    def mixed(members: int) -> dict[str, Any]:
+        sub = [{"id": f"m{k}", "name": "M", "group": "XOR", "isMandatory": False} for k in range(members)]
+        return {"id": "r", "name": "R", "sub": [{"id": "x", "name": "X", "isMandatory": False}, *sub]}
+
+    small = mixed(5)
+    back = read_featureide(write_featureide(read(small)).encode(), "m.xml")
+    assert sum(1 for _ in ref.section_2_selections(back)) == sum(1 for _ in ref.section_2_selections(small)) == 10
+    assert len(write_featureide(read(mixed(3000)))) < 4_000_000

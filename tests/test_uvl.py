@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -277,6 +278,20 @@ def test_a_second_group_of_a_kind_becomes_formulas() -> None:
     assert [c.get("group", "") for c in document["sub"]] == ["XOR", "XOR", "", ""]
     assert document["formulas"] == ["R => C | D", "!(C & D)"]
     assert sum(1 for _ in ref.section_2_selections(document)) == 4
+
+
+def test_a_second_alternative_group_is_at_most_one_in_n_log_n_names() -> None:
+    """Issue 31: a second alternative group of 6,000 members was written pairwise (18
+    million formulas, 3 GB). Halved and halved again, every two members are apart once:
+    the selections are the same (brute force), the names n log n."""
+    members = [f"M{k}" for k in range(7)]
+    text = "features\n    R\n        alternative\n            A\n            B\n        alternative\n"
+    document = read_uvl(text + "".join(f"            {m}\n" for m in members), "m.uvl")
+    assert document["formulas"][0] == "R => " + " | ".join(members)
+    assert sum(1 for _ in ref.section_2_selections(document)) == 2 * 7
+    wide = read_uvl(text + "".join(f"            M{k}\n" for k in range(6000)), "m.uvl")
+    named = sum(len(re.findall(r"M\d+", formula)) for formula in wide["formulas"][1:])
+    assert named <= 6000 * 13  # (6,000 log2 6,000: 75,000; pairwise, 36 million)
 
 
 def test_attributes_kept_and_a_name_uvl_cannot_hold() -> None:

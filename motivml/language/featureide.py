@@ -26,7 +26,7 @@ from typing import Any
 from xml.parsers import expat
 
 from ..errors import DocumentError, Location, error
-from .formula import AND, IFF, IMPLIES, OR, fold
+from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold
 from .model import FeatureModel, token
 from .uvl import Ids
 
@@ -267,8 +267,8 @@ def write_featureide(model: FeatureModel) -> str:
                 members = [features[c].id for c in feature.children if features[c].group == kind]
                 if members:
                     rules.append(_rule_disj(feature.id, members))
-                    if kind == "XOR":
-                        rules += [_rule_not_both(a, b) for k, a in enumerate(members) for b in members[k + 1 :]]
+                    if kind == "XOR":  # (n log n names, not the n^2 / 2 pairs: 348 MB for 3,000 members)
+                        rules += [_rule_none_of_both(a, b) for a, b in at_most_one(members)]
         parent = features[feature.parent] if feature.parent is not None else None
         mandatory = parent is None or (feature.mandatory and not feature.group)
         attributes = f"name={quoteattr(feature.id)}"
@@ -311,6 +311,17 @@ def _element(op: str) -> Any:
 
 def _rule_disj(parent: str, members: list[str]) -> str:
     return f"<imp><var>{parent}</var><disj>{''.join(f'<var>{m}</var>' for m in members)}</disj></imp>"
+
+
+def _rule_none_of_both(a: list[str], b: list[str]) -> str:
+    """Not some of `a` and some of `b`."""
+
+    def some(names: list[str]) -> str:
+        if len(names) == 1:
+            return f"<var>{names[0]}</var>"
+        return f"<disj>{''.join(f'<var>{n}</var>' for n in names)}</disj>"
+
+    return f"<not><conj>{some(a)}{some(b)}</conj></not>"
 
 
 def _rule_not_both(a: str, b: str) -> str:

@@ -27,7 +27,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import DocumentError, Location, error
-from .formula import AND, IFF, IMPLIES, OR, fold
+from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold
 from .model import Feature, FeatureModel, token
 
 _GRAMMAR = r"""
@@ -230,7 +230,7 @@ class _Reader:
                         names = [self._id(self._name(m)) for m in members]
                         extra_formulas.append(f"{document['id']} => {' | '.join(names)}")
                         if label == "alternative":
-                            extra_formulas += [f"!({a} & {b})" for k, a in enumerate(names) for b in names[k + 1 :]]
+                            extra_formulas += [f"!({_any(a)} & {_any(b)})" for a, b in at_most_one(names)]
                         label = "optional"
                 pending += [(member, document, label) for member in members]
             work.extend(reversed(pending))
@@ -452,6 +452,11 @@ def _uvl_name(feature_id: str) -> str:
 
 
 _KIND = {"OR": "or", "XOR": "alternative"}
+
+
+def _any(names: list[str]) -> str:
+    """"Some of `names`", as a formula's operand."""
+    return names[0] if len(names) == 1 else f"({' | '.join(names)})"
 
 
 def _uvl_attributes(feature: Feature, position: int | None = None) -> str:
