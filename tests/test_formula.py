@@ -236,3 +236,12 @@ def test_no_start_state_because_of_a_formula() -> None:
         "Early: no start state exists: at start every selected Early feature is active, and the active "
         "set satisfies section 2 and every formula of the model (rule 2.4, section 4)"
     )
+
+
+@pytest.mark.parametrize("n", range(10))
+def test_at_most_one_sets_every_two_items_apart_exactly_once(n: int) -> None:
+    from motivml.language.formula import at_most_one
+
+    items = [f"x{k}" for k in range(n)]
+    apart = [(a, b) for left, right in at_most_one(items) for a in left for b in right]
+    assert sorted(apart) == sorted((a, b) for k, a in enumerate(items) for b in items[k + 1 :])
