@@ -146,9 +146,13 @@ def validate(
 def validate_plugins(robot: RobotFolder, model: FeatureModel) -> Report:
     """robot.json and the manifests of the plugin directories it declares, against the model."""
     from .plugins.manifests import discover
+    from .plugins.registry import KINDS
 
     report = Report(str(robot.settings_path), "plugins", model=model)
-    report.diagnostics += discover(robot, model)[1]
+    plugins, problems = discover(robot, model)
+    report.diagnostics += problems
+    for plugin in plugins.values():  # what a run would stop on when it loads one (issue 31)
+        report.diagnostics += KINDS[plugin.kind].inspect(plugin)
     return _sorted(report)
 
 

@@ -349,3 +349,79 @@ def test_a_plugin_manifest_that_is_not_a_file_is_refused_not_skipped(tmp_path: P
     result = CliRunner().invoke(main, args)
     assert result.exit_code == 3, result.output
     assert str(path) in result.output and "plugin.json is a file, or absent" in result.output
+
+
+# ------------------------------------------- what validate passes, run starts (issue 31)
+def _broken_robot(tmp_path: Path, case: str) -> Path:
+    """SimpleBot with its Python plugins copied beside it, hectorslam's broken as `case` says."""
+    import shutil
+
+    shutil.copytree(ROOT_FOLDER / "simplebot", tmp_path / "bot")
+    shutil.copytree(ROOT_FOLDER.parent / "plugins" / "python", tmp_path / "plugins")
+    settings = tmp_path / "bot" / "robot.json"
+    settings.write_text(json.dumps({"pluginDirectories": ["../plugins"]}))
+    module = tmp_path / "plugins" / "hectorslam" / "hector.py"
+    if case == "missing":
+        module.unlink()
+    elif case == "class":
+        module.write_text(module.read_text().replace("class HectorSLAM", "class Other"))
+    elif case == "syntax":
+        module.write_text(module.read_text() + "\ndef (\n")
+    elif case == "link":
+        outside = tmp_path / "hector.py"
+        module.rename(outside)
+        module.symlink_to(outside)
+    return tmp_path / "bot"
+
+
+@pytest.mark.parametrize(
+    ("case", "message"),
+    [
+        ("missing", "$.entry.module: error: module 'hector' is not in the plugin folder"),
+        ("class", "$.entry.class: error: module 'hector' has no class 'HectorSLAM' (its classes: Other)"),
+        ("syntax", "$.entry.module: error: module 'hector' does not compile (line "),
+        ("link", "$.entry.module: error: module 'hector' leaves the plugin folder (a link)"),
+        ("none", ""),
+    ],
+)
+def test_validate_refuses_the_python_plugins_a_run_would_stop_on(tmp_path: Path, case: str, message: str) -> None:
+    """validate exited 0 for these, and run then exited 3: validate reads the module
+    (compiles it, running nothing) and fails where the run would."""
+    robot = _broken_robot(tmp_path, case)
+    checked = CliRunner().invoke(main, ["validate", str(robot), "--variant", "field"])
+    ran = CliRunner().invoke(
+        main, ["run", str(robot), "--variant", "field", "--duration", "0.01", "--clock", "simulated", "--no-control"]
+    )
+    if case == "none":
+        assert checked.exit_code == 0 and ran.exit_code == 0, checked.output + ran.output
+    else:
+        assert checked.exit_code == 1 and message in checked.output, checked.output
+        assert ran.exit_code == 3, ran.output
+
+
+def test_a_cpp_library_not_built_is_a_warning_and_one_that_links_out_an_error(tmp_path: Path) -> None:
+    import shutil
+
+    from motivml.plugins.cpp import inspect
+
+    folder = tmp_path / "hands"
+    shutil.copytree(ROOT_FOLDER.parent / "plugins" / "cpp" / "gestures" / "hands", folder, ignore=shutil.ignore_patterns("build"))
+    plugin = next(iter(discover_folder(folder).values()))
+    (unbuilt,) = inspect(plugin)
+    assert unbuilt.severity.value == "warning" and "does not exist (build it: make cpp-plugins)" in unbuilt.message
+    (folder / "build").mkdir()
+    (tmp_path / "libhands.so").write_bytes(b"")
+    (folder / "build" / "libhands.so").symlink_to(tmp_path / "libhands.so")
+    (outside,) = inspect(plugin)
+    assert outside.severity.value == "error" and "leaves the plugin folder (a link)" in outside.message
+    (folder / "build" / "libhands.so").unlink()
+    (folder / "build" / "libhands.so").write_bytes(b"")
+    assert inspect(plugin) == []
+
+
+def discover_folder(folder: Path) -> dict[str, Any]:
+    """The plugin of one plugin folder, as a robot of its own declares it."""
+    from motivml.documents.robot_folder import Plugin
+
+    manifest = json.loads((folder / "plugin.json").read_text())
+    return {manifest["feature"]: Plugin(manifest["feature"], manifest["kind"], manifest["entry"], folder, folder / "plugin.json")}

@@ -23,12 +23,13 @@ import signal
 import subprocess
 import sys
 import threading
+from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 from ..documents.robot_folder import Plugin
-from ..errors import Diagnostic
+from ..errors import Diagnostic, Severity
 from .api import PluginContext
 from .python import plugin_error
 
@@ -119,6 +120,24 @@ class CppPlugin:
 
     def status(self) -> str:
         return str(self.instance.status())
+
+
+def inspect(plugin: Plugin) -> list[Diagnostic]:
+    """What `validate` can tell of a C++ plugin without loading it: its library is a file of
+    the plugin folder (not a link out of it: an error), and it is built (else a warning, as
+    for a checkout where `make cpp-plugins` has not run: a run that loads it stops)."""
+    path = Path(plugin.folder) / plugin.entry["library"]
+    if not path.resolve().is_relative_to(Path(plugin.folder).resolve()):
+        message = f"library {plugin.entry['library']} leaves the plugin folder (a link)"
+        return plugin_error(plugin, "library", message).diagnostics
+    if not path.is_file():
+        (problem,) = plugin_error(
+            plugin,
+            "library",
+            f"library {path} does not exist (build it: make cpp-plugins); a run that loads {plugin.feature} stops",
+        ).diagnostics
+        return [replace(problem, severity=Severity.WARNING)]
+    return []
 
 
 def create(plugin: Plugin, context: PluginContext) -> CppPlugin:

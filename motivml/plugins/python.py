@@ -54,6 +54,68 @@ def _refuse_links_out(plugin: Plugin, name: str) -> None:
         here = here / part
 
 
+def inspect(plugin: Plugin) -> list[Diagnostic]:
+    """What `validate` can tell of a Python plugin without running any of it: its entry
+    module is a file of the plugin folder (not a link out of it), compiles, and binds the
+    entry class at its top level (a class, an assignment or an import of that name; a
+    `from ... import *` leaves it open). A run that loads the plugin would stop on each."""
+    import ast
+
+    name, wanted = plugin.entry["module"], plugin.entry["class"]
+    try:
+        _refuse_links_out(plugin, name)
+    except PluginError as exc:
+        return exc.diagnostics
+    base = Path(plugin.folder).joinpath(*name.split("."))
+    path = next((p for p in (base.with_name(base.name + ".py"), base / "__init__.py") if p.is_file()), None)
+    if path is None:
+        message = f"module {name!r} is not in the plugin folder ({base.name}.py, or {base.name}/__init__.py)"
+        return plugin_error(plugin, "module", message).diagnostics
+    try:
+        tree = ast.parse(path.read_bytes(), filename=str(path))  # (compiled, not run)
+    except (SyntaxError, ValueError) as exc:
+        line = f" (line {exc.lineno})" if isinstance(exc, SyntaxError) and exc.lineno else ""
+        reason = exc.msg if isinstance(exc, SyntaxError) else str(exc)
+        return plugin_error(plugin, "module", f"module {name!r} does not compile{line}: {reason}").diagnostics
+    except OSError as exc:
+        return plugin_error(plugin, "module", f"cannot read module {name!r}: {exc.strerror or exc}").diagnostics
+    bound, classes, starred = _top_level_names(tree)
+    if wanted in bound or starred:
+        return []
+    has = ", ".join(sorted(classes)) or "none"
+    return plugin_error(plugin, "class", f"module {name!r} has no class {wanted!r} (its classes: {has})").diagnostics
+
+
+def _top_level_names(tree: Any) -> tuple[set[str], set[str], bool]:
+    """(names the module binds at its top level, its classes, whether it imports *), looking
+    into top-level if, try and with blocks (iteratively)."""
+    import ast
+
+    bound: set[str] = set()
+    classes: set[str] = set()
+    starred = False
+    work = list(tree.body)
+    while work:
+        node = work.pop()
+        if isinstance(node, ast.ClassDef):
+            bound.add(node.name)
+            classes.add(node.name)
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            bound.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            bound |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            for alias in node.names:
+                if alias.name == "*":
+                    starred = True
+                bound.add(alias.asname or alias.name.split(".")[0])
+        elif isinstance(node, (ast.If, ast.Try, ast.With)):
+            work += [*node.body, *getattr(node, "orelse", []), *getattr(node, "finalbody", [])]
+            work += [n for handler in getattr(node, "handlers", []) for n in handler.body]
+    return bound, classes, starred
+
+
 class PythonPlugins:
     """The Python plugins of one robot: import, construct, reload."""
 

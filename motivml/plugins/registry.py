@@ -97,6 +97,15 @@ class Kind:
     optional: tuple[str, ...] = ()  # entry keys this kind may have
     on_ros: bool = False  # its loader takes the run's ROS namespace
     check_values: Callable[[dict[str, Any]], tuple[EntryPath, str] | None] | None = None  # the kind's own
+    inspector: str | None = None  # "package.module:function": what validate can tell of its files, running nothing
+
+    def inspect(self, plugin: Plugin) -> list[Diagnostic]:
+        """What the plugin's files say before a run loads them (none for a kind without files)."""
+        if self.inspector is None:
+            return []
+        module, name = self.inspector.split(":")
+        found: list[Diagnostic] = getattr(importlib.import_module(module), name)(plugin)
+        return found
 
     def check_entry(self, entry: dict[str, Any]) -> tuple[EntryPath, str] | None:
         """(place in the entry, problem) when a schema-valid entry cannot be used, else None."""
@@ -122,8 +131,20 @@ class Kind:
 KINDS = {
     kind.name: kind
     for kind in (
-        Kind("python", "module", path_is_file=False, loader="motivml.plugins.python:PythonPlugins"),
-        Kind("cpp", "library", path_is_file=True, loader="motivml.plugins.cpp:CppPlugins"),
+        Kind(
+            "python",
+            "module",
+            path_is_file=False,
+            loader="motivml.plugins.python:PythonPlugins",
+            inspector="motivml.plugins.python:inspect",
+        ),
+        Kind(
+            "cpp",
+            "library",
+            path_is_file=True,
+            loader="motivml.plugins.cpp:CppPlugins",
+            inspector="motivml.plugins.cpp:inspect",
+        ),
         Kind(
             "ros2_lifecycle",
             "node",
