@@ -13,21 +13,25 @@ description is kept under `x-featureide`).
 A MoTiVML parent may mix ungrouped children with an OR and an XOR group; FeatureIDE gives a
 parent one kind of children. Such a parent is written as `<and>` with its group members
 optional, and each group as rules (the parent implies one of them; for an XOR group, no two
-together), which keeps its selections, over the same features.
+together), which keeps its selections, over the same features. Includes and excludes are
+rules too. A rule carries no binding rule (2.4), so each of these is also written as an
+attribute (`includes`, `excludes` on the feature, `group` on a member), and reading one back
+brings the relation back in place of its rule: a round trip keeps the variants.
 
-XML is read with expat (Python's own, which refuses entity expansion bombs and does not
-fetch external entities), building the element tree by hand to keep each element's place.
+XML is read with expat (Python's own), declaring no entity (refused, as defusedxml does) and
+fetching nothing, building the element tree by hand to keep each element's place.
 """
 
 from __future__ import annotations
 
+import collections
 from dataclasses import dataclass, field
 from typing import Any
 from xml.parsers import expat
 
 from ..errors import DocumentError, Location, error
 from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold
-from .model import FeatureModel, token
+from .model import Feature, FeatureModel, token
 from .uvl import Ids
 
 _GROUPS = {"and": "", "or": "OR", "alt": "XOR", "feature": ""}
@@ -123,6 +127,8 @@ def read_featureide(data: bytes, file: str) -> dict[str, Any]:
 class _Reader:
     def __init__(self) -> None:
         self.ids = Ids()
+        self.relations: list[tuple[dict[str, Any], str, list[str], _Element]] = []
+        self.grouped = False  # a `group` attribute was read (export's mark on a group written as rules)
 
     def document(self, top: _Element) -> dict[str, Any]:
         if top.tag not in ("featureModel", "extendedFeatureModel"):
@@ -131,8 +137,24 @@ class _Reader:
         if struct is None or len(struct.children) != 1:
             raise _Refusal(struct or top, "a FeatureIDE model has one root feature in <struct>")
         root = self._features(struct.children[0])
+        for document, key, names, element in self.relations:
+            unknown = [name for name in names if name not in self.ids]
+            if unknown:
+                raise _Refusal(element, f"{document['id']} {key} {unknown[0]!r}, which is not a feature of the model")
+            relation = "featuresIncluded" if key == "includes" else "featuresExcluded"
+            document.setdefault("constraints", {})[relation] = [self.ids[name] for name in names]
         constraints = next((c for c in top.children if c.tag == "constraints"), None)
         formulas = [self._formula(rule) for rule in constraints.children] if constraints else []
+        if self.relations or self.grouped:
+            # the rules that say the relations above again, as export wrote them: each once
+            said = collections.Counter(self._formula(_tree(f"<rule>{rule}</rule>".encode(), "")) for rule in _relation_rules(root))
+            kept = []
+            for formula in formulas:
+                if said[formula] > 0:
+                    said[formula] -= 1
+                else:
+                    kept.append(formula)
+            formulas = kept
         if formulas:
             root["formulas"] = formulas
         return root
@@ -179,7 +201,13 @@ class _Reader:
 
     def _attribute(self, element: _Element, document: dict[str, Any]) -> None:
         key, value = element.attributes.get("name", ""), element.attributes.get("value", "")
-        if key in ("bindingTime", "bindingMode"):
+        if key in ("includes", "excludes"):  # (motivml's own, written by export; resolved at the end)
+            self.relations.append((document, key, value.split(), element))
+        elif key == "group" and value in ("OR", "XOR"):
+            document["group"] = value
+            document.pop("isMandatory", None)
+            self.grouped = True
+        elif key in ("bindingTime", "bindingMode"):
             allowed = ("Early", "Late", "Any") if key == "bindingTime" else ("Static", "Dynamic", "Any")
             if value not in allowed:
                 raise _Refusal(element, f"{key} is one of {', '.join(allowed)}, not {value!r}")
@@ -259,8 +287,7 @@ def write_featureide(model: FeatureModel) -> str:
             lines.append(pad + item)
             continue
         feature = features[item]
-        kinds = {features[c].group for c in feature.children}
-        tag = "feature" if not feature.children else ("or" if kinds == {"OR"} else "alt" if kinds == {"XOR"} else "and")
+        tag = _tag(model, feature)
         mixed = tag == "and"
         if mixed:  # groups of a parent with other children: as rules
             for kind in ("OR", "XOR"):
@@ -280,6 +307,15 @@ def write_featureide(model: FeatureModel) -> str:
             f'<attribute name="bindingTime" type="string" value="{token(feature.time_allowed)}"/>',
             f'<attribute name="bindingMode" type="string" value="{token(feature.mode_allowed)}"/>',
         ]
+        # What rules cannot say, beside the rules other tools count by: an include's binding
+        # rule (3.1), and that excluding features and members of a group written as rules
+        # may be Dynamic alternatives (3.3). Read back, they replace their rules.
+        for key, targets in (("includes", feature.includes), ("excludes", feature.excludes)):
+            if targets:
+                value = quoteattr(" ".join(dict.fromkeys(targets)))
+                inner.append(f'<attribute name="{key}" type="string" value={value}/>')
+        if feature.group and parent is not None and _tag(model, parent) == "and":
+            inner.append(f'<attribute name="group" type="string" value="{feature.group}"/>')
         if feature.name != feature.id:
             inner.insert(0, f"<description>{_escape(feature.name)}</description>")
         lines.append(f"{pad}<{tag} {attributes}>")
@@ -302,6 +338,37 @@ def write_featureide(model: FeatureModel) -> str:
     lines += [f"        <rule>{rule}</rule>" for rule in rules]
     lines += ["    </constraints>", "</featureModel>"]
     return "\n".join(lines) + "\n"
+
+
+def _tag(model: FeatureModel, feature: Feature) -> str:
+    """The FeatureIDE element of a feature: a leaf, a group of one kind, or `and`."""
+    if not feature.children:
+        return "feature"
+    kinds = {model.features[c].group for c in feature.children}
+    return "or" if kinds == {"OR"} else "alt" if kinds == {"XOR"} else "and"
+
+
+def _relation_rules(document: dict[str, Any]) -> list[str]:
+    """The rules `write_featureide` writes for a document's includes, excludes and groups
+    beside other children (so that the reader can tell them from a model's own)."""
+    rules: list[str] = []
+    work = [document]
+    while work:
+        node = work.pop()
+        sub = node.get("sub", [])
+        kinds = {child.get("group", "") for child in sub}
+        if sub and len(kinds) > 1:  # (a parent whose groups are written as rules)
+            for kind in ("OR", "XOR"):
+                members = [child["id"] for child in sub if child.get("group") == kind]
+                if members:
+                    rules.append(_rule_disj(node["id"], members))
+                    if kind == "XOR":
+                        rules += [_rule_none_of_both(a, b) for a, b in at_most_one(members)]
+        constraints = node.get("constraints", {})
+        rules += [_rule_imp(node["id"], y) for y in constraints.get("featuresIncluded", [])]
+        rules += [_rule_not_both(node["id"], y) for y in constraints.get("featuresExcluded", [])]
+        work += sub
+    return rules
 
 
 def _element(op: str) -> Any:
