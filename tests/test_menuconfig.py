@@ -245,3 +245,60 @@ def test_time_mode_undecide_and_refusals_in_the_application(tmp_path: Path) -> N
     assert seen[6] == seen[5]  # ? did not replace the conflict
     assert "there is no repair 5" in seen[7] and "repair them first" in seen[7]
     assert "cannot write" in seen[7] and not path.exists()
+
+
+def test_ctrl_q_asks_as_q_does_and_ctrl_c_and_sigterm_end_it_with_their_codes(robot: Path) -> None:
+    """Issue 31: Ctrl+Q quit at once and lost unsaved decisions; Ctrl-C did not end it as
+    an interrupt (130); SIGTERM and SIGHUP left the terminal in the alternate screen. Now
+    Ctrl+Q asks as q does, Ctrl-C ends it with 130, and SIGTERM through the application,
+    which gives the terminal back, with 143."""
+    import os
+    import signal
+
+    session, path = open_session(str(robot), "warehouse", None)
+    before = path.read_bytes()
+    states: list[bool] = []
+
+    async def twice(app: Any, pilot: Any) -> None:
+        await go_to(app, pilot, "navigation")
+        await pilot.press("n")
+        await pilot.press("ctrl+q")
+        states.append(app.is_running)
+        await pilot.press("ctrl+q")
+
+    app = drive(session, path, twice)
+    assert states == [True] and not app.is_running and app.return_code == 0
+    assert path.read_bytes() == before
+
+    async def interrupt(app: Any, pilot: Any) -> None:
+        await pilot.press("n", "ctrl+c")
+
+    app = drive(*open_session(str(robot), "warehouse", None), interrupt)
+    assert app.return_code == 130 and path.read_bytes() == before
+
+    async def terminate(app: Any, pilot: Any) -> None:
+        os.kill(os.getpid(), signal.SIGTERM)
+        await pilot.pause()
+
+    app = drive(*open_session(str(robot), "warehouse", None), terminate)
+    assert app.return_code == 128 + signal.SIGTERM
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # (given back when the application ended)
+
+
+def test_the_command_says_interrupted_and_exits_with_the_applications_code(
+    robot: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from motivml.cli import menuconfig
+
+    class Ended:
+        def __init__(self, code: int) -> None:
+            self.return_code = code
+
+        def run(self) -> None:
+            pass
+
+    monkeypatch.setattr(menuconfig, "_on_a_terminal", lambda: True)
+    for code, said in ((130, "interrupted"), (143, ""), (0, "")):
+        monkeypatch.setattr(menuconfig, "MenuConfig", lambda session, path, code=code: Ended(code))
+        result = CliRunner().invoke(main, ["menuconfig", str(robot), "--variant", "warehouse"])
+        assert result.exit_code == code and said in result.output, result.output

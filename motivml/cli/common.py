@@ -117,10 +117,10 @@ def one_variant(config: str | None, variant: str | None) -> str:
         raise click.UsageError("give --variant NAME (variants/NAME.json of the robot folder) or --config FILE")
     else:
         name = Path(config).stem
-    # (a folder and a registration are named by it: build/ROBOT/. was build/ROBOT itself)
-    if name in ("", ".", "..") or "/" in name or "\x00" in name:
-        given = f"--variant {variant!r}" if variant is not None else f"--config {config!r}"
-        raise click.UsageError(f"{given}: a variant's name ({name!r}) must be a plain file name")
+    # (a folder and a registration are named by it: build/ROBOT/. was build/ROBOT itself;
+    # a --variant name is checked against the robot folder's own rule where it is opened)
+    if config is not None and name in ("", ".", ".."):
+        raise click.UsageError(f"--config {config!r}: a variant's name ({name!r}) must be a plain file name")
     return name
 
 

@@ -18,6 +18,8 @@ import click
 from ..errors import MotivmlError, repair_text
 from .common import fail, one_variant, plural, targets
 
+EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by Ctrl-C (SIGINT)
+
 if TYPE_CHECKING:
     from ..binding.configurator import Session
 
@@ -48,9 +50,20 @@ def menuconfig_command(target: str, variant: str | None, config: str | None, pre
         session, path = open_session(target, variant, config, prefer)
     except MotivmlError as exc:
         fail(exc)
-    if not sys.stdin.isatty() or not sys.stdout.isatty():
+    if not _on_a_terminal():
         raise click.UsageError("menuconfig needs a terminal (stdin and stdout)")
-    MenuConfig(session, path).run()
+    app = MenuConfig(session, path)
+    app.run()
+    if app.return_code == EXIT_INTERRUPTED:
+        click.echo("interrupted", err=True)
+    if app.return_code:  # (Ctrl-C, SIGTERM, SIGHUP: unsaved decisions are not saved)
+        sys.exit(app.return_code)
+
+
+def _on_a_terminal() -> bool:
+    import sys
+
+    return sys.stdin.isatty() and sys.stdout.isatty()
 
 
 def open_session(
@@ -124,6 +137,10 @@ def _app_class() -> Any:
             Binding("question_mark", "why", "why"),
             Binding("s", "save", "save"),
             Binding("q", "quit_menu", "quit"),
+            # Ctrl+Q as q (Textual's own quit lost unsaved decisions at once); Ctrl-C, which
+            # a terminal application gets as a key, ends it as an interrupt does elsewhere
+            Binding("ctrl+q", "quit_menu", show=False, priority=True),
+            Binding("ctrl+c", "interrupt", show=False, priority=True),
             *(Binding(str(k), f"repair({k})", show=False) for k in range(1, 6)),
         ]
 
@@ -143,6 +160,18 @@ def _app_class() -> Any:
             yield Footer()
 
         def on_mount(self) -> None:
+            import asyncio
+            import signal
+
+            # SIGTERM and SIGHUP end the application as q would, without asking: Textual
+            # then gives the terminal back (they left it in the alternate screen with mouse
+            # reporting on). The exit code says which signal (128 + its number).
+            loop = asyncio.get_running_loop()
+            for signum in (signal.SIGTERM, signal.SIGHUP):
+                try:
+                    loop.add_signal_handler(signum, self.exit, None, 128 + signum)
+                except (NotImplementedError, RuntimeError, ValueError):  # (not the main thread: a test's)
+                    pass
             tree = self.query_one(FeatureTree)
             model = self.session.model
             tree.root.data = model.features[0].id
@@ -307,6 +336,9 @@ def _app_class() -> Any:
                 return
             self.session.saved()
             self.notify(f"saved {self.path}")
+
+        def action_interrupt(self) -> None:
+            self.exit(None, EXIT_INTERRUPTED)
 
         def action_quit_menu(self) -> None:
             if self.session.unsaved and not self.leaving:
