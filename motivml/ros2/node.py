@@ -44,7 +44,9 @@ from .graph import Graph
 
 PREFIX = "features."
 SUFFIX = ".active"
-LEVELS = {"OK": 0, "WARN": 1, "ERROR": 2}  # diagnostic_msgs/DiagnosticStatus levels
+# diagnostic_msgs/DiagnosticStatus levels, as the message's `byte` field holds them: given a
+# plain int, these wheels published garbage (OK arrived as b'a', WARN as b'\xca')
+LEVELS = {"OK": b"\x00", "WARN": b"\x01", "ERROR": b"\x02"}
 
 
 def parameter_name(feature: str) -> str:
