@@ -147,12 +147,14 @@ class Client:
             client.remove_pending_request(future)
             assert fresh and time.monotonic() < deadline, f"{service} did not answer"
 
-    def set(self, atomically: bool = True, **values: Any) -> list[Any]:
-        """Set features.<id>.active; the results (one for atomically)."""
+    def set(self, atomically: bool = True, pairs: tuple[tuple[str, bool], ...] = (), **values: Any) -> list[Any]:
+        """Set features.<id>.active; the results (one for atomically). `pairs` come first,
+        as given (a feature may be named twice)."""
         from rcl_interfaces.srv import SetParameters, SetParametersAtomically
         from rclpy.parameter import Parameter
 
-        messages = [Parameter(f"features.{k}.active", value=v).to_parameter_msg() for k, v in values.items()]
+        given = [*pairs, *values.items()]
+        messages = [Parameter(f"features.{k}.active", value=v).to_parameter_msg() for k, v in given]
         kind = SetParametersAtomically if atomically else SetParameters
         name = "set_parameters_atomically" if atomically else "set_parameters"
         answer = self.call(kind, f"{self.ns}/motivml/{name}", kind.Request(parameters=messages))

@@ -181,6 +181,10 @@ class CppPlugins:
     def problems(self) -> list[Diagnostic]:
         return []
 
+    def absent(self, features: list[str]) -> dict[str, str]:
+        """None: a library that cannot load says so when its feature starts."""
+        return {}
+
     def create(self, plugin: Plugin, context: PluginContext, fresh: bool = False) -> CppPlugin:
         return create(plugin, context)
 

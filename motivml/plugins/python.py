@@ -132,6 +132,10 @@ class PythonPlugins:
         """None left at launch: `discover` refuses entry modules whose names clash."""
         return []
 
+    def absent(self, features: list[str]) -> dict[str, str]:
+        """None: a module that cannot be imported says so when its feature starts."""
+        return {}
+
     def _module(self, plugin: Plugin, fresh: bool) -> ModuleType:
         name = plugin.entry["module"]
         module = self.modules.get(plugin.feature)

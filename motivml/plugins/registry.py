@@ -30,6 +30,11 @@ class Loader(Protocol):
         """What stops these plugins from loading together (before anything starts)."""
         ...
 
+    def absent(self, features: list[str]) -> dict[str, str]:
+        """Of these features, about to start together, those whose implementation is not
+        there (a node not on the ROS graph): feature -> why, all found at once."""
+        ...
+
     def create(self, plugin: Plugin, context: PluginContext, fresh: bool) -> Any:
         """An instance of the plugin's class, not yet started (`fresh`: re-read its code)."""
         ...

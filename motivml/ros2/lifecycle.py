@@ -66,6 +66,14 @@ class LifecycleNodes:
             for node in message["nodes"]:
                 self.clients(str(node))
             return {}
+        if do == "absent":  # which of these nodes are not there within one deadline for all
+            deadline = time.monotonic() + float(message["timeout"])
+            absent = []
+            for node in message["nodes"]:
+                change, _ = self.clients(str(node))
+                if not change.wait_for_service(timeout_sec=max(deadline - time.monotonic(), 0.0)):
+                    absent.append(node)
+            return {"absent": absent}
         ident = int(message["instance"])
         instance = self.instances.get(ident)
         if do == "start":

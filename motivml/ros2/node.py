@@ -175,10 +175,14 @@ class FrontDoor:
                     f"{unknown[0][len(PREFIX) :].removesuffix(SUFFIX)!r} (features.<id>.active exist for its selected features)"
                 )
             return refuse(f"a call that changes features.* changes nothing else ({', '.join(others)})")
+        wanted: dict[str, bool] = {}
         for message in messages:
             if message.value.type != ParameterType.PARAMETER_BOOL:
                 return refuse(f"{message.name} takes true or false")
-        wanted = {self.features[m.name]: bool(m.value.bool_value) for m in messages}
+            feature, value = self.features[message.name], bool(message.value.bool_value)
+            if wanted.get(feature, value) != value:  # (the last one won: both entries answered success)
+                return refuse(f"{message.name} is set to true and to false in one call: nothing changed")
+            wanted[feature] = value
         try:
             # The run waits up to the timeout for the commit; the margin is the link's.
             answer = self.link.call("set", self.timeout + 5.0, wanted=wanted)

@@ -185,10 +185,23 @@ class Binder:
         problems = [d for loader in self.loaders.values() for d in loader.problems()]
         if problems:
             raise PluginError(problems)
+        starting = sorted(self.active & set(self.plugins), key=self.variant.model.index.__getitem__)
+        absent: dict[str, str] = {}
+        for kind, loader in self.loaders.items():  # (all of them named, before any starts)
+            absent |= loader.absent([f for f in starting if self.plugins[f].kind == kind])
+        if absent:
+            raise PluginError(
+                [
+                    d
+                    for f in starting
+                    if f in absent
+                    for d in plugin_error(self.plugins[f], _entry_key(self.plugins[f]), f"cannot start {f}: {absent[f]}").diagnostics
+                ]
+            )
         started: list[Running] = []
         preparing = Preparing(None)
         try:
-            for feature in sorted(self.active & set(self.plugins), key=self.variant.model.index.__getitem__):
+            for feature in starting:
                 started.append(self._start(feature, preparing))
             self._switch([], started)
         except BaseException:
