@@ -257,6 +257,21 @@ def test_a_node_that_fails_to_activate_rolls_the_request_back(ward: Callable[...
     assert "camera" in robot.active and "thermal" not in robot.active
 
 
+def test_a_node_that_would_not_deactivate_is_still_watched(ward: Callable[..., Running]) -> None:
+    """Issue 31: after a swap refused because a node would not deactivate, the node was no
+    longer watched: killed later, it raised no fault and its feature stayed active."""
+    robot = ward(fail={"person_detection": "deactivate"})
+    [result] = robot.client.set(camera=False, thermal=True)
+    assert not result.successful and "node /person_detection failed to deactivate" in result.reason, result.reason
+    assert "camera" in robot.active
+    robot.nodes["person_detection"].kill()
+    runtime = robot.session.runtime
+    until(lambda: runtime.faults, timeout=10, what="the fault of camera's node")
+    assert [f.feature for f in runtime.faults] == ["camera"] and "node /person_detection" in runtime.faults[0].error, (
+        runtime.faults, runtime.notes
+    )
+
+
 def test_a_killed_node_is_a_fault_of_its_feature(ward: Callable[..., Running]) -> None:
     robot = ward()
     client = robot.client

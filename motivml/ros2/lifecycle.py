@@ -339,10 +339,17 @@ class NodeFeature:
         """Leaving (or moved back): active -> inactive. A lost node is left as it is."""
         from lifecycle_msgs.msg import State, Transition
 
-        self.watched = False
+        self.watched = False  # (its own deactivation is not a loss)
         self._settle_configure()
         if self.lost is None and self.state_id == State.PRIMARY_STATE_ACTIVE:
-            self._transition(Transition.TRANSITION_DEACTIVATE, "deactivate")
+            try:
+                self._transition(Transition.TRANSITION_DEACTIVATE, "deactivate")
+            except FeatureUnavailable:
+                # The node would not go: the request is refused and its feature stays, so
+                # the node is watched again (it was not, and a node killed later raised no
+                # fault while status still said active).
+                self.watched = True
+                raise
 
     def stop(self) -> None:
         """Release: back to unconfigured (unless the node is lost, or another instance owns it)."""
