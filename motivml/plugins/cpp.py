@@ -11,10 +11,13 @@ Every failure is a `PluginError` at the manifest's `entry.library` or `entry.cla
 - dlopen fails (an undefined symbol, say, or a static initialiser that throws);
 - the library does not declare the class (the message lists the classes it does).
 
-A library is loaded in a child process first (once per file: path, mtime and size), and
-only when that succeeded in the running process: a library that cannot load must never
-poison it (a static initialiser that throws unwinds through dlopen and leaves the dynamic
-loader's lock held, so every later load from another thread, and the exit, would hang).
+A library is loaded in a child process first, and only when that succeeded in the running
+process: a library that cannot load must never poison it (a static initialiser that throws
+unwinds through dlopen and leaves the dynamic loader's lock held, so every later load from
+another thread, and the exit, would hang). The child loads it every time the running
+process is about to map it (no instance of it lives here): a library that loaded cleanly
+once may throw the next time (its calibration file has gone since), so no verdict is kept.
+While an instance lives, a further load maps nothing and runs no initialiser: no probe.
 """
 
 from __future__ import annotations
@@ -56,17 +59,13 @@ except RuntimeError as exc:
     print(lines[0] if lines else type(exc).__name__)
     sys.exit(1)
 """
-_verdicts: dict[tuple[str, int, int], str | None] = {}  # (path, mtime, size) -> why it cannot load
-_probing = threading.Lock()
+_mapped: dict[str, int] = {}  # resolved library path -> live Library objects of it in this process
+_probing = threading.Lock()  # (a probe and the load after it, one library at a time)
 
 
 def probe(extension: ModuleType, path: Path) -> str | None:
-    """Why the library cannot load, found by loading it in a child process; None if it can."""
-    stat = path.stat()
-    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    """Why the library cannot load, found by loading it in a child process now; None if it can."""
     with _probing:
-        if key in _verdicts:
-            return _verdicts[key]
         command = [sys.executable, "-c", _PROBE, str(extension.__file__), str(path)]
         try:
             done = subprocess.run(command, capture_output=True, text=True, timeout=PROBE_TIMEOUT)
@@ -82,15 +81,17 @@ def probe(extension: ModuleType, path: Path) -> str | None:
                 verdict = f"loading it killed the process ({signal.Signals(-done.returncode).name})"
             else:
                 verdict = f"loading it ended the process with exit code {done.returncode}"
-        _verdicts[key] = verdict
         return verdict
 
 
 class CppPlugin:
     """A C++ plugin instance, seen by the runtime as a Python plugin."""
 
-    def __init__(self, library: Any, instance: Any, context: PluginContext, spaces_type: type) -> None:
+    def __init__(
+        self, library: Any, instance: Any, context: PluginContext, spaces_type: type, key: str = ""
+    ) -> None:
         self.library = library
+        self.key = key  # its entry in `_mapped`
         self.instance = instance
         self.context = context
         outer = context
@@ -117,6 +118,7 @@ class CppPlugin:
             self.instance.release()
             if self.library.live == 0 and self.library.loaded:
                 self.library.unload()  # closed for real unless another loader holds it
+                _unmapped(self.key)
 
     def status(self) -> str:
         return str(self.instance.status())
@@ -157,19 +159,34 @@ def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
         )
     if not path.is_file():
         raise plugin_error(plugin, "library", f"library {path} does not exist (build it: make cpp-plugins)")
-    verdict = probe(extension, path)
+    key = str(path.resolve())
+    with _probing:
+        mapped = _mapped.get(key, 0) > 0
+    verdict = None if mapped else probe(extension, path)  # (mapped here: loading it again runs nothing)
     if verdict is not None:
         raise plugin_error(plugin, "library", f"cannot load {path.name}: {verdict}")
     try:
         library = extension.Library(str(path))
     except RuntimeError as exc:  # LoadError: dlopen failed
         raise plugin_error(plugin, "library", f"cannot load {path.name}: {_first_line(exc)}") from None
+    with _probing:
+        _mapped[key] = _mapped.get(key, 0) + 1
     try:
         instance = library.create(plugin.entry["class"])
     except RuntimeError as exc:
         library.unload()
+        _unmapped(key)
         raise plugin_error(plugin, "class", _first_line(exc)) from None
-    return CppPlugin(library, instance, context, extension.Spaces)
+    return CppPlugin(library, instance, context, extension.Spaces, key)
+
+
+def _unmapped(key: str) -> None:
+    with _probing:
+        left = _mapped.get(key, 0) - 1
+        if left > 0:
+            _mapped[key] = left
+        else:
+            _mapped.pop(key, None)
 
 
 class CppPlugins:
