@@ -161,8 +161,10 @@ class Number(click.FloatRange):
 
     def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
         number = click.FLOAT.convert(value, param, ctx)
-        if math.isnan(number) or (math.isinf(number) and not self.allow_inf):
-            self.fail(f"{value!r} is not a finite number", param, ctx)
+        # (only "inf" means no limit: 1e999 overflows to infinity, and ran until stopped)
+        spelled = str(value).strip().lower().lstrip("+") in ("inf", "infinity")
+        if math.isnan(number) or (math.isinf(number) and not (self.allow_inf and spelled)):
+            self.fail(f"{value!r} is not a finite number" + (" (inf: no limit)" if self.allow_inf else ""), param, ctx)
         if math.isinf(number) and number > 0:
             return number
         return super().convert(number, param, ctx)
