@@ -38,6 +38,35 @@ motivml_configure(TARGET robot ROBOT ${CMAKE_SOURCE_DIR}/robot VARIANT compiled_
 
 motivml_add_plugin(hands SOURCES hands.cpp OUTPUT_DIRECTORY ${CMAKE_SOURCE_DIR}/robot/plugins/hands)
 target_include_directories(hands PRIVATE features)
+motivml_add_plugin(calibrated SOURCES calibrated.cpp OUTPUT_DIRECTORY ${CMAKE_SOURCE_DIR}/robot/plugins/calibrated)
+"""
+
+CALIBRATED = """\
+#include <cstdlib>
+#include <fstream>
+#include <stdexcept>
+
+#include <motivml/feature.hpp>
+
+namespace calibrated {
+
+// Loaded, it reads its calibration; stopped, it uses it up (the file is gone after).
+struct Calibration {
+  Calibration() {
+    if (std::ifstream(std::getenv("CALIBRATION_USED")).good()) throw std::runtime_error("no calibration file");
+  }
+};
+const Calibration calibration;
+
+class Calibrated : public motivml::Feature {
+ public:
+  void step(double, motivml::Spaces&) override {}
+  void stop() override { std::ofstream(std::getenv("CALIBRATION_USED")) << "used\\n"; }
+};
+
+}  // namespace calibrated
+
+MOTIVML_FEATURE(calibrated, calibrated::Calibrated)
 """
 
 MAIN = """\
@@ -91,11 +120,18 @@ def robot(folder: Path) -> None:
             "isMandatory": False,
             "constraints": {"bindingTimeAllowed": "Any", "bindingModeAllowed": "Any"},
         },
+        {
+            "id": "calibrated",
+            "name": "Calibrated",
+            "isMandatory": False,
+            "constraints": {"bindingTimeAllowed": "Late", "bindingModeAllowed": "Dynamic"},
+        },
     ]
     (folder / "variants").mkdir(parents=True)
     (folder / "model.json").write_text(json.dumps({"id": "bot", "name": "Bot", "sub": features}, indent=2))
     for name, time, mode in (("compiled_in", "Early", "Static"), ("plugin", "Late", "Dynamic")):
         entries = [{"id": "logger"}, {"id": "hands", "props": {"time": time, "mode": mode}}]
+        entries.append({"id": "calibrated", "selected": name == "plugin"})
         (folder / "variants" / f"{name}.json").write_text(json.dumps({"properties": entries}, indent=2))
     (folder / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
     spaces = [{"id": "Gesture", "type": "Vector", "dimension": 1, "feature": "bot"}]
@@ -104,6 +140,10 @@ def robot(folder: Path) -> None:
     plugin.mkdir(parents=True)
     entry = {"library": "libhands.so", "class": "gestures::Hands"}
     (plugin / "plugin.json").write_text(json.dumps({"feature": "hands", "kind": "cpp", "entry": entry}))
+    plugin = folder / "plugins" / "calibrated"
+    plugin.mkdir(parents=True)
+    entry = {"library": "libcalibrated.so", "class": "calibrated::Calibrated"}
+    (plugin / "plugin.json").write_text(json.dumps({"feature": "calibrated", "kind": "cpp", "entry": entry}))
 
 
 @pytest.fixture(scope="module")
@@ -114,6 +154,7 @@ def project(tmp_path_factory: pytest.TempPathFactory) -> Path:
     (folder / "CMakeLists.txt").write_text(CMAKELISTS)
     (folder / "main.cpp").write_text(MAIN)
     (folder / "hands.cpp").write_text("#include <motivml_features/hands.hpp>\n")
+    (folder / "calibrated.cpp").write_text(CALIBRATED)
     features = folder / "features" / "motivml_features"
     features.mkdir(parents=True)
     shutil.copy(HANDS, features / "hands.hpp")  # the one source of the feature, both ways
@@ -192,3 +233,26 @@ def test_an_installation_without_the_package_says_so(tmp_path: Path, monkeypatch
     result = CliRunner().invoke(main, ["cmake-dir"])
     assert result.exit_code == 3
     assert "no motivmlConfig.cmake in this installation of motivml" in result.output
+
+
+def test_a_library_that_loaded_once_is_probed_again_before_it_is_mapped_again(project: Path) -> None:
+    """Issue 31: a library probed and loaded cleanly was not probed again while its file was
+    unchanged, but its initialiser may throw the next time: then it threw inside the robot,
+    and every later load (and the exit) hung. Every load that maps it again is one a child
+    made just before: built by motivml_add_plugin, `calibrated` uses up its calibration when
+    it stops, so its second load is refused, and `hands` still loads after it."""
+    import os
+
+    run = [sys.executable, "-m", "motivml.cli", "run", str(project / "robot"), "--variant", "plugin"]
+    run += ["--no-control", "--duration", "1", "--clock", "real"]  # requests prepared on the binder's thread
+    run += ["--at", "0.1", "load calibrated", "--at", "0.3", "unload calibrated"]
+    run += ["--at", "0.5", "load calibrated", "--at", "0.7", "load hands"]
+    used = project / "calibration-used"
+    used.unlink(missing_ok=True)
+    done = subprocess.run(run, capture_output=True, text=True, timeout=60, env={**os.environ, "CALIBRATION_USED": str(used)})
+    said = done.stdout + done.stderr
+    assert done.returncode == 0, said
+    assert "request at 0.100 s (tick 100): load calibrated: accepted" in said, said
+    assert "request at 0.500 s (tick 500): load calibrated: refused, nothing changed" in said, said
+    assert "cannot load libcalibrated.so: Could not load library no calibration file" in said, said
+    assert "request at 0.700 s (tick 700): load hands: accepted" in said, said

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import importlib
 import json
-import os
 import shutil
 import subprocess
 import sys
@@ -362,73 +361,3 @@ def test_a_library_whose_static_initialiser_throws_leaves_the_running_process_ab
         in done.stdout
     )
     assert "request at 0.500 s (tick 500): load hands: accepted" in done.stdout
-
-
-CALIBRATED = """
-#include <cstdlib>
-#include <fstream>
-#include <stdexcept>
-
-#include <motivml/feature.hpp>
-
-namespace calibrated {
-
-// Loaded, it reads its calibration; stopped, it uses it up (the file is gone after).
-struct Calibration {
-  Calibration() {
-    if (std::ifstream(std::getenv("CALIBRATION_USED")).good()) throw std::runtime_error("no calibration file");
-  }
-};
-const Calibration calibration;
-
-class Calibrated : public motivml::Feature {
- public:
-  void step(double, motivml::Spaces&) override {}
-  void stop() override { std::ofstream(std::getenv("CALIBRATION_USED")) << "used\\n"; }
-};
-
-}  // namespace calibrated
-
-MOTIVML_FEATURE(calibrated, calibrated::Calibrated)
-"""
-
-
-def test_a_library_that_loaded_once_is_probed_again_before_it_is_mapped_again(
-    extension: ModuleType, tmp_path: Path
-) -> None:
-    """Issue 31: a library probed and loaded cleanly was not probed again while its file was
-    unchanged, but its initialiser may throw the next time: then it threw inside the robot,
-    and every later load hung. Every load that maps it again is one a child made just
-    before: the second load of `calibrated` is refused, and `hands` still loads after it."""
-    source = tmp_path / "calibrated.cpp"
-    source.write_text(CALIBRATED)
-    folder = tmp_path / "plugins" / "calibrated"
-    folder.mkdir(parents=True)
-    build_plugin(source, folder / "libcalibrated.so")
-    entry = {"library": "libcalibrated.so", "class": "calibrated::Calibrated"}
-    (folder / "plugin.json").write_text(json.dumps({"feature": "calibrated", "kind": "cpp", "entry": entry}))
-    hands = tmp_path / "plugins" / "hands"
-    hands.mkdir()
-    shutil.copy(GESTURES / "hands" / "build" / "libhands.so", hands / "libhands.so")
-    entry = {"library": "libhands.so", "class": "gestures::Hands"}
-    (hands / "plugin.json").write_text(json.dumps({"feature": "hands", "kind": "cpp", "entry": entry}))
-    late = {"bindingTimeAllowed": "Late", "bindingModeAllowed": "Dynamic"}
-    features = ("calibrated", "hands")
-    sub = [{"id": f, "name": f, "isMandatory": False, "constraints": late} for f in features]
-    (tmp_path / "model.json").write_text(json.dumps({"id": "bot", "name": "Bot", "sub": sub}))
-    (tmp_path / "variants").mkdir()
-    variant = {"properties": [{"id": f, "props": {"time": "Late", "mode": "Dynamic"}} for f in features]}
-    (tmp_path / "variants" / "v.json").write_text(json.dumps(variant))
-    (tmp_path / "robot.json").write_text(json.dumps({"pluginDirectories": ["plugins"]}))
-    run = [sys.executable, "-m", "motivml.cli", "run", str(tmp_path), "--variant", "v", "--no-control"]
-    run += ["--duration", "1", "--clock", "real"]  # requests are prepared on the binder's thread
-    run += ["--at", "0.1", "load calibrated", "--at", "0.3", "unload calibrated"]
-    run += ["--at", "0.5", "load calibrated", "--at", "0.7", "load hands"]
-    environment = {**os.environ, "CALIBRATION_USED": str(tmp_path / "used")}
-    done = subprocess.run(run, capture_output=True, text=True, timeout=60, env=environment)
-    assert done.returncode == 0, done.stdout + done.stderr
-    said = done.stdout
-    assert "request at 0.100 s (tick 100): load calibrated: accepted" in said, said
-    assert "request at 0.500 s (tick 500): load calibrated: refused, nothing changed" in said, said
-    assert "cannot load libcalibrated.so: Could not load library no calibration file" in said, said
-    assert "request at 0.700 s (tick 700): load hands: accepted" in said, said
