@@ -19,6 +19,7 @@ from click.testing import CliRunner
 from helpers import model_of as read
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from paths import ROOT
 from test_property_sat import models
 
 from motivml.binding.analysis import count_selections
@@ -26,9 +27,6 @@ from motivml.cli import main
 from motivml.errors import DocumentError
 from motivml.language.featureide import read_featureide, write_featureide
 from motivml.language.uvl import read_uvl, write_uvl
-
-ROOT = Path(__file__).resolve().parent.parent
-
 
 
 # A node: (tag, name, mandatory, children); rules: (a, op, b) over names.
@@ -310,3 +308,23 @@ def test_an_xor_group_beside_other_children_is_written_in_n_log_n_names() -> Non
     back = read_featureide(write_featureide(read(small)).encode(), "m.xml")
     assert sum(1 for _ in ref.section_2_selections(back)) == sum(1 for _ in ref.section_2_selections(small)) == 10
     assert len(write_featureide(read(mixed(3000)))) < 4_000_000
+
+
+def test_relations_read_back_over_names_that_are_not_the_ids() -> None:
+    """Review of issue 31: a second `lidar` beside `Lidar` becomes `lidar_2`; the rules that
+    say its relations again are matched over the file's names, not the ids."""
+    text = (
+        "<featureModel><struct><and name='R'>"
+        "<feature name='Lidar'/>"
+        "<feature name='lidar'><attribute name='excludes' value='Lidar'/></feature>"
+        "<feature name='a&amp;b'><attribute name='includes' value='lidar'/></feature>"
+        "</and></struct><constraints>"
+        "<rule><not><conj><var>lidar</var><var>Lidar</var></conj></not></rule>"
+        "<rule><imp><var>a&amp;b</var><var>lidar</var></imp></rule>"
+        "</constraints></featureModel>"
+    )
+    document = read_featureide(text.encode(), "m.xml")
+    ids = [f["id"] for f in document["sub"]]
+    assert ids[1] == "lidar_2" and "formulas" not in document
+    assert document["sub"][1]["constraints"]["featuresExcluded"] == ["Lidar"]
+    assert document["sub"][2]["constraints"]["featuresIncluded"] == ["lidar_2"]

@@ -425,3 +425,43 @@ def discover_folder(folder: Path) -> dict[str, Any]:
 
     manifest = json.loads((folder / "plugin.json").read_text())
     return {manifest["feature"]: Plugin(manifest["feature"], manifest["kind"], manifest["entry"], folder, folder / "plugin.json")}
+
+
+@pytest.mark.parametrize(
+    ("source", "verdict"),
+    [
+        ("import sys\nfor HectorSLAM in (dict,):\n    pass\n", None),  # bound by a for
+        ("def __getattr__(name):\n    return dict\n", None),  # PEP 562: anything may be there
+        ("globals()['HectorSLAM'] = dict\n", None),  # bound by a call nobody can read
+        ("match 1:\n    case 1:\n        class HectorSLAM:\n            pass\n", None),
+        ("if (HectorSLAM := dict):\n    pass\n", None),
+        ("x = " + "(" * 300_000 + ")" * 300_000 + "\n", "does not compile"),
+        ("class Other:\n    pass\n", "has no class 'HectorSLAM'"),
+    ],
+    ids=["for", "module getattr", "globals", "match", "walrus", "too deep", "no class"],
+)
+def test_the_python_inspector_reads_what_modules_bind_and_never_raises(
+    tmp_path: Path, source: str, verdict: str | None
+) -> None:
+    """Review of issue 31: names bound by for, match, walrus or at run time made validate
+    refuse plugins that load; a module too deep for the parser raised out of validate."""
+    from motivml.plugins.python import inspect
+
+    robot = _broken_robot(tmp_path, "none")
+    (tmp_path / "plugins" / "hectorslam" / "hector.py").write_text(source)
+    plugins, _ = discover(RobotFolder.open(robot), load_model(str(robot / "model.json"))[0])
+    found = inspect(plugins["hectorslam"])
+    assert (found[0].message if found else None) is None if verdict is None else verdict in found[0].message
+
+
+def test_a_loop_of_links_is_a_link_out_of_the_folder(tmp_path: Path) -> None:
+    from motivml.plugins.python import inspect
+
+    robot = _broken_robot(tmp_path, "none")
+    module = tmp_path / "plugins" / "hectorslam" / "hector.py"
+    module.unlink()
+    module.symlink_to(tmp_path / "plugins" / "hectorslam" / "loop.py")
+    (tmp_path / "plugins" / "hectorslam" / "loop.py").symlink_to(module)
+    plugins, _ = discover(RobotFolder.open(robot), load_model(str(robot / "model.json"))[0])
+    (found,) = inspect(plugins["hectorslam"])
+    assert "leaves the plugin folder (a link)" in found.message

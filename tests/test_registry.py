@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
-from pathlib import Path
 from typing import Any
 
 import pytest
+from paths import SIMPLEBOT
 
 from motivml.documents.robot_folder import Plugin
 from motivml.errors import Diagnostic
@@ -15,9 +15,6 @@ from motivml.plugins.api import PluginContext
 from motivml.plugins.manifests import discover
 from motivml.runtime import launch as launching
 from motivml.runtime.requests import Swap
-
-ROOT = Path(__file__).resolve().parent.parent
-SIMPLEBOT = ROOT / "feature_models" / "simplebot"
 
 
 class Echo:
@@ -51,6 +48,9 @@ class FakeLoader:
 
     def problems(self) -> list[Diagnostic]:
         return []
+
+    def absent(self, features: list[str]) -> dict[str, str]:
+        return {}
 
     def create(self, plugin: Plugin, context: PluginContext, fresh: bool) -> Any:
         assert plugin.feature in self.plugins and context.feature == plugin.feature

@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from paths import ROOT
 
 from motivml.documents import writing
 from motivml.documents.writing import write_generation
 from motivml.errors import EnvironmentProblem
 
-ROOT = Path(__file__).resolve().parent.parent
 FIRST = {"a.h": "first a\n", "b.h": "first b\n", "lock": "first\n"}
 SECOND = {"a.h": "second a\n", "b.h": "second b\n", "lock": "second\n"}
 
@@ -229,3 +229,13 @@ def test_indented_json_is_jsons_indented_text_however_deep(ascii: bool) -> None:
         deep = {"id": f"f{d}", "sub": [deep]}
     text = indented_json(deep, ascii=ascii)
     assert text.count('"sub"') == 5_000 and text.endswith("}")
+
+
+def test_a_real_folder_of_what_else_motivml_puts_there_is_taken_over(tmp_path: Path) -> None:
+    """A variant's build folder after a run (its `run/`) or graph (its pictures), before any
+    configure: motivml's own, so configure takes it over (review of issue 31's refusal)."""
+    out = tmp_path / "out"
+    (out / "run").mkdir(parents=True)
+    (out / "feature-model.svg").write_text("<svg/>")
+    write_generation(out, FIRST, also_ours={"run", "feature-model.svg"})
+    assert contents(out) == {**FIRST, "feature-model.svg": "<svg/>"} and (out / "run").is_dir()

@@ -29,6 +29,13 @@ if TYPE_CHECKING:
     from ..validate import Report
 
 
+# What else motivml puts in a variant's build folder: a run's control socket folder, and
+# graph's pictures. A real folder holding only these is configure's to take over.
+BESIDE_OUTPUTS = frozenset(
+    {"run", *(f"{name}.{fmt}" for name in ("feature-model", "architecture") for fmt in ("dot", "svg", "graphml"))}
+)
+
+
 @click.command("validate")
 @click.argument("target", default=".", type=click.Path(readable=False))
 @click.option(
@@ -169,7 +176,7 @@ def configure_command(
             out.print("[bold red]invalid[/]: plugin manifests: nothing written")
             sys.exit(1)
         folder = Path(output) if output else Path("build") / robot.name / name
-        written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path))
+        written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path), BESIDE_OUTPUTS)
         if save_decisions is not None:
             from ..binding.configurator import decisions_text
             from ..binding.resolve import decisions

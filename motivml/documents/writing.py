@@ -6,7 +6,7 @@ import errno
 import json
 import os
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from json.encoder import encode_basestring_ascii
 from pathlib import Path
 from typing import Any
@@ -114,7 +114,7 @@ GENERATIONS = ".{}.generations"  # beside the output folder: the folders it poin
 LOCK = ".{}.lock"
 
 
-def write_generation(folder: Path, files: dict[str, str]) -> dict[str, bool]:
+def write_generation(folder: Path, files: dict[str, str], also_ours: Collection[str] = ()) -> dict[str, bool]:
     """Replace `files` in `folder` as one generation; {name: written}.
 
     For outputs that must agree with each other (a variant's lock file, header and loader):
@@ -126,9 +126,9 @@ def write_generation(folder: Path, files: dict[str, str]) -> dict[str, bool]:
     work), anything else the folder holds carried over, and then the link is replaced in
     one rename. Generations no link points to (an older one, or one a killed run left)
     are removed. A real folder in the way becomes the first generation, with everything it
-    holds, if motivml made it (an earlier version's output: it holds one of `files`) or it is
-    empty; any other is refused, untouched (a checkout named as the output would have become
-    a link). So is a name that is not a plain folder name (`-o .`, a variant named `.`),
+    holds, if motivml made it (an earlier version's output: it holds one of `files`; or only
+    what else motivml puts there, `also_ours`: a run's folder, pictures) or it is empty; any
+    other is refused, untouched (a checkout named as the output would have become a link). So is a name that is not a plain folder name (`-o .`, a variant named `.`),
     before anything is made beside it.
     """
     import fcntl
@@ -147,7 +147,7 @@ def write_generation(folder: Path, files: dict[str, str]) -> dict[str, bool]:
             raise EnvironmentProblem(
                 error(Location(str(folder)), f"cannot read: {exc.strerror or exc}", "io")
             ) from None
-        if held and not set(held) & set(files):
+        if held and not set(held) & set(files) and not set(held) <= set(also_ours):
             raise EnvironmentProblem(
                 error(
                     Location(str(folder)),

@@ -350,7 +350,15 @@ def _tag(model: FeatureModel, feature: Feature) -> str:
 
 def _relation_rules(document: dict[str, Any]) -> list[str]:
     """The rules `write_featureide` writes for a document's includes, excludes and groups
-    beside other children (so that the reader can tell them from a model's own)."""
+    beside other children (so that the reader can tell them from a model's own), over the
+    FeatureIDE names the document's features were read from (an id may differ: a second
+    `lidar` beside `Lidar` is `lidar_2`), as the file's own rules are."""
+    names: dict[str, str] = {}  # id -> its name, as XML text (a name may hold & or <)
+    work = [document]
+    while work:
+        node = work.pop()
+        names[node["id"]] = _escape(node["name"])
+        work += node.get("sub", [])
     rules: list[str] = []
     work = [document]
     while work:
@@ -359,14 +367,14 @@ def _relation_rules(document: dict[str, Any]) -> list[str]:
         kinds = {child.get("group", "") for child in sub}
         if sub and len(kinds) > 1:  # (a parent whose groups are written as rules)
             for kind in ("OR", "XOR"):
-                members = [child["id"] for child in sub if child.get("group") == kind]
+                members = [names[child["id"]] for child in sub if child.get("group") == kind]
                 if members:
-                    rules.append(_rule_disj(node["id"], members))
+                    rules.append(_rule_disj(names[node["id"]], members))
                     if kind == "XOR":
                         rules += [_rule_none_of_both(a, b) for a, b in at_most_one(members)]
         constraints = node.get("constraints", {})
-        rules += [_rule_imp(node["id"], y) for y in constraints.get("featuresIncluded", [])]
-        rules += [_rule_not_both(node["id"], y) for y in constraints.get("featuresExcluded", [])]
+        rules += [_rule_imp(names[node["id"]], names[y]) for y in constraints.get("featuresIncluded", [])]
+        rules += [_rule_not_both(names[node["id"]], names[y]) for y in constraints.get("featuresExcluded", [])]
         work += sub
     return rules
 

@@ -34,7 +34,7 @@ from typing import Any
 from ..documents.robot_folder import Plugin
 from ..errors import Diagnostic, Severity
 from .api import PluginContext
-from .python import plugin_error
+from .python import _inside, plugin_error
 
 
 def _extension() -> ModuleType | None:
@@ -60,7 +60,7 @@ except RuntimeError as exc:
     sys.exit(1)
 """
 _mapped: dict[str, int] = {}  # resolved library path -> live Library objects of it in this process
-_probing = threading.Lock()  # (a probe and the load after it, one library at a time)
+_probing = threading.RLock()  # (a probe and the load after it, one library at a time)
 
 
 def probe(extension: ModuleType, path: Path) -> str | None:
@@ -129,7 +129,7 @@ def inspect(plugin: Plugin) -> list[Diagnostic]:
     the plugin folder (not a link out of it: an error), and it is built (else a warning, as
     for a checkout where `make cpp-plugins` has not run: a run that loads it stops)."""
     path = Path(plugin.folder) / plugin.entry["library"]
-    if not path.resolve().is_relative_to(Path(plugin.folder).resolve()):
+    if not _inside(path, Path(plugin.folder).resolve()):
         message = f"library {plugin.entry['library']} leaves the plugin folder (a link)"
         return plugin_error(plugin, "library", message).diagnostics
     if not path.is_file():
@@ -153,23 +153,22 @@ def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
             "else reinstall motivml (pip install) where cmake, g++, python3-dev and libclass-loader-dev are installed",
         )
     path = Path(plugin.folder) / plugin.entry["library"]
-    if not path.resolve().is_relative_to(Path(plugin.folder).resolve()):
+    if not _inside(path, Path(plugin.folder).resolve()):
         raise plugin_error(
             plugin, "library", f"library {plugin.entry['library']} leaves the plugin folder (a link)"
         )
     if not path.is_file():
         raise plugin_error(plugin, "library", f"library {path} does not exist (build it: make cpp-plugins)")
     key = str(path.resolve())
-    with _probing:
+    with _probing:  # (held from the check to the count: no last instance unmaps it between)
         mapped = _mapped.get(key, 0) > 0
-    verdict = None if mapped else probe(extension, path)  # (mapped here: loading it again runs nothing)
-    if verdict is not None:
-        raise plugin_error(plugin, "library", f"cannot load {path.name}: {verdict}")
-    try:
-        library = extension.Library(str(path))
-    except RuntimeError as exc:  # LoadError: dlopen failed
-        raise plugin_error(plugin, "library", f"cannot load {path.name}: {_first_line(exc)}") from None
-    with _probing:
+        verdict = None if mapped else probe(extension, path)  # (mapped here: loading it again runs nothing)
+        if verdict is not None:
+            raise plugin_error(plugin, "library", f"cannot load {path.name}: {verdict}")
+        try:
+            library = extension.Library(str(path))
+        except RuntimeError as exc:  # LoadError: dlopen failed
+            raise plugin_error(plugin, "library", f"cannot load {path.name}: {_first_line(exc)}") from None
         _mapped[key] = _mapped.get(key, 0) + 1
     try:
         instance = library.create(plugin.entry["class"])

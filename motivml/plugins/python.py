@@ -47,11 +47,17 @@ def _refuse_links_out(plugin: Plugin, name: str) -> None:
     here = Path(plugin.folder)
     for part in name.split("."):
         for candidate in (here / part, here / f"{part}.py"):
-            if (candidate.exists() or candidate.is_symlink()) and not candidate.resolve().is_relative_to(
-                folder
-            ):
+            if (candidate.exists() or candidate.is_symlink()) and not _inside(candidate, folder):
                 raise plugin_error(plugin, "module", f"module {name!r} leaves the plugin folder (a link)")
         here = here / part
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    """Whether `path`, its links followed, is in `folder` (a loop of links is not)."""
+    try:
+        return path.resolve().is_relative_to(folder)
+    except (RuntimeError, OSError):  # (a symlink loop: Python 3.11's resolve raises RuntimeError)
+        return False
 
 
 def inspect(plugin: Plugin) -> list[Diagnostic]:
@@ -73,9 +79,15 @@ def inspect(plugin: Plugin) -> list[Diagnostic]:
         return plugin_error(plugin, "module", message).diagnostics
     try:
         tree = ast.parse(path.read_bytes(), filename=str(path))  # (compiled, not run)
-    except (SyntaxError, ValueError) as exc:
+    except (SyntaxError, ValueError, RecursionError, MemoryError) as exc:
         line = f" (line {exc.lineno})" if isinstance(exc, SyntaxError) and exc.lineno else ""
-        reason = exc.msg if isinstance(exc, SyntaxError) else str(exc)
+        reason = (
+            exc.msg
+            if isinstance(exc, SyntaxError)
+            else "it nests too deep for Python's parser"
+            if isinstance(exc, (RecursionError, MemoryError))
+            else str(exc)
+        )
         return plugin_error(plugin, "module", f"module {name!r} does not compile{line}: {reason}").diagnostics
     except OSError as exc:
         return plugin_error(plugin, "module", f"cannot read module {name!r}: {exc.strerror or exc}").diagnostics
@@ -86,9 +98,13 @@ def inspect(plugin: Plugin) -> list[Diagnostic]:
     return plugin_error(plugin, "class", f"module {name!r} has no class {wanted!r} (its classes: {has})").diagnostics
 
 
+_DYNAMIC = frozenset({"globals", "exec", "setattr", "vars", "locals", "__import__", "eval"})
+
+
 def _top_level_names(tree: Any) -> tuple[set[str], set[str], bool]:
-    """(names the module binds at its top level, its classes, whether it imports *), looking
-    into top-level if, try and with blocks (iteratively)."""
+    """(names the module binds at its top level, its classes, whether that is left open),
+    looking into top-level compound statements (iteratively). Open: `from ... import *`, a
+    module `__getattr__` (PEP 562), or a call that may bind anything (`globals()`, `exec`)."""
     import ast
 
     bound: set[str] = set()
@@ -102,18 +118,52 @@ def _top_level_names(tree: Any) -> tuple[set[str], set[str], bool]:
             classes.add(node.name)
         elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             bound.add(node.name)
-        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
-            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
-            bound |= {n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)}
+            starred = starred or node.name == "__getattr__"
         elif isinstance(node, (ast.Import, ast.ImportFrom)):
             for alias in node.names:
                 if alias.name == "*":
                     starred = True
                 bound.add(alias.asname or alias.name.split(".")[0])
-        elif isinstance(node, (ast.If, ast.Try, ast.With)):
-            work += [*node.body, *getattr(node, "orelse", []), *getattr(node, "finalbody", [])]
-            work += [n for handler in getattr(node, "handlers", []) for n in handler.body]
+        else:
+            # names any other statement binds (assignments, for targets, walruses, with
+            # ... as, except ... as), then the statements in its blocks
+            for part in ast.walk(node) if not isinstance(node, ast.stmt) or not _blocks(node) else _heads(node):
+                if isinstance(part, ast.Name) and isinstance(part.ctx, ast.Store):
+                    bound.add(part.id)
+                elif isinstance(part, (ast.ExceptHandler, ast.MatchAs, ast.MatchStar)) and part.name:
+                    bound.add(part.name)
+                elif isinstance(part, ast.Call) and isinstance(part.func, ast.Name) and part.func.id in _DYNAMIC:
+                    starred = True
+            work += _blocks(node)
     return bound, classes, starred
+
+
+def _blocks(node: Any) -> list[Any]:
+    """The statements in a compound statement's blocks (if, for, while, with, try, match)."""
+    import ast
+
+    found: list[Any] = []
+    for key in ("body", "orelse", "finalbody"):
+        value = getattr(node, key, None)
+        if isinstance(value, list) and all(isinstance(s, ast.stmt) for s in value):
+            found += value
+    for handler in getattr(node, "handlers", []):
+        found += handler.body
+    for case in getattr(node, "cases", []):
+        found += case.body
+    return found
+
+
+def _heads(node: Any) -> Any:
+    """Every part of a compound statement but the statements of its blocks."""
+    import ast
+
+    inner = {id(s) for s in _blocks(node)}
+    stack = [node]
+    while stack:
+        part = stack.pop()
+        yield part
+        stack += [child for child in ast.iter_child_nodes(part) if id(child) not in inner]
 
 
 class PythonPlugins:
