@@ -25,8 +25,8 @@ from pathlib import Path
 from typing import IO, Any
 
 import pytest
+from paths import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 AVAILABLE = importlib.util.find_spec("rclpy") is not None
 REQUIRED = os.environ.get("MOTIVML_REQUIRE_ROS2") == "1"
 

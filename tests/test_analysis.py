@@ -19,13 +19,12 @@ from helpers import feature
 from helpers import model_of as read
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from paths import ROOT
 from test_property_sat import models
 
 from motivml.binding import analysis as analysis_module
 from motivml.binding.analysis import CountFailed, analyse, count_selections, count_variants
 from motivml.cli import main
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def ids_in_order(raw: dict[str, Any]) -> list[str]:

@@ -8,14 +8,12 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from paths import ROOT, SIMPLEBOT
 
 from motivml import process
 from motivml.binding import encoding as enc
 from motivml.cli import main
 from motivml.language import reader
-
-ROOT = Path(__file__).resolve().parent.parent
-SIMPLEBOT = ROOT / "feature_models" / "simplebot"
 
 
 def run(*args: str) -> tuple[int, str]:

@@ -21,10 +21,10 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 from helpers import simulated_run
+from paths import ROOT
 
 from motivml.cli import main
 
-ROOT = Path(__file__).resolve().parent.parent
 HANDS = ROOT / "plugins" / "cpp" / "gestures" / "include" / "motivml_features" / "hands.hpp"
 
 CMAKELISTS = """\

@@ -13,11 +13,10 @@ from pathlib import Path
 import click
 import pytest
 from click.testing import CliRunner
+from paths import SIMPLEBOT
 
 from motivml.cli import COMMANDS, main
 
-ROOT = Path(__file__).resolve().parent.parent
-SIMPLEBOT = ROOT / "feature_models" / "simplebot"
 FIELD = SIMPLEBOT / "variants" / "field.json"
 BOTH = "give --config FILE or --variant NAME, not both"
 NEITHER = "give --variant NAME (variants/NAME.json of the robot folder) or --config FILE"

@@ -14,6 +14,7 @@ from click.testing import CliRunner
 from helpers import UPDATE_GOLDEN, assert_matches_golden, feature
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from paths import ROOT, SIMPLEBOT
 from test_property_sat import configurations, models
 
 from motivml.binding.codegen import BANNER, _printable, lock_json, outputs
@@ -24,8 +25,6 @@ from motivml.language.model import Binding, Feature, FeatureModel
 from motivml.language.reader import load_configuration, load_model, read_configuration, read_model
 from motivml.validate import validate
 
-ROOT = Path(__file__).resolve().parent.parent
-SIMPLEBOT = ROOT / "feature_models" / "simplebot"
 GOLDEN = Path(__file__).resolve().parent / "golden"
 
 

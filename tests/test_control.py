@@ -15,6 +15,7 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
+from paths import SIMPLEBOT
 
 from motivml.cli import main
 from motivml.errors import EnvironmentProblem
@@ -22,8 +23,6 @@ from motivml.runtime import control
 from motivml.runtime.control import LINE_LIMIT, ControlServer, send
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import RealClock
-
-SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 
 
 @pytest.fixture

@@ -12,11 +12,11 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
+from paths import ROOT
 
 from motivml.cli import main
 from motivml.runtime.launch import launch
 
-ROOT = Path(__file__).resolve().parent.parent
 ARM = ROOT / "feature_models" / "coordinated_arm"  # the reaching arm (links) with a coordination.json
 QSCXMLC = Path("/usr/lib/qt6/libexec/qscxmlc")
 COORDINATION: dict[str, Any] = json.loads((ARM / "coordination.json").read_text())

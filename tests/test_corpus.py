@@ -22,10 +22,10 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
+from paths import ROOT
 
 from motivml.cli import main
 
-ROOT = Path(__file__).resolve().parent.parent
 SEED = 20261123
 PER_KIND = 180  # 7 kinds: over 1,200 bad documents (and the importers', records' and options' below)
 EXITS = {0, 1, 3}  # valid, invalid, environment (2 is click's usage error: never expected here)

@@ -13,6 +13,7 @@ from types import ModuleType
 
 import binder_sync
 import pytest
+from paths import ROOT
 
 from motivml.documents.robot_folder import Plugin
 from motivml.plugins.api import PluginContext
@@ -20,7 +21,6 @@ from motivml.plugins.python import PluginError
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.requests import Load
 
-ROOT = Path(__file__).resolve().parent.parent
 GESTURES = ROOT / "plugins" / "cpp" / "gestures"
 BROKEN = ROOT / "plugins" / "cpp" / "broken" / "missing_symbol"
 

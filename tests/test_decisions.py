@@ -11,6 +11,7 @@ from click.testing import CliRunner
 from helpers import model_of
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from paths import ROOT
 from test_property_sat import configurations, models
 
 from motivml.binding.resolve import NoVariant, decisions, resolve
@@ -18,8 +19,6 @@ from motivml.cli import main
 from motivml.documents.loader import parse
 from motivml.language.model import Configuration
 from motivml.language.reader import read_configuration
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def outcome(variant: Any) -> list[tuple[str, bool, str | None]]:

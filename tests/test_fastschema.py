@@ -23,6 +23,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis_jsonschema import from_schema
 from jsonschema import Draft202012Validator
+from paths import ROOT
 
 from motivml.documents.fastschema import Unsupported, compile_schema, equal
 from motivml.documents.loader import parse
@@ -35,7 +36,6 @@ from motivml.documents.schema import (
     schema_path,
 )
 
-ROOT = Path(__file__).resolve().parent.parent
 COVERED = [
     "architecture.schema.json",
     "configuration.schema.json",

@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 from helpers import feature
+from paths import SIMPLEBOT
 
 from motivml.architecture.document import Architecture, read_architecture
 from motivml.binding.resolve import Variant, resolve
@@ -27,7 +28,6 @@ from motivml.graph import (
 from motivml.language.model import Feature, FeatureModel, token
 from motivml.language.reader import load_configuration, load_model, read_model
 
-SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 NS = {"g": "http://graphml.graphdrawing.org/xmlns", "svg": "http://www.w3.org/2000/svg"}
 NODE = re.compile(r'^\s*"((?:[^"\\]|\\.)*)" \[', re.MULTILINE)
 EDGE = re.compile(r'^\s*"((?:[^"\\]|\\.)*)" -> "((?:[^"\\]|\\.)*)" \[(.*)\];$', re.MULTILINE)

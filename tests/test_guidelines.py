@@ -16,8 +16,8 @@ import sys
 from pathlib import Path
 
 import pytest
+from paths import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 PAGES = [*sorted((ROOT / "guidelines").glob("*.md")), ROOT / "README.md"]
 BLOCK = re.compile(r"```text\n(\$ .*?)```", re.S)
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
+from paths import SIMPLEBOT
 
 from motivml.binding.configurator import Session
 from motivml.cli import main
@@ -23,9 +24,6 @@ from motivml.cli.menuconfig import MenuConfig, open_session
 from motivml.errors import repair_text
 from motivml.language.model import Mode, Time
 from motivml.language.reader import load_model
-
-ROOT = Path(__file__).resolve().parent.parent
-SIMPLEBOT = ROOT / "feature_models" / "simplebot"
 
 
 @pytest.fixture

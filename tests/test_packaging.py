@@ -23,8 +23,8 @@ from pathlib import Path
 
 import pytest
 from helpers import simulated_run
+from paths import ROOT
 
-ROOT = Path(__file__).resolve().parent.parent
 CPP_READY = (
     shutil.which("cmake") is not None
     and Path("/usr/include/class_loader/class_loader/class_loader.hpp").is_file()

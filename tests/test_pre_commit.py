@@ -14,11 +14,11 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
+from paths import ROOT
 from ruamel.yaml import YAML
 
 from motivml.cli import main
 
-ROOT = Path(__file__).resolve().parent.parent
 # The keys of a hook in pre-commit's manifest (pre_commit/clientlib.py, MANIFEST_HOOK_DICT).
 HOOK_KEYS = {
     "id", "name", "entry", "language", "alias", "files", "exclude", "types", "types_or",

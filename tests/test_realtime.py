@@ -7,7 +7,6 @@ import os
 import threading
 import time
 from collections.abc import Callable
-from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -15,6 +14,7 @@ import pytest
 from click.testing import CliRunner
 from hypothesis import given
 from hypothesis import strategies as st
+from paths import SIMPLEBOT
 
 from motivml.cli import main
 from motivml.runtime import waiting
@@ -27,7 +27,6 @@ from motivml.runtime.loop import (
 )
 from motivml.runtime.waiting import SLICE_MAX_NS, SLICE_NS, TIMER_SLACK_NS
 
-SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 RUN = ["run", str(SIMPLEBOT), "--variant", "field", "--no-live", "--no-control"]
 
 

@@ -16,13 +16,13 @@ import pytest
 from click.testing import CliRunner, Result
 from hypothesis import given
 from hypothesis import strategies as st
+from paths import ROOT
 
 from motivml.cli import main
 from motivml.runtime import record
 from motivml.runtime.launch import launch
 from motivml.runtime.record import SEPARATOR, Recorder, columns, escape, read_record, split_events
 
-ROOT = Path(__file__).resolve().parent.parent
 ARM = ROOT / "feature_models" / "reaching_arm"
 SVG = "{http://www.w3.org/2000/svg}"
 

@@ -17,12 +17,12 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 from jsonschema import Draft4Validator
+from paths import ROOT
 
 from motivml import __version__
 from motivml.cli import main
 from motivml.cli.reports import FAMILIES, REFERENCE_RULES, describe
 
-ROOT = Path(__file__).resolve().parent.parent
 SARIF_SCHEMA = json.loads((Path(__file__).parent / "data" / "sarif-schema-2.1.0.json").read_text())
 SIMPLEBOT = "feature_models/simplebot"
 EXAMPLES = "guidelines/examples"

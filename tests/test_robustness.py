@@ -12,12 +12,11 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from hypothesis_jsonschema import from_schema
+from paths import SIMPLEBOT
 
 from motivml.cli import main
 from motivml.documents.schema import CONFIGURATION, load_schema
 
-ROOT = Path(__file__).resolve().parent.parent
-SIMPLEBOT = ROOT / "feature_models" / "simplebot"
 LOCATED = re.compile(r"^\S+\.json:\d+:\d+: \$.*: (error|warning): ", re.M)
 
 json_values = st.recursive(

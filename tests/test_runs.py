@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from paths import SIMPLEBOT
 
 from motivml.cli import main
 from motivml.errors import EnvironmentProblem
@@ -19,8 +20,6 @@ from motivml.runtime import runs
 from motivml.runtime.control import send
 from motivml.runtime.launch import launch
 from motivml.runtime.session import Session
-
-SIMPLEBOT = Path(__file__).resolve().parent.parent / "feature_models" / "simplebot"
 
 
 @pytest.fixture

@@ -15,14 +15,13 @@ import reference_semantics as ref
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from paths import ROOT
 from test_property_sat import models
 
 from motivml.binding.sampling import sample
 from motivml.cli import main
 from motivml.documents.loader import parse
 from motivml.language.reader import read_model
-
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def values_of(variant: dict[str, Any], ids: list[str], bindings: bool) -> set[tuple[str, str]]:

@@ -7,14 +7,12 @@ import threading
 from pathlib import Path
 
 import pytest
+from paths import ROOT, SIMPLEBOT
 
 from motivml.errors import EnvironmentProblem
 from motivml.runtime.launch import launch
 from motivml.runtime.requests import Load, Swap
 from motivml.runtime.session import End, Session
-
-ROOT = Path(__file__).resolve().parent.parent
-SIMPLEBOT = ROOT / "feature_models" / "simplebot"
 
 
 def _run(session: Session) -> None:

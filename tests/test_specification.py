@@ -4,9 +4,9 @@ it in the code, the schemas, the tests and the benches names a section or rule i
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from paths import ROOT
+
 SPEC = ROOT / "guidelines" / "reference.md"
 CITATION = re.compile(r"reference\.md,? (?:(sections?) ((?:\d+(?:-\d+)?(?:, | and )?)+)|(\d+\.\d+))")
 

@@ -17,6 +17,7 @@ import pytest
 from binder_sync import HANG_GUARD, Handover, ask
 from click.testing import CliRunner
 from helpers import config, feature
+from paths import ROOT
 
 from motivml.cli import main
 from motivml.errors import DocumentError
@@ -25,7 +26,6 @@ from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import RealClock
 from motivml.runtime.requests import Load, Swap
 
-ROOT = Path(__file__).resolve().parent.parent
 DL = ("Late", "Dynamic")
 ANY = {"time": "Any", "mode": "Any"}
 

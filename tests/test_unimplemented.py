@@ -14,8 +14,6 @@ from motivml.plugins.manifests import missing
 from motivml.runtime.launch import launch
 from motivml.runtime.requests import Load
 
-ROOT = Path(__file__).resolve().parent.parent
-
 
 def hollow_robot(tmp_path: Path, abstract_alt: bool = True) -> Path:
     """alt (Dynamic Early, groups a and b) and d (Dynamic Late): a has a plugin, d has none."""

@@ -19,15 +19,13 @@ from click.testing import CliRunner
 from helpers import model_of as read
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from paths import ROOT
 from test_property_sat import models
 
 from motivml.binding.analysis import count_selections
 from motivml.cli import main
 from motivml.errors import DocumentError
 from motivml.language.uvl import read_uvl, write_uvl
-
-ROOT = Path(__file__).resolve().parent.parent
-
 
 
 # ------------------------------------------------------------- UVL -> motivml -> UVL

@@ -50,11 +50,6 @@ def environment_problem(exc: OSError) -> EnvironmentProblem:
     return EnvironmentProblem(error(Location(place), f"cannot read: {exc.strerror or exc}", "io"))
 
 
-def print_diagnostic(d: Diagnostic, repairs: bool = True) -> None:
-    """One diagnostic: the located message, its facts, and (with `repairs`) its repairs."""
-    out.print("\n".join(_diagnostic_lines(d, repairs)))
-
-
 def print_diagnostics(diagnostics: Sequence[Diagnostic]) -> None:
     """Diagnostics in order. Conflicts of one configuration share its repairs (each repair
     fixes the whole configuration): they are printed once, under the last of them.
