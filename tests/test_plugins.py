@@ -402,7 +402,7 @@ def test_validate_refuses_the_python_plugins_a_run_would_stop_on(tmp_path: Path,
 def test_a_cpp_library_not_built_is_a_warning_and_one_that_links_out_an_error(tmp_path: Path) -> None:
     import shutil
 
-    from motivml.plugins.cpp import inspect
+    from motivml.plugins.files import cpp_files as inspect
 
     folder = tmp_path / "hands"
     shutil.copytree(ROOT_FOLDER.parent / "plugins" / "cpp" / "gestures" / "hands", folder, ignore=shutil.ignore_patterns("build"))
@@ -445,7 +445,7 @@ def test_the_python_inspector_reads_what_modules_bind_and_never_raises(
 ) -> None:
     """Review of issue 31: names bound by for, match, walrus or at run time made validate
     refuse plugins that load; a module too deep for the parser raised out of validate."""
-    from motivml.plugins.python import inspect
+    from motivml.plugins.files import python_files as inspect
 
     robot = _broken_robot(tmp_path, "none")
     (tmp_path / "plugins" / "hectorslam" / "hector.py").write_text(source)
@@ -455,7 +455,7 @@ def test_the_python_inspector_reads_what_modules_bind_and_never_raises(
 
 
 def test_a_loop_of_links_is_a_link_out_of_the_folder(tmp_path: Path) -> None:
-    from motivml.plugins.python import inspect
+    from motivml.plugins.files import python_files as inspect
 
     robot = _broken_robot(tmp_path, "none")
     module = tmp_path / "plugins" / "hectorslam" / "hector.py"

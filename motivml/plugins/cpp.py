@@ -26,15 +26,14 @@ import signal
 import subprocess
 import sys
 import threading
-from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 from ..documents.robot_folder import Plugin
-from ..errors import Diagnostic, Severity
+from ..errors import Diagnostic
 from .api import PluginContext
-from .python import _inside, plugin_error
+from .files import inside, plugin_error
 
 
 def _extension() -> ModuleType | None:
@@ -124,24 +123,6 @@ class CppPlugin:
         return str(self.instance.status())
 
 
-def inspect(plugin: Plugin) -> list[Diagnostic]:
-    """What `validate` can tell of a C++ plugin without loading it: its library is a file of
-    the plugin folder (not a link out of it: an error), and it is built (else a warning, as
-    for a checkout where `make cpp-plugins` has not run: a run that loads it stops)."""
-    path = Path(plugin.folder) / plugin.entry["library"]
-    if not _inside(path, Path(plugin.folder).resolve()):
-        message = f"library {plugin.entry['library']} leaves the plugin folder (a link)"
-        return plugin_error(plugin, "library", message).diagnostics
-    if not path.is_file():
-        (problem,) = plugin_error(
-            plugin,
-            "library",
-            f"library {path} does not exist (build it: make cpp-plugins); a run that loads {plugin.feature} stops",
-        ).diagnostics
-        return [replace(problem, severity=Severity.WARNING)]
-    return []
-
-
 def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
     """Load the plugin's library and construct its class (not started)."""
     extension = _extension()
@@ -153,7 +134,7 @@ def create(plugin: Plugin, context: PluginContext) -> CppPlugin:
             "else reinstall motivml (pip install) where cmake, g++, python3-dev and libclass-loader-dev are installed",
         )
     path = Path(plugin.folder) / plugin.entry["library"]
-    if not _inside(path, Path(plugin.folder).resolve()):
+    if not inside(path, Path(plugin.folder).resolve()):
         raise plugin_error(
             plugin, "library", f"library {plugin.entry['library']} leaves the plugin folder (a link)"
         )

@@ -141,14 +141,14 @@ KINDS = {
             "module",
             path_is_file=False,
             loader="motivml.plugins.python:PythonPlugins",
-            inspector="motivml.plugins.python:inspect",
+            inspector="motivml.plugins.files:python_files",
         ),
         Kind(
             "cpp",
             "library",
             path_is_file=True,
             loader="motivml.plugins.cpp:CppPlugins",
-            inspector="motivml.plugins.cpp:inspect",
+            inspector="motivml.plugins.files:cpp_files",
         ),
         Kind(
             "ros2_lifecycle",
