@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import signal
 import threading
 from pathlib import Path
@@ -170,7 +171,8 @@ def test_a_run_under_a_service_manager_runs_until_sigterm_then_cleans_up(tmp_pat
     process.send_signal(signal.SIGTERM)
     rest, _ = process.communicate(timeout=60)
     assert process.returncode == 0, rest
-    assert "plugin hectorslam: " in rest and "ticks" in rest.splitlines()[-1]
+    # (the summary's ticks line; on a busy machine "slowest plugin steps" may follow it)
+    assert "plugin hectorslam: " in rest and any(re.match(r"\d+ ticks?, ", line) for line in rest.splitlines()), rest
     assert not (run_dir / "control.sock").exists()
 
 
