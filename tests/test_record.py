@@ -186,6 +186,27 @@ def test_a_stop_that_raises_at_the_end_is_in_the_last_row(tmp_path: Path) -> Non
     ]
 
 
+def test_where_there_is_no_o_tmpfile_the_record_has_a_hidden_name_from_the_start(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The fallback (a system or file system without O_TMPFILE): the hidden file is there
+    while the run goes on, renamed at the end, and removed when the run never started."""
+    import os
+
+    monkeypatch.delattr(os, "O_TMPFILE")
+    target = tmp_path / "r.csv"
+    result = invoke(
+        "run", str(ROOT / "feature_models" / "simplebot"), "--variant", "field", "--duration", "0.01",
+        "--clock", "simulated", "--no-control", "--no-live", "--record", str(target),
+    )
+    assert result.exit_code == 0, result.output
+    assert [p.name for p in tmp_path.iterdir()] == ["r.csv"] and len(rows(target)[1]) == 10
+    never = Recorder.create(tmp_path / "never.csv")
+    assert never.temporary is not None and never.temporary.name.startswith(".never.csv.")
+    never.discard()
+    assert [p.name for p in tmp_path.iterdir()] == ["r.csv"]
+
+
 def test_a_run_killed_outright_while_recording_leaves_no_file(tmp_path: Path) -> None:
     """Issue 31: `kill -9` during --record left a hidden temporary file beside the record.
     The record is written to a file without a name until the run ends: nothing is left."""
