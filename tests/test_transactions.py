@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import shutil
 import sys
 import threading
 import time
 import types
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -276,40 +277,50 @@ def test_two_plugins_with_one_module_name_are_refused(tmp_path: Path) -> None:
     assert result.exit_code == 1 and "module 'mod_a' is also the entry of" in result.output
 
 
-def test_the_loop_keeps_ticking_while_a_plugin_prepares(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """d's start() holds until the test lets it go: meanwhile the loop (real clock, its own
-    thread) goes on ticking and the request stays pending; then the change commits at a
-    later tick. Events, not durations: nothing depends on how fast the machine is."""
+@contextlib.contextmanager
+def held_start(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[Any, Robot, Callable[[int], None]]]:
+    """A robot (a, b, d) on the real clock in a thread of its own, whose d's start() holds
+    until `gate.release` is set; `after(n)` returns once n more ticks have run. Events, not
+    durations: nothing depends on how fast the machine is."""
     gate = types.ModuleType("motivml_test_gate")
     gate.started, gate.release = threading.Event(), threading.Event()  # type: ignore[attr-defined]
     monkeypatch.setitem(sys.modules, gate.__name__, gate)
     hold = "import motivml_test_gate as gate; gate.started.set(); gate.release.wait(30)"
-    folder = make_robot(tmp_path, {"a": {}, "d": {"start": hold}})
-    robot = launch(folder, "v")
+    robot = launch(make_robot(tmp_path, {"a": {}, "b": {}, "d": {"start": hold}}), "v")
     runtime = robot.runtime
     target: list[int] = []
     ticked = threading.Event()
     runtime.hooks.append(lambda: ticked.set() if target and runtime.ticks >= target[0] else None)
     loop = threading.Thread(target=runtime.run, args=(60.0, RealClock()))
+
+    def after(ticks: int) -> None:
+        target[:] = [runtime.ticks + ticks]
+        assert ticked.wait(HANG_GUARD)
+
     try:
         loop.start()
-        future = robot.binder.submit(Load(("d",)), timeout=None)
-        assert gate.started.wait(HANG_GUARD)  # d is being prepared, on the binder's thread
-        target.append(runtime.ticks + 50)
-        assert ticked.wait(HANG_GUARD)  # fifty ticks later...
-        assert not future.done() and "d" not in runtime.plugins  # ... d is still being prepared
-        gate.release.set()
-        outcome = future.result(HANG_GUARD)
-        assert outcome.accepted and outcome.change is not None and outcome.change.tick >= target[0]
-        assert "d" in runtime.plugins
+        yield gate, robot, after
     finally:
         gate.release.set()
         runtime.stop()
         loop.join(HANG_GUARD)
         robot.close()
     assert not loop.is_alive()
+
+
+def test_the_loop_keeps_ticking_while_a_plugin_prepares(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """d's start() holds until the test lets it go: meanwhile the loop goes on ticking and
+    the request stays pending; then the change commits at a later tick."""
+    with held_start(tmp_path, monkeypatch) as (gate, robot, after):
+        future = robot.binder.submit(Load(("d",)), timeout=None)
+        assert gate.started.wait(HANG_GUARD)  # d is being prepared, on the binder's thread
+        fifty = robot.runtime.ticks + 50
+        after(50)
+        assert not future.done() and "d" not in robot.runtime.plugins  # ... d is still being prepared
+        gate.release.set()
+        outcome = future.result(HANG_GUARD)
+        assert outcome.accepted and outcome.change is not None and outcome.change.tick >= fifty
+        assert "d" in robot.runtime.plugins
 
 
 def test_a_requests_latency_counts_the_time_it_waited_behind_another(
@@ -319,35 +330,17 @@ def test_a_requests_latency_counts_the_time_it_waited_behind_another(
     when it arrived: a request that waited behind another's slow start() said 2 ms. The
     second request here arrives while the first is held and commits after the first: its
     latency is at least the time from its arrival to the first one's commit."""
-    gate = types.ModuleType("motivml_test_gate")
-    gate.started, gate.release = threading.Event(), threading.Event()  # type: ignore[attr-defined]
-    monkeypatch.setitem(sys.modules, gate.__name__, gate)
-    hold = "import motivml_test_gate as gate; gate.started.set(); gate.release.wait(30)"
-    folder = make_robot(tmp_path, {"a": {}, "b": {}, "d": {"start": hold}})
-    robot = launch(folder, "v")
-    runtime = robot.runtime
-    target: list[int] = []
-    ticked = threading.Event()
-    runtime.hooks.append(lambda: ticked.set() if target and runtime.ticks >= target[0] else None)
-    loop = threading.Thread(target=runtime.run, args=(60.0, RealClock()))
-    try:
-        loop.start()
+    with held_start(tmp_path, monkeypatch) as (gate, robot, after):
         first = robot.binder.submit(Load(("d",)), timeout=None)
         assert gate.started.wait(HANG_GUARD)  # d is being prepared, holding the binder
         second = robot.binder.submit(Swap("a", "b"), timeout=None)
         arrived_by = time.perf_counter()
-        target.append(runtime.ticks + 20)
-        assert ticked.wait(HANG_GUARD)  # twenty ticks of waiting behind the first
+        after(20)  # twenty ticks of waiting behind the first
         gate.release.set()
         one, two = first.result(HANG_GUARD), second.result(HANG_GUARD)
         assert one.accepted and two.accepted and one.change is not None and two.change is not None
         assert two.change.clock >= one.change.clock
         assert two.latency >= one.change.clock - arrived_by > 0
-    finally:
-        gate.release.set()
-        runtime.stop()
-        loop.join(HANG_GUARD)
-        robot.close()
 
 
 def test_scheduled_requests_make_a_deterministic_session() -> None:

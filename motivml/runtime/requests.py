@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TypeAlias
+from typing import ClassVar, TypeAlias
 
 VERBS = ("load", "unload", "reload", "swap")  # the requests of `run --at` and `motivml ctl` that move features
 
@@ -25,36 +25,36 @@ class RequestError(ValueError):
 
 
 @dataclass(frozen=True)
-class Load:
-    """Load these features (each with its selected mandatory sub-features)."""
+class _Features:
+    """A request that names features, said as its verb and them."""
 
     features: tuple[str, ...]
     cause: str = ""  # why the run asked it itself (a fault), shown after the request
+    verb: ClassVar[str] = ""
 
     def __str__(self) -> str:
-        return _said(f"load {' '.join(self.features)}", self.cause)
+        return _said(f"{self.verb} {' '.join(self.features)}", self.cause)
 
 
 @dataclass(frozen=True)
-class Unload:
+class Load(_Features):
+    """Load these features (each with its selected mandatory sub-features)."""
+
+    verb: ClassVar[str] = "load"
+
+
+@dataclass(frozen=True)
+class Unload(_Features):
     """Unload these features (each with its subtree)."""
 
-    features: tuple[str, ...]
-    cause: str = ""
-
-    def __str__(self) -> str:
-        return _said(f"unload {' '.join(self.features)}", self.cause)
+    verb: ClassVar[str] = "unload"
 
 
 @dataclass(frozen=True)
-class Reload:
+class Reload(_Features):
     """Unload these features and load them again, their new implementations if changed."""
 
-    features: tuple[str, ...]
-    cause: str = ""
-
-    def __str__(self) -> str:
-        return _said(f"reload {' '.join(self.features)}", self.cause)
+    verb: ClassVar[str] = "reload"
 
 
 @dataclass(frozen=True)
