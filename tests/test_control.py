@@ -32,7 +32,7 @@ def running(tmp_path: Path) -> Iterator[tuple[Robot, ControlServer]]:
     server = ControlServer(tmp_path / "run", robot.runtime, robot.binder)
     server.open()
     ticking = threading.Event()
-    robot.runtime.hooks.append(ticking.set)
+    robot.runtime.after_each_tick(ticking.set)
     loop = threading.Thread(target=robot.runtime.run, args=(60.0, RealClock()), daemon=True)
     loop.start()
     assert ticking.wait(30)  # a change is then committed at a tick after the first

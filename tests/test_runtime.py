@@ -451,7 +451,7 @@ def test_a_commit_is_applied_while_the_loop_waits_for_its_deadline_but_never_in_
         if runtime.ticks == 5 and len(answers) == 1:
             ask("ticking")
 
-    runtime.hooks.append(in_a_tick)
+    runtime.after_each_tick(in_a_tick)
     ask("before")
     answers.clear()
     runtime.run(0.010, Clock())

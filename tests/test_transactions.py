@@ -290,7 +290,7 @@ def held_start(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tupl
     runtime = robot.runtime
     target: list[int] = []
     ticked = threading.Event()
-    runtime.hooks.append(lambda: ticked.set() if target and runtime.ticks >= target[0] else None)
+    runtime.after_each_tick(lambda: ticked.set() if target and runtime.ticks >= target[0] else None)
     loop = threading.Thread(target=runtime.run, args=(60.0, RealClock()))
 
     def after(ticks: int) -> None:
@@ -802,7 +802,7 @@ def test_a_fault_whose_feature_already_left_the_loop_is_only_noted(tmp_path: Pat
     folder = lifecycle_robot(tmp_path, {"a": {"step": raising}, "a2": {"step": raising}})
     robot = launch(folder, "v")  # the real clock: faults are handled on the binder's thread
     both = threading.Event()
-    robot.runtime.hooks.append(lambda: both.set() if len(robot.runtime.faults) == 2 else None)
+    robot.runtime.after_each_tick(lambda: both.set() if len(robot.runtime.faults) == 2 else None)
     loop = threading.Thread(target=robot.runtime.run, args=(60.0, RealClock()), daemon=True)
     loop.start()
     try:

@@ -7,16 +7,15 @@
    refused request changes nothing, and the refusal says why in `validate`'s words;
 2. **prepare**, on the caller's thread, never the control thread: the architecture of the
    new active set is built (the elements that stay are the same objects, with their
-   state), and the plugins of the features that load are imported, constructed and started.
-   If any of that fails, the plugins already started are stopped, and nothing is committed;
+   state), and the plugins of the features that load are imported, constructed and started
+   (by the run's `PluginHost`, plugin_host.py). If any of that fails, the plugins already
+   started are stopped, and nothing is committed;
 3. **commit**: the prepared change is queued for the control loop, which applies it at
    once between two ticks: the new architecture, the plugins in, the plugins out. The
    binder then stops the plugins that left, again off the control thread.
 
-A Dynamic plugin that raises in its step has already left the loop's stepping. The binder
-then unloads its feature with its subtree, or, if the model does not allow that, the
-nearest Dynamic ancestor whose unload it allows. If no unload is allowed, the run ends. A
-Static plugin's fault ends the run (`Runtime.failure`).
+A Dynamic plugin that raises in its step has already left the loop's stepping: the run's
+`FaultPolicy` (faults.py) unloads it through this transaction, or ends the run.
 """
 
 from __future__ import annotations
@@ -27,31 +26,18 @@ import time
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, TimeoutError
 from dataclasses import dataclass, field
-from typing import Any
 
-import numpy as np
-
-from ..architecture.builder import Assembly, build
+from ..architecture.builder import build
 from ..architecture.document import Architecture
 from ..binding.resolve import Variant
 from ..documents.robot_folder import Plugin
 from ..errors import Diagnostic, Location, MotivmlError, Severity, describe_exception, error
 from ..language.model import Configuration, FeatureModel
-from ..plugins.api import FeatureUnavailable, PluginContext
-from ..plugins.python import PluginError, plugin_error
-from ..plugins.registry import loaders
+from .faults import FaultPolicy
 from .loop import AppliedReconfiguration, Commit, Fault, Running, Runtime
+from .plugin_host import PluginHost, Preparing
 from .reconfigure import Plan, Reconfigurer, Refused
-from .requests import Reload, Request, Unload
-
-
-@dataclass
-class Preparing:
-    """What plugins being prepared see: the staged architecture, and their held-back writes."""
-
-    assembly: Assembly | None
-    writes: list[tuple[str, Any]] = field(default_factory=list)
-    active: bool = True
+from .requests import Reload, Request
 
 
 @dataclass
@@ -87,18 +73,15 @@ class Binder:
         self.variant = variant
         self.architecture = architecture
         self.active = frozenset(active)
-        runtime.active = self.active  # what status() reads, with the plugins, at each commit
+        runtime.begin_with(self.active)  # what status() reads, with the plugins, at each commit
         self.unimplemented = (
             unimplemented  # Dynamic features nothing implements: warned about (strict: refused)
         )
         self.strict = strict
         self.reconfigurer = Reconfigurer(variant, config)
-        # Only the variant's plugins are loaded: a robot folder may declare plugins (of kinds
-        # this Python cannot load, say) for features other variants select.
-        selected = {d.feature.id for d in variant.decisions if d.selected}
-        self.plugins = {f: p for f, p in plugins.items() if f in selected}
-        self.loaders = loaders(robot, self.plugins, ros_namespace)
-        self.static = {d.feature.id: d.binding.static for d in variant.decisions}
+        self.host = PluginHost(runtime, variant, plugins, robot, ros_namespace)
+        self.plugins = self.host.plugins  # the variant's plugins, by feature
+        self.static = self.host.static
         self._lock = threading.Lock()
         self.between_ticks = False  # simulated clock: changes are made on the control thread
         self._inbox: queue.SimpleQueue[tuple[Request, Future[Outcome], float]] = queue.SimpleQueue()
@@ -106,114 +89,19 @@ class Binder:
             {e.feature for e in architecture.elements()} if architecture is not None else set()
         )  # features whose coming or going changes the architecture
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="motivml-binder")
-        self._closing = threading.Event()  # the run has ended: no tick will take a commit any more
+        self.closing = threading.Event()  # the run has ended: no tick will take a commit any more
         self._in_flight: Commit | None = None  # the commit a request waits for
         self.failed_stops: list[str] = []  # plugins whose stop() raised at the end of the run
         # Told of every outcome, accepted or refused, on the requesting thread with the binder
         # held: a front door (the ROS 2 node) queues it and returns at once.
         self.watchers: list[Callable[[Outcome], None]] = []
         self._trying = threading.local()  # .now: this thread is trying a fault's unloads
-        runtime.on_fault = self._on_fault
-
-    # ---------------------------------------------------------------- plugins
-    def _context(self, feature: str, preparing: Preparing) -> PluginContext:
-        """A plugin instance's view of the spaces: while it is being prepared, the new
-        architecture's, with its writes held back until the commit; afterwards, the running
-        one's (every instance has its own view, so a running plugin never sees a staging)."""
-        runtime = self.runtime
-
-        def read(space: str) -> Any:
-            if preparing.active:
-                staged = preparing.assembly if preparing.assembly is not None else runtime.assembly
-                return staged.values[space]
-            return runtime.assembly.values[space]
-
-        def write(space: str, value: Any) -> None:
-            if not preparing.active:
-                runtime.send(space, value)
-                return
-            staged = preparing.assembly if preparing.assembly is not None else runtime.assembly
-            if space not in staged.values or staged.writers.get(space):
-                raise ValueError(f"{space} is not a space this plugin may write")
-            preparing.writes.append(
-                (space, np.asarray(value, dtype=float).reshape(staged.values[space].shape))
-            )
-
-        return PluginContext(
-            feature,
-            self.plugins[feature].folder,
-            runtime.rate,
-            read,
-            write,
-            lambda text: runtime.note(f"{feature}: {text}"),
-        )
-
-    def _start(self, feature: str, preparing: Preparing, fresh: bool = False) -> Running:
-        plugin = self.plugins[feature]
-        loader = self.loaders[plugin.kind]
-        instance = loader.create(plugin, self._context(feature, preparing), fresh)
-        try:
-            instance.start()
-        except BaseException as exc:  # plugin code may raise anything
-            try:
-                loader.discard(instance)
-            except BaseException as problem:
-                self.runtime.note(
-                    f"stop() of plugin {feature} raised {describe_exception(problem, plugin.folder)}"
-                )
-            if isinstance(exc, FeatureUnavailable):  # the kind's own words (a node not there, say)
-                raise plugin_error(plugin, _entry_key(plugin), f"cannot start {feature}: {exc}") from None
-            raise plugin_error(
-                plugin,
-                "class",
-                f"start() of plugin {feature} failed: {describe_exception(exc, plugin.folder)}",
-            ) from None
-        return Running(feature, instance, self.static[feature], plugin.folder)
-
-    def _stop(self, running: Running) -> bool:
-        """Stop a plugin; False (and a note) if its stop() raised."""
-        try:
-            running.instance.stop()
-        except BaseException as exc:  # plugin code may raise anything, SystemExit too
-            folder = self.plugins[running.feature].folder
-            self.runtime.note(f"stop() of plugin {running.feature} raised {describe_exception(exc, folder)}")
-            return False
-        return True
+        self.faults = FaultPolicy(self, runtime)
+        runtime.send_faults_to(self.faults.on_fault)
 
     def start(self) -> None:
         """Start the plugins of the start state (before the loop runs); all or none."""
-        problems = [d for loader in self.loaders.values() for d in loader.problems()]
-        if problems:
-            raise PluginError(problems)
-        starting = sorted(self.active & set(self.plugins), key=self.variant.model.index.__getitem__)
-        absent: dict[str, str] = {}
-        for kind, loader in self.loaders.items():  # (all of them named, before any starts)
-            absent |= loader.absent([f for f in starting if self.plugins[f].kind == kind])
-        if absent:
-            raise PluginError(
-                [
-                    d
-                    for f in starting
-                    if f in absent
-                    for d in plugin_error(self.plugins[f], _entry_key(self.plugins[f]), f"cannot start {f}: {absent[f]}").diagnostics
-                ]
-            )
-        started: list[Running] = []
-        preparing = Preparing(None)
-        try:
-            for feature in starting:
-                started.append(self._start(feature, preparing))
-            self._switch([], started)
-        except BaseException:
-            for running in started:
-                self._stop(running)
-            raise
-        finally:
-            preparing.active = False
-        for space, value in preparing.writes:
-            self.runtime.send(space, value)
-        for running in started:
-            self.runtime.plugins[running.feature] = running
+        self.host.start_state(self.active)
 
     # --------------------------------------------------------------- requests
     def submit(self, request: Request, timeout: float | None = 5.0) -> Future[Outcome]:
@@ -228,7 +116,7 @@ class Binder:
         for a tick while holding the binder.
         """
         self.between_ticks = True
-        self.runtime.hooks.insert(0, self._empty_inbox)
+        self.runtime.after_each_tick(self._empty_inbox, first=True)
 
     def _empty_inbox(self) -> None:
         while not self._inbox.empty():
@@ -267,7 +155,7 @@ class Binder:
             self._in_flight = commit
             try:
                 self.runtime.submit(commit)
-                if self._closing.is_set():
+                if self.closing.is_set():
                     self._give_up(commit)
                 else:
                     self.runtime.commit_waiting()
@@ -275,9 +163,9 @@ class Binder:
             finally:
                 self._in_flight = None
             if (not taken and self.runtime.withdraw(commit)) or commit.withdrawn:
-                self._unswitch(self._leaving(commit), [])
+                self.host.unswitch(self._leaving(commit), [])
                 for running in commit.add.values():
-                    self._stop(running)
+                    self.host.stop(running)
                 message = (
                     "the run ended before the control loop took the change: nothing changed"
                     if commit.withdrawn and taken
@@ -330,57 +218,16 @@ class Binder:
         except MotivmlError as failed:
             return self._refused(Outcome(request, False, plan, diagnostics=failed.diagnostics))
         try:
-            self._switch(self._leaving(commit), list(commit.add.values()))
+            self.host.switch(self._leaving(commit), list(commit.add.values()))
         except MotivmlError as failed:
             for running in commit.add.values():
-                self._stop(running)
+                self.host.stop(running)
             return self._refused(Outcome(request, False, plan, diagnostics=failed.diagnostics))
         return plan, commit
 
     # ---------------------------------------------------------------- switch
     def _leaving(self, commit: Commit) -> list[Running]:
         return [self.runtime.plugins[f] for f in commit.remove if f in self.runtime.plugins]
-
-    def _switch(self, leaving: list[Running], arriving: list[Running]) -> None:
-        """Just before a commit: the plugins that live outside the process (ROS 2 lifecycle
-        nodes) leave, then arrive: deactivated, then activated. If one fails, those already
-        moved are moved back, and PluginError names the one that failed."""
-        moved_out: list[Running] = []
-        moved_in: list[Running] = []
-        moves = [(r, "deactivate", moved_out) for r in leaving] + [(r, "activate", moved_in) for r in arriving]
-        for running, move, moved in moves:
-            if not hasattr(running.instance, move):
-                continue
-            try:
-                getattr(running.instance, move)()
-            except BaseException as exc:  # a node's failure, or plugin code
-                plugin = self.plugins[running.feature]
-                problem = str(exc) if isinstance(exc, FeatureUnavailable) else describe_exception(exc, plugin.folder)
-                undone = self._unswitch(moved_out, moved_in)
-                verb = "stop" if move == "deactivate" else "start"
-                back = f"; moved back: {', '.join(undone)}" if undone else ""
-                raise plugin_error(
-                    plugin, _entry_key(plugin), f"cannot {verb} {running.feature}: {problem}{back}"
-                ) from None
-            moved.append(running)
-
-    def _unswitch(self, moved_out: list[Running], moved_in: list[Running]) -> list[str]:
-        """Move back what `_switch` moved (a failure, or a commit that did not happen)."""
-        undone = []
-        for running, undo in [(r, "deactivate") for r in reversed(moved_in)] + [
-            (r, "activate") for r in reversed(moved_out)
-        ]:
-            if not hasattr(running.instance, undo):
-                continue
-            try:
-                getattr(running.instance, undo)()
-                undone.append(f"{running.feature} {undo}d")
-            except BaseException as exc:
-                self.runtime.note(
-                    f"{running.feature}: could not {undo} it again: "
-                    f"{describe_exception(exc, self.plugins[running.feature].folder)}"
-                )
-        return undone
 
     def _hollow(self, features: list[str], severity: Severity) -> list[Diagnostic]:
         verb = "would be" if severity is Severity.ERROR else "is now"
@@ -405,7 +252,7 @@ class Binder:
     def _committed(self, plan: Plan, commit: Commit, began: float) -> Outcome:
         """After the commit: stop the plugins that left, take the new active set."""
         for running in commit.removed:
-            self._stop(running)
+            self.host.stop(running)
         self.active = plan.after
         change = commit.change
         assert change is not None
@@ -436,10 +283,10 @@ class Binder:
         try:
             for feature in plan.loads:
                 if feature in self.plugins:
-                    add[feature] = self._start(feature, preparing, fresh=reload)
+                    add[feature] = self.host.start_instance(feature, preparing, fresh=reload)
         except BaseException:
             for running in add.values():
-                self._stop(running)
+                self.host.stop(running)
             raise
         finally:
             preparing.active = False
@@ -461,46 +308,18 @@ class Binder:
             commit.done.set()  # (withdrawn: the request sees it was not applied)
 
     # ----------------------------------------------------------------- faults
-    def _on_fault(self, fault: Fault) -> None:
-        """Called on the control thread. Between ticks (simulated clock) the unload happens
-        right here; otherwise on the binder's thread, while the loop goes on."""
-        if self.between_ticks:
-            self._unload_faulty(fault)
-        else:
-            self._executor.submit(self._unload_faulty, fault)
+    def quietly(self, request: Request) -> Outcome:
+        """A request of the fault policy (faults.py): checked and committed like any other,
+        without repairs, and a refusal is neither noted nor told to the watchers."""
+        self._trying.now = True
+        try:
+            return self.request_between_ticks(request) if self.between_ticks else self.request(request)
+        finally:
+            self._trying.now = False
 
-    def _unload_faulty(self, fault: Fault) -> None:
-        running = self.runtime.plugins.get(fault.feature)
-        if running is None or not running.faulted or fault.feature not in self.active:
-            self.runtime.note(f"the fault of {fault.feature}: it has already left the loop")
-            return
-        model = self.variant.model
-        node: int | None = model.index[fault.feature]
-        reasons = []
-        while node is not None:
-            feature = model.features[node].id
-            if feature in self.active and not self.static[feature]:
-                request = Unload((feature,), cause=f"after the fault of {fault.feature}")
-                self._trying.now = True  # a refused try is not news: only the outcome below is
-                try:
-                    outcome = self.request_between_ticks(request) if self.between_ticks else self.request(request)
-                finally:
-                    self._trying.now = False
-                if outcome.accepted:
-                    self.runtime.note(f"unloaded {feature} after the fault of {fault.feature}")
-                    return
-                if self._closing.is_set():  # the run has ended: nothing to keep safe any more
-                    self.runtime.note(f"the fault of {fault.feature}: the run ended before its unload")
-                    return
-                reasons.append(outcome.reason)
-                if not outcome.breaks_relations:
-                    break  # refused for another reason than the model: an ancestor would not help
-            node = model.features[node].parent
-        self.runtime.note(
-            f"cannot unload {fault.feature} after its fault: {'; '.join(reasons) or 'it is Static'}"
-        )
-        self.runtime.failure = fault
-        self.runtime.stop()
+    def on_its_thread(self, job: Callable[[Fault], None], fault: Fault) -> None:
+        """Run `job` on the binder's worker thread, after the requests before it."""
+        self._executor.submit(job, fault)
 
     def close(self) -> None:
         """Stop every plugin, after the request in flight (if any) has ended.
@@ -508,28 +327,19 @@ class Binder:
         The run has ended, so a request still waiting for a tick (a fault's unload, say)
         gives up at once instead of waiting out its timeout.
         """
-        self._closing.set()
+        self.closing.set()
         pending = self._in_flight
         if pending is not None:
             self._give_up(pending)
         self._executor.shutdown(wait=True)
         settled = self._lock.acquire(timeout=10.0)  # a request from the socket may be preparing
         try:
-            for running in list(self.runtime.plugins.values()):
-                if not self._stop(running):
-                    self.failed_stops.append(running.feature)
+            self.failed_stops += self.host.stop_all()
         finally:
             if settled:
                 self._lock.release()
-        self.runtime.plugins.clear()
         self.reconfigurer.close()
-        for loader in self.loaders.values():
-            loader.close()
-
-
-def _entry_key(plugin: Plugin) -> str:
-    """Where a manifest names what failed: its class, or (a ROS 2 node) the node."""
-    return "class" if "class" in plugin.entry else "node" if "node" in plugin.entry else ""
+        self.host.close()
 
 
 def unimplemented_feature(model: FeatureModel, feature: str, verb: str, severity: Severity) -> Diagnostic:

@@ -46,7 +46,7 @@ class Robot:
         if self.coordination is None:
             return None
         self.coordinator = Coordinator(self.coordination, self.runtime, self.binder, simulated)
-        self.runtime.hooks.append(self.coordinator.step)
+        self.runtime.after_each_tick(self.coordinator.step)
         return self.coordinator
 
     @property

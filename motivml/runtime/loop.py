@@ -426,6 +426,40 @@ class Runtime:
     def time(self) -> float:
         return self.ticks / self.rate
 
+    # ------------------------------------------------- what others ask of the runtime
+    # (the runtime's state is its own: the binder, the plugin host, the fault policy, the
+    # coordinator and the recorder call these instead of writing its attributes)
+    def after_each_tick(self, hook: Callable[[], None], first: bool = False) -> None:
+        """Call `hook` after every tick, on the control thread (`first`: before the others)."""
+        if first:
+            self.hooks.insert(0, hook)
+        else:
+            self.hooks.append(hook)
+
+    def send_faults_to(self, handler: Callable[[Fault], None]) -> None:
+        """Where a Dynamic plugin's fault goes (a Static one's ends the run)."""
+        self.on_fault = handler
+
+    def begin_with(self, active: frozenset[str]) -> None:
+        """The start state's active features, before the loop runs."""
+        self.active = active
+
+    def adopt(self, running: list[Running]) -> None:
+        """The start state's plugins, started, into the loop (before it runs)."""
+        for each in running:
+            self.plugins[each.feature] = each
+
+    def release_plugins(self) -> list[Running]:
+        """Every plugin out of the loop (the run has ended), for their stop()."""
+        released = list(self.plugins.values())
+        self.plugins.clear()
+        return released
+
+    def fail(self, fault: Fault) -> None:
+        """End the run with `fault` as its failure (a fault nothing could unload)."""
+        self.failure = fault
+        self.stop()
+
     def tick(self) -> None:
         """One control cycle; reconfigurations commit just before it, between two ticks."""
         if not self._commits.empty():

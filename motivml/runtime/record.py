@@ -216,7 +216,7 @@ class Recorder:
             self._problem = exc
         self._thread = threading.Thread(target=self._write_blocks, daemon=True, name="motivml-record")
         self._thread.start()
-        runtime.hooks.append(self._after_tick)
+        runtime.after_each_tick(self._after_tick)
 
     def event(self, kind: str, text: str, tick: int | None = None) -> None:
         """An event from any thread, at `tick` (default: the tick the loop is at)."""
