@@ -159,6 +159,25 @@ def test_a_failing_start_in_a_swap_leaves_the_previous_set_running(tmp_path: Pat
         robot.close()
 
 
+def test_only_kinds_with_an_activation_step_are_activated(tmp_path: Path) -> None:
+    """A Python plugin runs from its start() on: methods of its own named activate and
+    deactivate are its business, not called at a commit (only a kind's loader gives an
+    activation step: ROS 2 lifecycle nodes, tests/test_ros2.py)."""
+    folder = make_robot(tmp_path, {"a": {}, "b": {}})
+    for name in ("a", "b"):
+        with (folder / "plugins" / name / f"mod_{name}.py").open("a") as module:
+            module.write("\ndef _moved(self):\n    raise RuntimeError('not to be called')\n")
+            module.write("Plugin.activate = Plugin.deactivate = _moved\n")
+    robot = launch(folder, "v")
+    try:
+        assert robot.runtime.plugins["a"].activation is None
+        outcome = ask(robot, "swap a b")
+        assert outcome.accepted, outcome.reason
+        assert set(robot.runtime.plugins) == {"b"} and robot.runtime.plugins["b"].activation is None
+    finally:
+        robot.close()
+
+
 def test_a_dynamic_plugin_that_raises_is_unloaded_and_the_loop_goes_on(tmp_path: Path) -> None:
     folder = make_robot(
         tmp_path, {"a": {"step": "if self.steps == 5: raise ValueError('lost track')"}, "d": {}}

@@ -189,6 +189,10 @@ class CppPlugins:
         """Release the object and, with its last instance, the library (stop() releases too)."""
         instance.stop()
 
+    def activation(self, instance: Any) -> None:
+        """None: a C++ plugin runs from its start() on."""
+        return None
+
     def close(self) -> None:
         """Libraries are released by their last instance's stop()."""
 

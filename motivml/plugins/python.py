@@ -103,6 +103,11 @@ class PythonPlugins:
     def discard(self, instance: Any) -> None:
         """Nothing to release: the instance is garbage once dropped."""
 
+    def activation(self, instance: Any) -> None:
+        """None: a Python plugin runs from its start() on (a method of its own named
+        activate is not called)."""
+        return None
+
     def close(self) -> None:
         self.modules.clear()
         self.source.cleanup()

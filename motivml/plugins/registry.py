@@ -23,6 +23,27 @@ if TYPE_CHECKING:
     from .api import PluginContext
 
 
+class FeatureInstance(Protocol):
+    """What a run asks of a feature's plugin instance, whatever its kind (a Python object, a
+    C++ class behind the extension, a stand-in for a ROS 2 lifecycle node)."""
+
+    def start(self) -> None: ...
+
+    def step(self, time: float) -> None: ...
+
+    def stop(self) -> None: ...
+
+
+class Activation(Protocol):
+    """The optional step of instances that live outside the run's process (ROS 2 lifecycle
+    nodes): activated at the commit that brings them in, deactivated at the one that takes
+    them out (and back, when the commit does not happen)."""
+
+    def activate(self) -> None: ...
+
+    def deactivate(self) -> None: ...
+
+
 class Loader(Protocol):
     """Makes the instances of one kind's plugins, for one launched robot."""
 
@@ -41,6 +62,10 @@ class Loader(Protocol):
 
     def discard(self, instance: Any) -> None:
         """Release an instance whose start() failed (stop() is not called on it)."""
+        ...
+
+    def activation(self, instance: Any) -> Activation | None:
+        """The instance's activation step, if its kind has one (None: it runs at once)."""
         ...
 
     def close(self) -> None:

@@ -193,6 +193,11 @@ class LifecycleNodes:
     def discard(self, instance: Any) -> None:
         instance.stop()
 
+    def activation(self, instance: Any) -> LifecycleFeature:
+        """The node's own: configured at start(), active only from the commit on."""
+        assert isinstance(instance, LifecycleFeature)
+        return instance
+
     def close(self) -> None:
         with self._lock:
             bridge, self.bridge = self.bridge, None

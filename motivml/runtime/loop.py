@@ -42,6 +42,7 @@ import numpy as np
 from ..architecture.builder import Assembly
 from ..errors import describe_exception
 from ..plugins.api import FeatureUnavailable
+from ..plugins.registry import Activation
 from . import waiting
 
 
@@ -55,6 +56,7 @@ class Running:
     folder: object = None  # the plugin's folder: where a fault's frame is looked for
     faulted: bool = False
     slowest: float = 0.0  # s, its longest step so far
+    activation: Activation | None = None  # its kind's activation step, if any (ROS 2 lifecycle nodes)
 
 
 @dataclass(frozen=True)

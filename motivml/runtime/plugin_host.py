@@ -110,7 +110,7 @@ class PluginHost:
                 "class",
                 f"start() of plugin {feature} failed: {describe_exception(exc, plugin.folder)}",
             ) from None
-        return Running(feature, instance, self.static[feature], plugin.folder)
+        return Running(feature, instance, self.static[feature], plugin.folder, activation=loader.activation(instance))
 
     def stop(self, running: Running) -> bool:
         """Stop a plugin; False (and a note) if its stop() raised."""
@@ -164,10 +164,11 @@ class PluginHost:
         moved_in: list[Running] = []
         moves = [(r, "deactivate", moved_out) for r in leaving] + [(r, "activate", moved_in) for r in arriving]
         for running, move, moved in moves:
-            if not hasattr(running.instance, move):
+            activation = running.activation
+            if activation is None:
                 continue
             try:
-                getattr(running.instance, move)()
+                (activation.deactivate if move == "deactivate" else activation.activate)()
             except BaseException as exc:  # a node's failure, or plugin code
                 plugin = self.plugins[running.feature]
                 problem = str(exc) if isinstance(exc, FeatureUnavailable) else describe_exception(exc, plugin.folder)
@@ -185,10 +186,11 @@ class PluginHost:
         for running, undo in [(r, "deactivate") for r in reversed(moved_in)] + [
             (r, "activate") for r in reversed(moved_out)
         ]:
-            if not hasattr(running.instance, undo):
+            activation = running.activation
+            if activation is None:
                 continue
             try:
-                getattr(running.instance, undo)()
+                (activation.deactivate if undo == "deactivate" else activation.activate)()
                 undone.append(f"{running.feature} {undo}d")
             except BaseException as exc:
                 self.runtime.note(
