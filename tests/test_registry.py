@@ -59,6 +59,9 @@ class FakeLoader:
     def discard(self, instance: Any) -> None:
         FakeLoader.log.append(f"discard {instance.feature}")
 
+    def activation(self, instance: Any) -> None:
+        return None  # (an echo runs from its start() on)
+
     def close(self) -> None:
         FakeLoader.log.append("close")
 
