@@ -8,7 +8,6 @@ BIN := $(VENV)/bin
 # they live in a venv of their own: `make ros2`, then .venv-ros/bin/motivml run ... --ros2.
 ROS_VENV := .venv-ros
 ROS_BIN := $(ROS_VENV)/bin
-WORKERS ?= -n auto --maxprocesses 4 --dist loadfile
 
 $(BIN)/motivml: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -49,13 +48,12 @@ test: setup cpp-plugins ros2
 	rm -f build/.coverage*
 	# PYTHONFAULTHANDLER: a crash, even while the interpreter shuts down after the tests,
 	# prints where every thread was (pytest's own handler is gone by then).
-	# -n: the tests in one worker process per core (at most four: the ROS 2 tests time a loop),
-	# each ROS 2 test on a ROS_DOMAIN_ID that no other worker holds (tests/ros2_support.py);
-	# loadfile: a file's tests in one worker, in order (a guide's blocks build on each other,
-	# a module's fixture builds C++ once; xdist_group marks are ignored under pytest 9).
-	PYTHONFAULTHANDLER=1 COVERAGE_FILE=build/.coverage $(BIN)/pytest -q $(WORKERS) --cov=motivml --cov-report=
+	# --slow: every test, the slow ones too (pytest alone leaves them out). The tests run in
+	# one worker per core (pyproject.toml's addopts), each ROS 2 test on a ROS_DOMAIN_ID that
+	# no other worker holds (tests/ros2_support.py).
+	PYTHONFAULTHANDLER=1 COVERAGE_FILE=build/.coverage $(BIN)/pytest -q --slow --cov=motivml --cov-report=
 	PYTHONFAULTHANDLER=1 COVERAGE_FILE=$(CURDIR)/build/.coverage COVERAGE_PROCESS_START=$(CURDIR)/pyproject.toml \
-	  MOTIVML_REQUIRE_ROS2=1 $(ROS_BIN)/pytest -q $(WORKERS) -m ros2 \
+	  MOTIVML_REQUIRE_ROS2=1 $(ROS_BIN)/pytest -q -m ros2 \
 	  --cov=motivml --cov-append --cov-report=json:build/coverage.json
 	$(BIN)/python tools/coverage_floor.py build/coverage.json 90
 

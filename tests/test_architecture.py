@@ -313,6 +313,7 @@ def _small(schema: dict[str, Any]) -> dict[str, Any]:
     return schema
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=list(HealthCheck))
 @given(document=from_schema(_small(load_schema("architecture.schema.json"))))
 def test_schema_valid_documents_never_crash(document: dict[str, Any]) -> None:

@@ -25,6 +25,8 @@ from paths import ROOT
 
 from motivml.cli import main
 
+pytestmark = pytest.mark.slow  # builds C++ projects with CMake
+
 HANDS = ROOT / "plugins" / "cpp" / "gestures" / "include" / "motivml_features" / "hands.hpp"
 
 CMAKELISTS = """\

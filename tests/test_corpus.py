@@ -26,6 +26,8 @@ from paths import ROOT
 
 from motivml.cli import main
 
+pytestmark = pytest.mark.slow  # the robustness corpus: every command on hundreds of bad inputs
+
 SEED = 20261123
 PER_KIND = 150  # 7 kinds: over 1,000 bad documents (and the importers', records' and options' below)
 EXITS = {0, 1, 3}  # valid, invalid, environment (2 is click's usage error: never expected here)

@@ -31,6 +31,8 @@ from motivml.documents.loader import parse
 from motivml.language.model import OFF, Binding
 from motivml.language.reader import read_configuration
 
+pytestmark = pytest.mark.slow  # every analysis on every family of shapes against brute force
+
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "bench"))
 from families import FAMILIES, family, tiny  # noqa: E402
 

@@ -36,6 +36,8 @@ from motivml.documents.schema import (
     schema_path,
 )
 
+pytestmark = pytest.mark.slow  # random schemas and documents against jsonschema
+
 COVERED = [
     "architecture.schema.json",
     "configuration.schema.json",

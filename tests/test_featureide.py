@@ -116,6 +116,7 @@ def brute_count(root: Any, rules: list[tuple[str, str, str]]) -> int:
     return total
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(featureide_models())
 def test_featureide_to_motivml_to_uvl_keeps_the_selection_count(data: tuple[Any, Any]) -> None:

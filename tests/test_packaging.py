@@ -25,6 +25,8 @@ import pytest
 from helpers import simulated_run
 from paths import ROOT
 
+pytestmark = pytest.mark.slow  # builds the sdist and the wheel, installs them in fresh environments
+
 CPP_READY = (
     shutil.which("cmake") is not None
     and Path("/usr/include/class_loader/class_loader/class_loader.hpp").is_file()

@@ -26,6 +26,8 @@ from motivml.binding.check import analyse_model
 from motivml.documents.loader import parse
 from motivml.language.reader import read_model
 
+pytestmark = pytest.mark.slow  # property tests against brute force
+
 
 def formula_texts(ids: list[str]) -> st.SearchStrategy[str]:
     """Formulas of rule 2.4 over `ids`: parenthesised or not, so precedence is exercised."""

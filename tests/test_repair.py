@@ -15,6 +15,7 @@ from itertools import combinations
 from math import comb
 from typing import Any, TypeVar
 
+import pytest
 import reference_semantics as ref
 from click.testing import CliRunner
 from helpers import config, feature
@@ -71,6 +72,7 @@ def as_changes(repair: tuple[Change, ...]) -> list[tuple[str, str, Any]]:
     return [(c.feature, c.change, c.value) for c in repair]
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.data())
 def test_each_repair_makes_the_configuration_valid_and_no_part_of_it_does(data: st.DataObject) -> None:

@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 from typing import Any
 
+import pytest
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -16,6 +17,8 @@ from paths import SIMPLEBOT
 
 from motivml.cli import main
 from motivml.documents.schema import CONFIGURATION, load_schema
+
+pytestmark = pytest.mark.slow  # property tests: schema-valid documents through every stage
 
 LOCATED = re.compile(r"^\S+\.json:\d+:\d+: \$.*: (error|warning): ", re.M)
 

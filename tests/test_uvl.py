@@ -121,6 +121,7 @@ def uvl_count(root: Any, constraints: list[tuple[str, str, str, bool]]) -> int:
     return total
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(uvl_models())
 def test_uvl_to_motivml_to_uvl_keeps_the_selection_count(data: tuple[Any, Any]) -> None:
