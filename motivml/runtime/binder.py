@@ -55,7 +55,34 @@ class Outcome:
         return "; ".join(d.message for d in self.diagnostics)
 
 
+class _Inbox:
+    """Simulated clock: requests from other threads (the control socket) wait here until
+    the control thread takes them, after its next tick (`Binder.make_changes_between_ticks`)."""
+
+    def __init__(self) -> None:
+        self._waiting: queue.SimpleQueue[tuple[Request, Future[Outcome], float]] = queue.SimpleQueue()
+
+    def ask(self, request: Request, timeout: float | None, arrived: float) -> Outcome | None:
+        """The request's outcome, or None if no tick took it within `timeout` (none will)."""
+        future: Future[Outcome] = Future()
+        self._waiting.put((request, future, arrived))
+        try:
+            return future.result(timeout)
+        except TimeoutError:
+            return None if future.cancel() else future.result()
+
+    def empty(self, answer: Callable[[Request, float], Outcome]) -> None:
+        """On the control thread, between two ticks: answer every request waiting."""
+        while not self._waiting.empty():
+            request, future, arrived = self._waiting.get()
+            if future.set_running_or_notify_cancel():
+                future.set_result(answer(request, arrived))
+
+
 class Binder:
+    """The transaction of a running robot's changes (see the module's text); it owns the
+    active set, the plugin host and the fault policy."""
+
     def __init__(
         self,
         runtime: Runtime,
@@ -74,9 +101,7 @@ class Binder:
         self.architecture = architecture
         self.active = frozenset(active)
         runtime.begin_with(self.active)  # what status() reads, with the plugins, at each commit
-        self.unimplemented = (
-            unimplemented  # Dynamic features nothing implements: warned about (strict: refused)
-        )
+        self.unimplemented = unimplemented  # Dynamic features nothing implements: warned about (strict: refused)
         self.strict = strict
         self.reconfigurer = Reconfigurer(variant, config)
         self.host = PluginHost(runtime, variant, plugins, robot, ros_namespace)
@@ -84,7 +109,7 @@ class Binder:
         self.static = self.host.static
         self._lock = threading.Lock()
         self.between_ticks = False  # simulated clock: changes are made on the control thread
-        self._inbox: queue.SimpleQueue[tuple[Request, Future[Outcome], float]] = queue.SimpleQueue()
+        self._inbox = _Inbox()  # (simulated clock: requests of other threads wait for a tick)
         self._bring_elements = (
             {e.feature for e in architecture.elements()} if architecture is not None else set()
         )  # features whose coming or going changes the architecture
@@ -116,13 +141,7 @@ class Binder:
         for a tick while holding the binder.
         """
         self.between_ticks = True
-        self.runtime.after_each_tick(self._empty_inbox, first=True)
-
-    def _empty_inbox(self) -> None:
-        while not self._inbox.empty():
-            request, future, arrived = self._inbox.get()
-            if future.set_running_or_notify_cancel():
-                future.set_result(self.request_between_ticks(request, arrived))
+        self.runtime.after_each_tick(lambda: self._inbox.empty(self.request_between_ticks), first=True)
 
     def request(self, request: Request, timeout: float | None = 5.0, arrived: float | None = None) -> Outcome:
         """Check, prepare and commit one request; wait (up to `timeout`) for its commit. Its
@@ -130,23 +149,11 @@ class Binder:
         request included."""
         began = time.perf_counter() if arrived is None else arrived
         if self.between_ticks:
-            future: Future[Outcome] = Future()
-            self._inbox.put((request, future, began))
-            try:
-                return future.result(timeout)
-            except TimeoutError:
-                if future.cancel():
-                    message = (
-                        f"the control loop did not take the request within {timeout:g} s: nothing changed"
-                    )
-                    return self._refused(
-                        Outcome(
-                            request,
-                            False,
-                            diagnostics=[error(Location("run"), message, "reconfigure.timeout")],
-                        )
-                    )
-                return future.result()
+            outcome = self._inbox.ask(request, timeout, began)
+            if outcome is None:
+                message = f"the control loop did not take the request within {timeout:g} s: nothing changed"
+                return self._timed_out(request, None, message)
+            return outcome
         with self._lock:
             prepared = self._check_and_prepare(request)
             if isinstance(prepared, Outcome):
@@ -171,14 +178,7 @@ class Binder:
                     if commit.withdrawn and taken
                     else f"the control loop did not take the change within {timeout:g} s: nothing changed"
                 )
-                return self._refused(
-                    Outcome(
-                        request,
-                        False,
-                        plan,
-                        diagnostics=[error(Location("run"), message, "reconfigure.timeout")],
-                    )
-                )
+                return self._timed_out(request, plan, message)
             commit.done.wait()
             return self._committed(plan, commit, began)
 
@@ -233,6 +233,12 @@ class Binder:
         verb = "would be" if severity is Severity.ERROR else "is now"
         return [unimplemented_feature(self.variant.model, f, verb, severity) for f in features]
 
+    def _timed_out(self, request: Request, plan: Plan | None, message: str) -> Outcome:
+        """Refused: the control loop did not take the request or its change (in time)."""
+        return self._refused(
+            Outcome(request, False, plan, diagnostics=[error(Location("run"), message, "reconfigure.timeout")])
+        )
+
     def _refused(self, outcome: Outcome) -> Outcome:
         """Every refusal goes into the run's log as it happens, with its reason (but a fault's
         tries at unloading, ancestor by ancestor: what they came to is noted instead)."""
@@ -277,29 +283,11 @@ class Binder:
         moved = set(plan.loads) | set(plan.unloads)
         if self.architecture is not None and moved & self._bring_elements:
             assembly, _ = build(self.architecture, set(plan.after), self.runtime.rate, self.runtime.assembly)
-        reload = isinstance(plan.request, Reload)
-        add: dict[str, Running] = {}
         preparing = Preparing(assembly)
-        try:
-            for feature in plan.loads:
-                if feature in self.plugins:
-                    add[feature] = self.host.start_instance(feature, preparing, fresh=reload)
-        except BaseException:
-            for running in add.values():
-                self.host.stop(running)
-            raise
-        finally:
-            preparing.active = False
+        add = self.host.start_instances(plan.loads, preparing, fresh=isinstance(plan.request, Reload))
         remove = tuple(f for f in plan.unloads if f in self.runtime.plugins)
         return Commit(
-            str(plan.request),
-            plan.loads,
-            plan.unloads,
-            assembly,
-            add,
-            remove,
-            writes=preparing.writes,
-            active=plan.after,
+            str(plan.request), plan.loads, plan.unloads, assembly, add, remove, writes=preparing.writes, active=plan.after
         )
 
     def _give_up(self, commit: Commit) -> None:

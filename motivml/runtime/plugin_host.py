@@ -18,6 +18,7 @@ located `PluginError`, and never lets it through.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -112,6 +113,23 @@ class PluginHost:
             ) from None
         return Running(feature, instance, self.static[feature], plugin.folder, activation=loader.activation(instance))
 
+    def start_instances(self, features: Sequence[str], preparing: Preparing, fresh: bool) -> dict[str, Running]:
+        """Started instances of the plugins of `features` (those that have one), all or none:
+        if one fails, those already started are stopped. `preparing` sees them no more
+        afterwards (their writes wait in it for the commit)."""
+        started: dict[str, Running] = {}
+        try:
+            for feature in features:
+                if feature in self.plugins:
+                    started[feature] = self.start_instance(feature, preparing, fresh)
+        except BaseException:
+            for running in started.values():
+                self.stop(running)
+            raise
+        finally:
+            preparing.active = False
+        return started
+
     def stop(self, running: Running) -> bool:
         """Stop a plugin; False (and a note) if its stop() raised."""
         try:
@@ -140,18 +158,14 @@ class PluginHost:
                     for d in plugin_error(self.plugins[f], entry_key(self.plugins[f]), f"cannot start {f}: {absent[f]}").diagnostics
                 ]
             )
-        started: list[Running] = []
         preparing = Preparing(None)
+        started = list(self.start_instances(starting, preparing, fresh=False).values())
         try:
-            for feature in starting:
-                started.append(self.start_instance(feature, preparing))
             self.switch([], started)
         except BaseException:
             for running in started:
                 self.stop(running)
             raise
-        finally:
-            preparing.active = False
         for space, value in preparing.writes:
             self.runtime.send(space, value)
         self.runtime.adopt(started)
