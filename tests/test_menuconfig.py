@@ -18,7 +18,7 @@ import pytest
 from click.testing import CliRunner
 from paths import SIMPLEBOT
 
-from motivml.binding.configurator import Session
+from motivml.binding.configurator import Configurator
 from motivml.cli import main
 from motivml.cli.menuconfig import MenuConfig, open_session
 from motivml.errors import repair_text
@@ -37,7 +37,7 @@ def robot(tmp_path: Path) -> Path:
 def test_a_decision_propagates_at_once() -> None:
     model, _ = load_model(SIMPLEBOT / "model.json")
     assert model is not None
-    session = Session(model, "new.json")
+    session = Configurator(model, "new.json")
     assert session.valid and session.decisions == {}
     assert "off" in session.possible("slam")
     session.select("kartoslam", True)
@@ -49,7 +49,7 @@ def test_a_decision_propagates_at_once() -> None:
 def test_a_conflict_offers_repairs_and_one_applies() -> None:
     model, _ = load_model(SIMPLEBOT / "model.json")
     assert model is not None
-    session = Session(model, "new.json")
+    session = Configurator(model, "new.json")
     session.select("kartoslam", True)
     session.bind("grid_map", None, Mode.DYNAMIC)
     assert not session.valid
@@ -65,7 +65,7 @@ def test_a_conflict_offers_repairs_and_one_applies() -> None:
 def test_deselecting_drops_a_binding_and_binding_selects() -> None:
     model, _ = load_model(SIMPLEBOT / "model.json")
     assert model is not None
-    session = Session(model, "new.json")
+    session = Configurator(model, "new.json")
     session.bind("navigation", Time.LATE, Mode.DYNAMIC)
     assert json.loads(session.text())["properties"] == [
         {"id": "navigation", "props": {"time": "Late", "mode": "Dynamic"}}
@@ -87,7 +87,7 @@ def test_an_existing_variant_is_read_with_its_x_keys(robot: Path) -> None:
 
 
 # -------------------------------------------------------------------------- application
-def drive(session: Session, path: Path, steps: Callable[[Any, Any], Awaitable[None]]) -> Any:
+def drive(session: Configurator, path: Path, steps: Callable[[Any, Any], Awaitable[None]]) -> Any:
     """Run the application headless in an 80x24 screen and play `steps` on it."""
     app = MenuConfig(session, path)
 

@@ -30,7 +30,7 @@ from .why import Reason, why
 
 
 @dataclass(frozen=True)
-class Decision:
+class Choice:
     """What a person decided of one feature; None: left to the configurator."""
 
     selected: bool | None = None
@@ -53,7 +53,7 @@ def decisions_text(config: Configuration, extra: dict[str, object] | None = None
     return json.dumps({**(extra or {}), "partial": True, "properties": properties}, indent=2) + "\n"
 
 
-class Session:
+class Configurator:
     """Decisions about one model's features and what follows from them."""
 
     def __init__(
@@ -71,11 +71,11 @@ class Session:
         self.file = file
         self.extra = dict(extra or {})
         self.prefer = tuple(prefer)
-        self.decisions: dict[str, Decision] = {}
+        self.decisions: dict[str, Choice] = {}
         if start is not None:
             for entry in sorted(start.entries.values(), key=lambda e: model.index.get(e.id, 0)):
                 if entry.id in model.index and model.index[entry.id] != 0:
-                    self.decisions[entry.id] = Decision(
+                    self.decisions[entry.id] = Choice(
                         entry.selected,
                         entry.time if entry.selected else None,
                         entry.mode if entry.selected else None,
@@ -149,36 +149,36 @@ class Session:
         time and mode (they mean nothing then); leaving it open keeps them only if set."""
         old = self._old(fid)
         if selected is False:
-            self._set(fid, Decision(False))
+            self._set(fid, Choice(False))
         elif selected is None and old.time is None and old.mode is None:
-            self._set(fid, Decision())
+            self._set(fid, Choice())
         else:
-            self._set(fid, Decision(True, old.time, old.mode))
+            self._set(fid, Choice(True, old.time, old.mode))
 
     def bind(self, fid: str, time: Time | None, mode: Mode | None) -> None:
         """Decide a feature's time and mode (None: leave it open); a binding is decided of a
         selected feature, so a feature not yet selected becomes selected."""
         old = self._old(fid)
         if time is None and mode is None:
-            self._set(fid, Decision(old.selected) if old.selected else Decision())
+            self._set(fid, Choice(old.selected) if old.selected else Choice())
         else:
-            self._set(fid, Decision(True, time, mode))
+            self._set(fid, Choice(True, time, mode))
 
     def clear(self, fid: str) -> None:
         """Leave everything about a feature to the configurator again."""
         self._old(fid)
-        self._set(fid, Decision())
+        self._set(fid, Choice())
 
-    def decided(self, fid: str) -> Decision:
-        return self.decisions.get(fid, Decision())
+    def decided(self, fid: str) -> Choice:
+        return self.decisions.get(fid, Choice())
 
-    def _old(self, fid: str) -> Decision:
+    def _old(self, fid: str) -> Choice:
         if self.model.index[fid] == 0:
             raise ValueError("the root is always selected, Static and Early (rule 2.1)")
         return self.decided(fid)
 
-    def _set(self, fid: str, decision: Decision) -> None:
-        if decision == Decision():
+    def _set(self, fid: str, decision: Choice) -> None:
+        if decision == Choice():
             self.decisions.pop(fid, None)
         else:
             self.decisions[fid] = decision
@@ -187,13 +187,13 @@ class Session:
     def apply(self, repair: Repair) -> None:
         """Make every change of a repair, then refresh once."""
         for change in repair:
-            old = self.decisions.get(change.feature, Decision())
+            old = self.decisions.get(change.feature, Choice())
             if change.change == "select":
-                new = Decision(True, old.time, old.mode) if change.value else Decision(False)
+                new = Choice(True, old.time, old.mode) if change.value else Choice(False)
             elif change.change == "time":
-                new = Decision(True, Time(str(change.value)), old.mode)
+                new = Choice(True, Time(str(change.value)), old.mode)
             elif change.change == "mode":
-                new = Decision(True, old.time, Mode(str(change.value)))
+                new = Choice(True, old.time, Mode(str(change.value)))
             else:
                 raise ValueError(f"not a change to a configuration: {change.change}")
             self.decisions[change.feature] = new

@@ -2,7 +2,7 @@
 
 The feature tree with each feature's selection, mode and time: what you decided in bold,
 what the model and your decisions force dimmed (locked), what is left open as `*`. Every
-change is propagated at once (`binding.configurator.Session`); a change that leaves no
+change is propagated at once (`binding.configurator.Configurator`); a change that leaves no
 valid variant shows the conflict and its repairs, and a digit applies one. `?` says why the
 feature under the cursor is what it is. `s` saves the decisions file, atomically.
 """
@@ -21,7 +21,7 @@ from .common import fail, one_variant, plural, targets
 EXIT_INTERRUPTED = 130  # what a shell reports for a process ended by Ctrl-C (SIGINT)
 
 if TYPE_CHECKING:
-    from ..binding.configurator import Session
+    from ..binding.configurator import Configurator
 
 HINT = "[x]/[ ] yours  -x-/--- forced  ( ) open; in bold yours, dim forced, * open; space cycles"
 
@@ -68,9 +68,9 @@ def _on_a_terminal() -> bool:
 
 def open_session(
     target: str, variant: str | None, config: str | None, prefer: tuple[str, ...] = ()
-) -> tuple[Session, Path]:
+) -> tuple[Configurator, Path]:
     """The session on TARGET's model, begun from the variant file if it exists, and that file."""
-    from ..binding.configurator import Session
+    from ..binding.configurator import Configurator
     from ..documents.robot_folder import VARIANTS_FOLDER, RobotFolder
     from ..errors import DocumentError
     from ..language.reader import load_configuration, load_model
@@ -103,7 +103,7 @@ def open_session(
             raise DocumentError(problems)
         root = start.source.root if start.source is not None else {}
         extra = {k: v for k, v in root.items() if isinstance(k, str) and k.startswith("x-")}
-    session = Session(model, str(path), start, extra, prefer)
+    session = Configurator(model, str(path), start, extra, prefer)
     session.saved_text = session.text() if path.exists() else None
     return session, path
 
@@ -144,7 +144,7 @@ def _app_class() -> Any:
             *(Binding(str(k), f"repair({k})", show=False) for k in range(1, 6)),
         ]
 
-        def __init__(self, session: Session, path: Path) -> None:
+        def __init__(self, session: Configurator, path: Path) -> None:
             super().__init__()
             self.session = session
             self.path = path
@@ -360,6 +360,6 @@ def _app_class() -> Any:
     return App_
 
 
-def MenuConfig(session: Session, path: Path) -> Any:  # noqa: N802 - builds the app
+def MenuConfig(session: Configurator, path: Path) -> Any:  # noqa: N802 - builds the app
     """The application for a session, saving to `path`."""
     return _app_class()(session, path)

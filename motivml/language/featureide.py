@@ -117,14 +117,14 @@ def read_featureide(data: bytes, file: str) -> dict[str, Any]:
     cannot be kept."""
     top = _tree(data, file)
     try:
-        return _Reader().document(top)
+        return _FeatureIdeReader().document(top)
     except _Refusal as refusal:
         element = refusal.element
         where = Location(file, element.line, element.column) if element else Location(file)
         raise DocumentError(error(where, refusal.message + " (section 8)", "featureide")) from None
 
 
-class _Reader:
+class _FeatureIdeReader:
     def __init__(self) -> None:
         self.ids = Ids()
         self.relations: list[tuple[dict[str, Any], str, list[str], _Element]] = []

@@ -133,7 +133,7 @@ def read_uvl(text: str, file: str) -> dict[str, Any]:
 
     try:
         tree = _parser().parse(text if text.endswith("\n") else text + "\n")
-        return _Reader().document(tree)
+        return _UvlReader().document(tree)
     except _Refusal as refusal:
         raise DocumentError(
             error(Location(file, refusal.line, refusal.column), refusal.message + " (section 8)", "uvl")
@@ -171,7 +171,7 @@ class Ids(dict[str, str]):
         return candidate
 
 
-class _Reader:
+class _UvlReader:
     def __init__(self) -> None:
         self.ids = Ids()  # UVL name -> id
         self.declared: set[str] = set()  # names of the features read so far

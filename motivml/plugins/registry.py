@@ -179,7 +179,7 @@ KINDS = {
             "ros2_lifecycle",
             "node",
             path_is_file=False,
-            loader="motivml.plugins.ros2:LifecycleNodes",
+            loader="motivml.plugins.ros2:LifecyclePlugins",
             required=(),
             optional=("parameters", "timeout"),
             on_ros=True,

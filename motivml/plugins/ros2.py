@@ -81,7 +81,7 @@ def ros2_missing() -> EnvironmentProblem | None:
     )
 
 
-class LifecycleNodes:
+class LifecyclePlugins:
     """The ros2_lifecycle plugins of one launched robot: stand-ins, and the bridge they call."""
 
     def __init__(self, robot: str, plugins: dict[str, Plugin], ros_namespace: str = "/") -> None:
@@ -216,7 +216,7 @@ class LifecycleFeature:
     """One feature's lifecycle node, as the binder and the loop see it: a stand-in."""
 
     def __init__(
-        self, nodes: LifecycleNodes, ident: int, plugin: Plugin, context: PluginContext, restart: bool
+        self, nodes: LifecyclePlugins, ident: int, plugin: Plugin, context: PluginContext, restart: bool
     ) -> None:
         self.nodes = nodes
         self.ident = ident

@@ -486,7 +486,7 @@ def read_record(path: Path, points: int = POINTS) -> Record:
     with handle:
         lines = _Lines(handle)
         try:
-            return _Reader(path, lines, points).read()
+            return _RecordReader(path, lines, points).read()
         except UnicodeDecodeError:
             raise _bad(path, lines.number + 1, 1, "not UTF-8 text: not a record of motivml run") from None
         except csv.Error as exc:
@@ -501,7 +501,7 @@ def _bad(path: Path, line: int, column: int, message: str) -> DocumentError:
     return DocumentError(error(Location(str(path), line, column), message, "record"))
 
 
-class _Reader:
+class _RecordReader:
     BLOCK = 8192  # rows parsed before they are thinned
 
     def __init__(self, path: Path, lines: _Lines, points: int) -> None:
