@@ -8,30 +8,18 @@ given back (both are no-ops where the system lacks them):
 * its *slice* (`sched_setattr`'s `sched_runtime` for an ordinary thread, Linux 6.12 and
   later): the EEVDF scheduler gives a thread that asks for a short slice an early virtual
   deadline, so when it wakes it preempts a thread that has run longer instead of waiting
-  for that thread's slice (0.7-3 ms) to end. On a 2-core machine kept busy by two CPU-bound
-  processes, a bare 1 kHz sleep loop missed 15-215 deadlines in 2 s with the default slice
-  and 7-20 with 0.1 ms.
+  for that thread's slice (0.7-3 ms) to end.
 
   The slice must also cover the CPU time the thread uses between two sleeps: once a thread
-  has run its slice, the scheduler may hand the CPU to a busy process at its next tick
-  (every 4 ms here), and the loop waits for that process's slice, a missed deadline. So the
-  loop's slice is *fitted* (`OnTime.fit`). It starts at SLICE_MAX_NS, 0.5 ms (or the
-  thread's own slice, if that is shorter). After FIRST_FIT sleeps, then every FIT_EVERY
-  sleeps, it becomes twice the most CPU time the thread used between two sleeps in them,
-  within 0.3-0.5 ms. It is kept while that time is between a quarter and three quarters of
-  it: each change costs a late wake-up now and then. The slice is changed just after a
-  wake-up; changed just before a sleep, it made the next wake-up late in 2-13 of 60 changes.
-
-  Not below 0.3 ms, although the kernel takes 0.1 ms: a loop that works little was fitted
-  0.1 ms and missed more than with a longer slice. On the busy machine, with the deadlines
-  between the scheduler's ticks (below), a loop busy-waiting 0.02 ms a tick missed 124 and
-  107 deadlines in two runs of 15-20 rounds of 2 s with 0.1 ms, 56-58 with 0.2-0.3 ms, 51
-  with 0.4 ms (a bare sleep loop: 41 and 61); with 0.08 ms of work, 68 against 59 (bare:
-  20); with none, 10 against 6 (bare: 10).
-
-  The bench's twenty components use 0.15-0.2 ms per tick, and up to 0.5 ms on the busy
-  machine. In 12 s there, alternated: 1,499-1,612 missed deadlines with a fixed 0.1 ms
-  slice, 142-177 with 0.3 ms, 66-75 with 0.5 ms, and 30-43 for a bare sleep loop.
+  has run its slice, the scheduler may hand the CPU to a busy process at its next tick,
+  and the loop waits for that process's slice, a missed deadline. So the loop's slice is
+  *fitted* (`OnTime.fit`). It starts at SLICE_MAX_NS (or the thread's own slice, if that
+  is shorter). After FIRST_FIT sleeps, then every FIT_EVERY sleeps, it becomes twice the
+  most CPU time the thread used between two sleeps in them, within SLICE_NS-SLICE_MAX_NS.
+  It is kept while that time is between a quarter and three quarters of it (each change
+  costs a late wake-up now and then), and changed just after a wake-up, never just before
+  a sleep. It is never below SLICE_NS, although the kernel takes less: a loop that works
+  little, given the kernel's shortest slice, missed more deadlines than with a longer one.
 
 Neither needs a privilege: a real-time priority does, and does more. `run` takes one
 where its process may (`loop.default_priority`); these are what is left where it may not.
@@ -43,26 +31,17 @@ Linux's scheduler ticks fall on multiples of its tick (1, 4 or 10 ms for HZ = 10
 loop thread still working at that moment has used more than its share of the CPU since it
 woke (its lag is negative: it is not *eligible*). Whatever wakes preempts it, and when that
 sleeps again the scheduler runs the busy process instead of the ineligible loop, until the
-busy process's slice ends at a tick: 4 ms later here, four missed deadlines. A sleeping
-thread is not exposed to this at all. Traced with the kernel's sched_switch events on a
-2-core machine kept busy by two CPU-bound processes, with the 20 components' 0.16 ms of
-work a tick:
-
-* the loop's deadlines fall at a whole millisecond plus a phase fixed when it starts, so in
-  a run either every fourth tick's work straddles a scheduler tick or none does. At a
-  random phase (as before), runs were lucky or not: 10 runs of 2 s ranged from 0 to 22
-  missed deadlines;
-* the deadlines are now placed TICK_PHASE (0.35) of a step after the grid, so a scheduler
-  tick falls 0.65 ms after each deadline, when the work is done. Preemptions mid-tick by
-  whatever the tick woke went from 14 to 4 in 10 rounds, and over 5 alternated runs
-  (105 rounds of 2 s) the loop missed 606 deadlines placed so against 740 at a random
-  phase (514 for a bare sleep loop).
+busy process's slice ends at a tick: four missed deadlines at 1 kHz and HZ = 250. A
+sleeping thread is not exposed to this at all. So the deadlines are placed TICK_PHASE of a
+grid step after the grid: a scheduler tick falls after each deadline's work is done.
 
 The grid step is the largest common step of the period and a millisecond, 1 ms at 1 kHz or
 500 Hz, 0.5 ms at 2 kHz. A period with no step of at least GRID_MIN_NS in common with a
-millisecond (997 Hz, 300 Hz) starts one period from now, as before. A tick of the loop that
-works longer than 0.65 of a grid step (0.65 ms at 1 kHz or 250 Hz) still meets the
+millisecond (997 Hz, 300 Hz) starts one period from now. A tick of the loop that works
+longer than TICK_PHASE's remainder of a grid step (0.65 ms at 1 kHz) still meets the
 scheduler's tick.
+
+The measurements behind these numbers are in bench/waiting.md.
 """
 
 from __future__ import annotations
