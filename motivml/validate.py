@@ -52,6 +52,44 @@ class Report:
         return not self.errors
 
 
+@dataclass
+class Validation:
+    """What `validate` checked: the model's report, then one per document checked against the
+    model (none when the model could not be read: nothing else was checked)."""
+
+    model: Report
+    configurations: list[Report] = field(default_factory=list)
+    architecture: Report | None = None
+    coordination: Report | None = None
+    plugins: Report | None = None
+
+    @property
+    def reports(self) -> list[Report]:
+        """Every report, in the order they are shown: the model's, the configurations', the
+        architecture's, the coordination's, the plugins'."""
+        others = [r for r in (self.architecture, self.coordination, self.plugins) if r is not None]
+        return [self.model, *self.configurations, *others]
+
+    @property
+    def checked(self) -> bool:
+        """Whether everything asked was checked (the model was read, so were the others)."""
+        return self.model.model is not None
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for r in self.reports for d in r.errors]
+
+    @property
+    def valid(self) -> bool:
+        """Everything asked was checked, and nothing has an error."""
+        return self.checked and all(r.valid for r in self.reports)
+
+    @property
+    def last(self) -> Report:
+        """The last report (a configuration's, or the model's if it stopped there)."""
+        return self.reports[-1]
+
+
 def validate_model(model_path: str | Path, analyse: bool = True) -> Report:
     """Check a model file: syntax, consistency, and (with `analyse`) its variants' space."""
     report = Report(str(model_path), "model")
@@ -113,34 +151,32 @@ def validate(
     coordination_path: str | Path | None = None,
     robot: RobotFolder | None = None,
     solve: bool = True,
-) -> list[Report]:
+) -> Validation:
     """The model's report, one per configuration, the architecture's, the coordination's, and
     with `robot` (a folder with robot.json) the plugin manifests'.
 
     The model is read once; the other documents are checked only against a sound model.
     Without `solve`, the configurations are read and checked but not solved.
     """
-    model_report = validate_model(model_path, analyse)
-    reports = [model_report]
-    if model_report.model is not None:
-        model = model_report.model
-        reports += [validate_configuration(model, c, partial, solve) for c in config_paths]
-        architecture = None
-        if architecture_path is not None:
-            reports.append(validate_architecture(model, architecture_path))
-            if reports[-1].valid:
-                from .architecture.document import read_architecture
+    result = Validation(validate_model(model_path, analyse))
+    model = result.model.model
+    if model is None:
+        return result
+    result.configurations = [validate_configuration(model, c, partial, solve) for c in config_paths]
+    architecture = None
+    if architecture_path is not None:
+        result.architecture = validate_architecture(model, architecture_path)
+        if result.architecture.valid:
+            from .architecture.document import read_architecture
 
-                doc, _ = read_checked(architecture_path, lambda d: [])
-                architecture = read_architecture(doc, model)[0] if doc is not None else None
-        if coordination_path is not None:
-            variants = [
-                r.config for r in reports[1 : 1 + len(config_paths)] if r.valid and r.config is not None
-            ]
-            reports.append(validate_coordination(model, coordination_path, architecture, variants))
-        if robot is not None and optional_document(robot.settings_path) is not None:
-            reports.append(validate_plugins(robot, model))
-    return reports
+            doc, _ = read_checked(architecture_path, lambda d: [])
+            architecture = read_architecture(doc, model)[0] if doc is not None else None
+    if coordination_path is not None:
+        variants = [r.config for r in result.configurations if r.valid and r.config is not None]
+        result.coordination = validate_coordination(model, coordination_path, architecture, variants)
+    if robot is not None and optional_document(robot.settings_path) is not None:
+        result.plugins = validate_plugins(robot, model)
+    return result
 
 
 def validate_plugins(robot: RobotFolder, model: FeatureModel) -> Report:

@@ -78,7 +78,7 @@ def test_golden_check_fails_in_update_mode_until_nothing_changes(
 
 def test_lock_validates_back(tmp_path: Path) -> None:
     configure(str(SIMPLEBOT), "--variant", "field", "-o", str(tmp_path))
-    _, report = validate(SIMPLEBOT / "model.json", [tmp_path / "variant.lock.json"])
+    (report,) = validate(SIMPLEBOT / "model.json", [tmp_path / "variant.lock.json"]).configurations
     assert report.valid and report.diagnostics == [] and report.open_bindings == 0
 
 

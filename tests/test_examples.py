@@ -74,14 +74,14 @@ def test_eight_robots_ship() -> None:
 
 @pytest.mark.parametrize("robot", [r for r in ROBOTS if (ROOT / r / "architecture.json").is_file()])
 def test_architecture_is_valid(robot: str) -> None:
-    reports = validate(ROOT / robot / "model.json", architecture_path=ROOT / robot / "architecture.json")
-    assert [d.message for r in reports for d in r.diagnostics] == []
+    result = validate(ROOT / robot / "model.json", architecture_path=ROOT / robot / "architecture.json")
+    assert result.architecture is not None and [d.message for r in result.reports for d in r.diagnostics] == []
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_model_is_valid(robot: str) -> None:
-    (report,) = validate(ROOT / robot / "model.json")
-    assert report.errors == [] and report.analysed
+    result = validate(ROOT / robot / "model.json")
+    assert result.reports == [result.model] and result.model.errors == [] and result.model.analysed
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
@@ -92,9 +92,9 @@ def test_variants(robot: str) -> None:
     invalid = [n for n in names if n.startswith("broken")]
     assert len(valid) >= 2 and len(invalid) == 1
     for name in valid:
-        _, report = validate(folder.model_path, [folder.variant_path(name)])
+        (report,) = validate(folder.model_path, [folder.variant_path(name)]).configurations
         assert report.diagnostics == [], (name, [d.message for d in report.diagnostics])
     (name,) = invalid
-    _, report = validate(folder.model_path, [folder.variant_path(name)])
+    (report,) = validate(folder.model_path, [folder.variant_path(name)]).configurations
     got = [f"{d.location.line}:{d.location.column}: {d.location.path}: {d.message}" for d in report.errors]
     assert got == EXPECTED_ERRORS[(robot, name)]

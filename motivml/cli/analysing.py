@@ -56,10 +56,10 @@ def analyse_command(target: str, fmt: str, no_counts: bool, count_timeout: float
 
     try:
         model_path, _, _ = targets(target, None, None)
-        reports = validate(model_path, [], partial=True, analyse=False)
-        model = reports[0].model
+        checked = validate(model_path, [], partial=True, analyse=False).model
+        model = checked.model
         if model is None:
-            _refuse([d for r in reports for d in r.errors], fmt, "the model has errors")
+            _refuse(checked.errors, fmt, "the model has errors")
         with _Bar(len(STEPS)) as bar:
             try:
                 limit = None if math.isinf(count_timeout) else count_timeout  # (inf: no limit)
@@ -193,10 +193,10 @@ def sample_command(target: str, t: int, bindings: bool, output: str) -> None:
 
     try:
         model_path, _, _ = targets(target, None, None)
-        reports = validate(model_path, [], partial=True, analyse=False)
-        model = reports[0].model
+        checked = validate(model_path, [], partial=True, analyse=False).model
+        model = checked.model
         if model is None:
-            _refuse([d for r in reports for d in r.errors], "text", "the model has errors")
+            _refuse(checked.errors, "text", "the model has errors")
         try:
             with _Bar(1) as bar:
                 found = sample(model, t, bindings, bar.reached)

@@ -65,25 +65,21 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
         architecture = optional_document(folder.architecture_path) if folder else None
         coordination = optional_document(folder.coordination_path) if folder else None
         robot = folder if folder and optional_document(folder.settings_path) else None
-        reports = validate(model_path, configs, partial, analyse, architecture, coordination, robot)
+        result = validate(model_path, configs, partial, analyse, architecture, coordination, robot)
     except (MotivmlError, OSError) as exc:  # nothing checked: the problem alone, in the format asked for
         problem = exc if isinstance(exc, MotivmlError) else environment_problem(exc)
         if fmt == "text":
             fail(problem)
         click.echo(unchecked(fmt, target, problem))
         sys.exit(problem.exit_code)
-    expected = (
-        1 + len(configs) + (architecture is not None) + (coordination is not None) + (robot is not None)
-    )
-    valid = all(r.valid for r in reports) and len(reports) == expected
     if fmt != "text":
-        click.echo(checked(fmt, reports, valid))
+        click.echo(checked(fmt, result.reports, result.valid))
     else:
-        for report in reports:
+        for report in result.reports:
             print_diagnostics(report.errors + report.warnings)
             if report.kind != "model" or report.analysed or report.diagnostics:
-                _verdict(report, checked_variants=len(reports) > 1 or not configs)
-    sys.exit(0 if valid else 1)
+                _verdict(report, checked_variants=result.checked or not configs)
+    sys.exit(0 if result.valid else 1)
 
 
 def _verdict(report: Report, checked_variants: bool) -> None:
@@ -156,18 +152,18 @@ def configure_command(
         _, configs, _ = targets(target, config, variant)
         # resolve solves the configuration on its own encoding, and explains it as validate
         # would when it has no valid completion: validate only reads and checks it here.
-        reports = validate(robot.model_path, configs, partial=True, analyse=False, solve=False)
-        problems = [d for r in reports for d in r.errors]
-        model, configuration = reports[-1].model, reports[-1].config
-        if not problems and len(reports) == 2:
+        result = validate(robot.model_path, configs, partial=True, analyse=False, solve=False)
+        problems = result.errors
+        model, configuration = result.last.model, result.last.config
+        if not problems and result.checked:
             assert model is not None and configuration is not None
             try:
                 resolved = resolve(model, configuration, prefer)
             except NoVariant as exc:
                 problems = exc.diagnostics
-        if problems or len(reports) != 2:
+        if problems or not result.checked:
             print_diagnostics(problems)
-            out.print(f"[bold red]invalid[/]: {escape(reports[-1].file)}: nothing written")
+            out.print(f"[bold red]invalid[/]: {escape(result.last.file)}: nothing written")
             sys.exit(1)
         assert model is not None
         plugins, problems = discover(robot, model)
@@ -229,17 +225,15 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
     try:
         robot = RobotFolder.open(target)
         paths = [robot.variant_path(first), robot.variant_path(second)]
-        reports = validate(robot.model_path, paths, partial=True, analyse=False)
-        problems = [d for r in reports for d in r.errors]
-        if problems or len(reports) != 3:
-            print_diagnostics(problems)
+        result = validate(robot.model_path, paths, partial=True, analyse=False)
+        if not result.valid:
+            print_diagnostics(result.errors)
             out.print("[bold red]invalid[/]: nothing to compare (fix the errors above)")
             sys.exit(1)
-        model = reports[0].model
-        assert model is not None and reports[1].config is not None and reports[2].config is not None
-        changes = impact.diff(
-            resolve(model, reports[1].config, prefer), resolve(model, reports[2].config, prefer)
-        )
+        model = result.model.model
+        before, after = (report.config for report in result.configurations)
+        assert model is not None and before is not None and after is not None
+        changes = impact.diff(resolve(model, before, prefer), resolve(model, after, prefer))
     except MotivmlError as exc:
         fail(exc)
     worst = impact.verdict(changes)
@@ -305,19 +299,18 @@ def show_command(
     try:
         model_path, configs, _ = targets(target, config, variant)
         chosen = configs[:1] if variant or config else []
-        reports = validate(model_path, chosen, partial=True, analyse=False)
-        problems = [d for r in reports for d in r.errors]
-        if problems or len(reports) != 1 + len(chosen):
-            print_diagnostics(problems)
+        result = validate(model_path, chosen, partial=True, analyse=False)
+        if not result.valid:
+            print_diagnostics(result.errors)
             out.print("[bold red]invalid[/]: nothing to show (fix the errors above)")
             sys.exit(1)
-        model = reports[0].model
+        model = result.model.model
         assert model is not None
         if why_feature is not None and why_feature not in model.index:
             close = difflib.get_close_matches(why_feature, list(model.index), n=1, cutoff=0.75)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise click.BadParameter(f"no feature {why_feature!r} in the model{hint}", param_hint="'--why'")
-        configuration = reports[-1].config if chosen else None
+        configuration = result.configurations[0].config if chosen else None
         states = binding_states(model, configuration)
         if not states[0]:  # not even the root: the model has no valid variant
             print_diagnostics(analyse_model(model))

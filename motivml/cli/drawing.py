@@ -195,10 +195,10 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
 
     try:
         model_path, _, _ = targets(target, None, None)
-        reports = validate(model_path, [], partial=True, analyse=False)
-        model = reports[0].model
+        checked = validate(model_path, [], partial=True, analyse=False).model
+        model = checked.model
         if model is None:
-            print_diagnostics(reports[0].errors)
+            print_diagnostics(checked.errors)
             out.print(f"[bold red]nothing exported[/]: {escape(str(model_path))} has errors")
             sys.exit(1)
         names = {"uvl": "model.uvl", "featureide": "model.xml"}
