@@ -582,3 +582,22 @@ def test_rc2_with_its_selectors_kept_at_c_speed_is_rc2(
                 answers.append((maxsat.compute(), maxsat.cost))
         seen.setdefault(kind, []).append(answers)  # type: ignore[arg-type]
     assert seen[RC2] == seen[_rc2()]
+
+
+def test_the_configure_pipeline_writes_all_or_nothing(tmp_path: Path) -> None:
+    """motivml.configure, as the CLI calls it: a valid variant's files and its decisions;
+    an invalid one raises NotConfigured with its errors and the file they are in, and
+    writes nothing."""
+    from motivml.configure import NotConfigured, configure
+    from motivml.documents.robot_folder import RobotFolder
+
+    robot = RobotFolder.open(SIMPLEBOT)
+    done = configure(robot, robot.variant_path("field"), tmp_path / "field", save_decisions=tmp_path / "d.json")
+    assert done.folder == tmp_path / "field" and all(done.written.values())
+    assert sorted(done.written) == sorted(p.name for p in (tmp_path / "field").iterdir())
+    assert done.decisions == tmp_path / "d.json" and json.loads(done.decisions.read_text())["partial"] is True
+    assert done.variant.model is not None and done.variant.selected()[0].feature.id == "root_feature"
+    with pytest.raises(NotConfigured) as refused:
+        configure(robot, robot.variant_path("broken_gridmap_dynamic"), tmp_path / "broken")
+    assert refused.value.what.endswith("broken_gridmap_dynamic.json") and refused.value.diagnostics
+    assert not (tmp_path / "broken").exists()

@@ -29,12 +29,6 @@ if TYPE_CHECKING:
     from ..validate import Report
 
 
-# What else motivml puts in a variant's build folder: a run's control socket folder, and
-# graph's pictures. A real folder holding only these is configure's to take over.
-BESIDE_OUTPUTS = frozenset(
-    {"run", *(f"{name}.{fmt}" for name in ("feature-model", "architecture") for fmt in ("dot", "svg", "graphml"))}
-)
-
 
 @click.command("validate")
 @click.argument("target", default=".", type=click.Path(readable=False))
@@ -137,64 +131,36 @@ def configure_command(
     ros2_lifecycle plugin's node, for --ros-args --params-file. Files are rewritten only
     when their content changes; nothing is written when the variant is invalid.
     """
-    from ..binding.codegen import late_or_dynamic, outputs
-    from ..binding.resolve import NoVariant, resolve
-    from ..documents.writing import write_generation
-    from ..plugins.manifests import discover
-    from ..plugins.manifests import missing as missing_plugins
-    from ..validate import validate
+    from ..configure import NotConfigured, configure
 
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
         raise click.UsageError(f"--prefix {prefix!r} cannot start a C++ macro name (letters, digits, _)")
     name = one_variant(config, variant)
     try:
         robot = RobotFolder.open(target)
-        _, configs, _ = targets(target, config, variant)
-        # resolve solves the configuration on its own encoding, and explains it as validate
-        # would when it has no valid completion: validate only reads and checks it here.
-        result = validate(robot.model_path, configs, partial=True, analyse=False, solve=False)
-        problems = result.errors
-        model, configuration = result.last.model, result.last.config
-        if not problems and result.checked:
-            assert model is not None and configuration is not None
-            try:
-                resolved = resolve(model, configuration, prefer)
-            except NoVariant as exc:
-                problems = exc.diagnostics
-        if problems or not result.checked:
-            print_diagnostics(problems)
-            out.print(f"[bold red]invalid[/]: {escape(result.last.file)}: nothing written")
-            sys.exit(1)
-        assert model is not None
-        plugins, problems = discover(robot, model)
-        if problems:
-            print_diagnostics(problems)
-            out.print("[bold red]invalid[/]: plugin manifests: nothing written")
-            sys.exit(1)
+        (config_path,) = targets(target, config, variant)[1]
         folder = Path(output) if output else Path("build") / robot.name / name
-        written = write_generation(folder, outputs(resolved, prefix, plugins, robot.path), BESIDE_OUTPUTS)
-        if save_decisions is not None:
-            from ..binding.configurator import decisions_text
-            from ..binding.resolve import decisions
-            from ..documents.writing import write_if_changed
-
-            path = Path(save_decisions)
-            write_if_changed(path.parent, {path.name: decisions_text(decisions(resolved, prefer))})
+        decisions = Path(save_decisions) if save_decisions is not None else None
+        done = configure(robot, Path(config_path), folder, prefer, prefix, decisions)
+    except NotConfigured as invalid:
+        print_diagnostics(invalid.diagnostics)
+        out.print(f"[bold red]invalid[/]: {escape(invalid.what)}: nothing written")
+        sys.exit(1)
     except MotivmlError as exc:
         fail(exc)
-    print_diagnostics(missing_plugins(model, late_or_dynamic(resolved), plugins))
-    chosen = resolved.selected()
+    print_diagnostics(done.missing)
+    chosen = done.variant.selected()
     by_solver = sum(
         1
-        for d in resolved.decisions
+        for d in done.variant.decisions
         if d.selection_by == "solver" or (d.selected and "solver" in (d.time_by, d.mode_by))
     )
     counts = ", ".join(f"{sum(1 for d in chosen if d.binding is b)} {b.words}" for b in Binding)
     out.print(
         f"variant {escape(name)}: {len(chosen)} features selected ({counts}); {by_solver} decided by the solver"
     )
-    for name, changed in written.items():
-        out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / name))}")
+    for file, changed in done.written.items():
+        out.print(f"  {'wrote' if changed else 'unchanged'} {escape(str(folder / file))}")
     if save_decisions is not None:
         out.print(f"  wrote {escape(save_decisions)} (the decisions it derives from)")
 
