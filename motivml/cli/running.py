@@ -10,7 +10,7 @@ import sys
 import threading
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import click
 from rich import box
@@ -35,6 +35,7 @@ from .common import (
 )
 
 if TYPE_CHECKING:
+    from ..runtime.launch import Robot
     from ..runtime.loop import RunStats, Runtime, Snapshot
     from ..runtime.record import Recorder
     from ..runtime.session import Feed, Session
@@ -166,29 +167,9 @@ def run_command(
     variant may run, and the tick's events; the file appears complete when the run ends,
     however it ends.
     """
-    from ..plugins.ros2 import namespace, ros2_missing
-
     name = one_variant(config, variant)
-    try:
-        ros_namespace = namespace(ros_namespace)
-    except ValueError as exc:
-        raise click.BadParameter(str(exc), param_hint="--ros-namespace") from None
-    if ros2:
-        missing = ros2_missing()  # before anything starts: say at once that ROS 2 is missing
-        if missing is not None:
-            fail(missing)
-    scheduling, insist = "", True  # how the `running ...` line says the loop's scheduling; see run_scheduling
-    if clock != "real":
-        if priority:
-            raise click.BadParameter("a priority is for the real clock", param_hint="--priority")
-        priority = None
-    else:
-        from ..runtime.loop import run_scheduling
-
-        chosen = run_scheduling(priority)  # (without --priority: real time where it may, as ros2_control)
-        if chosen.problem is not None:
-            fail(EnvironmentProblem(error(Location("run --priority"), chosen.problem, "run.priority")))
-        priority, insist, scheduling = chosen.priority, chosen.insist, f"{chosen.said}, "
+    ros_namespace = _ros_options(ros2, ros_namespace)
+    priority, insist, scheduling = _scheduling(clock, priority)
     if cpus is not None:
         from ..runtime.session import keep_to_cpus
 
@@ -196,6 +177,97 @@ def run_command(
             keep_to_cpus(cpus)  # before any thread starts: every thread of the run inherits it
         except ValueError as exc:
             raise click.BadParameter(str(exc), param_hint="--cpus") from None
+    plan = _plan(scheduled, duration)
+    recorder = _recorder(record)
+    robot = _launched(target, variant, rate, prefer, strict, ros_namespace, config, name)
+    from ..runtime.session import Session
+
+    print_diagnostics(robot.warnings)
+    if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
+        out.width = max(out.width, 160)
+    folder = (
+        (Path(run_dir) if run_dir else Path("build") / robot.folder.name / name / "run")
+        if control
+        else None
+    )
+    session = Session(
+        robot, duration, clock, plan, folder, on_stuck=_stuck, variant=name, priority=priority, record=recorder, insist=insist
+    )
+    try:
+        session.open()
+    except MotivmlError as exc:
+        fail(exc)
+    # (after the socket opened: a run refused, another run listening there, announces nothing)
+    _announce(robot, name, rate, clock, scheduling, duration)
+    if session.server is not None:
+        out.print(f"control: {escape(str(session.server.path))} (motivml ctl)")
+    if ros2:
+        _open_door(session, ros_namespace)
+    if session.coordinator is None and any(isinstance(request, Event) for _, request in plan):
+        session.close()
+        raise click.BadParameter(
+            "events go to a coordination statechart, and this robot has none", param_hint="--at"
+        )
+    _watch(session, out.is_terminal if live is None else live)
+    _ended(session, recorder)
+
+
+def _announce(robot: Robot, name: str, rate: float, clock: str, scheduling: str, duration: float) -> None:
+    out.print(
+        f"running {escape(robot.folder.name)} variant {escape(name)}: "
+        f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
+        f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, "
+        + scheduling
+        + (f"{duration:g} s" if math.isfinite(duration) else "until stopped")
+    )
+
+
+def _ros_options(ros2: bool, ros_namespace: str) -> str:
+    """The ROS 2 namespace, checked; with --ros2, ROS 2 there (before anything starts)."""
+    from ..plugins.ros2 import namespace, ros2_missing
+
+    try:
+        ros_namespace = namespace(ros_namespace)
+    except ValueError as exc:
+        raise click.BadParameter(str(exc), param_hint="--ros-namespace") from None
+    if ros2:
+        missing = ros2_missing()  # say at once that ROS 2 is missing
+        if missing is not None:
+            fail(missing)
+    return ros_namespace
+
+
+def _open_door(session: Session, ros_namespace: str) -> None:
+    """The run's ROS 2 node (the session closes it), or the reason there is none, and exit."""
+    try:
+        from ..ros2.door import start
+
+        door = start(session.robot, ros_namespace)
+    except MotivmlError as exc:
+        session.close()
+        fail(exc)
+    session.doors.append(door.close)
+    out.print(f"ROS 2: node {escape(door.name)} (features.<id>.active parameters)")
+
+
+def _scheduling(clock: str, priority: int | None) -> tuple[int | None, bool, str]:
+    """The loop's priority, whether to insist on it, and how the `running ...` line says it
+    (the runtime's policy, `run_scheduling`: without --priority, real time where it may, as
+    ros2_control does)."""
+    if clock != "real":
+        if priority:
+            raise click.BadParameter("a priority is for the real clock", param_hint="--priority")
+        return None, True, ""
+    from ..runtime.loop import run_scheduling
+
+    chosen = run_scheduling(priority)
+    if chosen.problem is not None:
+        fail(EnvironmentProblem(error(Location("run --priority"), chosen.problem, "run.priority")))
+    return chosen.priority, chosen.insist, f"{chosen.said}, "
+
+
+def _plan(scheduled: tuple[tuple[float, str], ...], duration: float) -> list[tuple[float, Request | Event]]:
+    """The --at requests, parsed, checked to fall in the run, in their order in time."""
     plan: list[tuple[float, Request | Event]] = []
     for at, text in scheduled:
         verb, *words = text.split() or [""]
@@ -213,11 +285,22 @@ def run_command(
                 param_hint="--at",
             )
     plan.sort(key=lambda item: item[0])
-    recorder = _recorder(record)
-    from rich.live import Live
+    return plan
 
+
+def _launched(
+    target: str,
+    variant: str | None,
+    rate: float,
+    prefer: tuple[str, ...],
+    strict: bool,
+    ros_namespace: str,
+    config: str | None,
+    name: str,
+) -> Robot:
+    """The robot launched (its plugins started), or the reason it cannot run, and exit."""
     from ..runtime.launch import launch
-    from ..runtime.session import EXIT_INTERRUPTED, Session
+    from ..runtime.session import EXIT_INTERRUPTED
 
     interrupted = []  # a real Ctrl-C while launching (a plugin's KeyboardInterrupt is its fault)
 
@@ -242,65 +325,21 @@ def run_command(
     finally:
         if guarding:
             signal.signal(signal.SIGINT, previous)
-    print_diagnostics(robot.warnings)
-    runtime = robot.runtime
-    if not out.is_terminal:  # a log or a pipe: never cut the summary table to 80 columns
-        out.width = max(out.width, 160)
+    return robot
 
-    def stuck(signum: int) -> None:  # a second Ctrl-C (or SIGTERM) while the loop is stuck in a plugin
-        err.print(
-            "[bold red]interrupted twice[/]: the control loop did not stop (a plugin's step that never returns?); exiting now"
-        )
-        os._exit(128 + signum)  # (130 after Ctrl-C, as before; 143 after SIGTERM)
 
-    folder = (
-        (Path(run_dir) if run_dir else Path("build") / robot.folder.name / name / "run")
-        if control
-        else None
+def _stuck(signum: int) -> None:
+    """A second Ctrl-C (or SIGTERM) while the loop is stuck in a plugin: exit now."""
+    err.print(
+        "[bold red]interrupted twice[/]: the control loop did not stop (a plugin's step that never returns?); exiting now"
     )
-    session = Session(
-        robot,
-        duration,
-        clock,
-        plan,
-        folder,
-        on_stuck=stuck,
-        variant=name,
-        priority=priority,
-        record=recorder,
-        insist=insist,
-    )
-    try:
-        session.open()
-    except MotivmlError as exc:
-        fail(exc)
-    # (after the socket opened: a run refused, another run listening there, announces nothing)
-    out.print(
-        f"running {escape(robot.folder.name)} variant {escape(name)}: "
-        f"{plural(len(robot.assembly.components), 'component')} of {plural(len(robot.active), 'active feature')} "
-        f"({escape(', '.join(robot.active))}) at {rate:g} Hz, {clock} clock, "
-        + scheduling
-        + (f"{duration:g} s" if math.isfinite(duration) else "until stopped")
-    )
-    if session.server is not None:
-        out.print(f"control: {escape(str(session.server.path))} (motivml ctl)")
-    if ros2:
-        try:
-            from ..ros2.door import start
+    os._exit(128 + signum)  # (130 after Ctrl-C, as before; 143 after SIGTERM)
 
-            door = start(robot, ros_namespace)
-        except MotivmlError as exc:
-            session.close()
-            fail(exc)
-        session.doors.append(door.close)
-        out.print(f"ROS 2: node {escape(door.name)} (features.<id>.active parameters)")
-    coordinator = session.coordinator
-    if coordinator is None and any(isinstance(request, Event) for _, request in plan):
-        session.close()
-        raise click.BadParameter(
-            "events go to a coordination statechart, and this robot has none", param_hint="--at"
-        )
-    show = out.is_terminal if live is None else live
+
+def _watch(session: Session, show: bool) -> None:
+    """Start the run and follow it (a live view on a terminal) until it ends."""
+    from rich.live import Live
+
     session.start()
     try:
         if show:
@@ -314,6 +353,12 @@ def run_command(
         _report_notes(session, out)  # all of the run's log, before the summary (same place every run)
     finally:
         session.stop_watching()
+
+
+def _ended(session: Session, recorder: Recorder | None) -> NoReturn:
+    """The run's summary, how it ended, and its exit code."""
+    robot = session.robot
+    runtime = robot.runtime
     if session.realtime_refused is not None:  # as before the run, had it been refused then
         session.close()
         fail(EnvironmentProblem(error(Location("run --priority"), session.realtime_refused, "run.priority")))
@@ -326,6 +371,7 @@ def run_command(
         out.print(escape(f"request at {answer.time:.3f} s (tick {answer.tick}): {answer.request}: {verdict}"))
         print_diagnostics(answer.outcome.diagnostics)
     _summary(runtime, session.stats)
+    coordinator = session.coordinator
     if coordinator is not None:
         if coordinator.finished is not None:
             at, tick, state = coordinator.finished
@@ -559,6 +605,11 @@ def ctl_command(
     if op == "event":
         out.print(f"event {shown(features[0])} queued for the coordination")
         return
+    _print_outcome(op + " " + " ".join(features), answer)
+
+
+def _print_outcome(asked: str, answer: dict[str, Any]) -> None:
+    """A change's outcome as the running robot answered it; refused: exit 1."""
     if answer["accepted"]:
         moved = [
             f"loaded {', '.join(answer['loads'])}" if answer["loads"] else "",
@@ -566,7 +617,7 @@ def ctl_command(
         ]
         detail = "; ".join(m for m in moved if m) or "reloaded in place"
         out.print(
-            f"[green]accepted[/]: {shown(op + ' ' + ' '.join(features))} took effect at tick {answer['tick']} "
+            f"[green]accepted[/]: {shown(asked)} took effect at tick {answer['tick']} "
             f"({answer['time']:.3f} s), {answer['latency_ms']:.1f} ms after the request; {shown(detail)}"
         )
         for d in answer.get("warnings", []):
@@ -580,7 +631,7 @@ def ctl_command(
                 f"{fact['file']}:{fact['line']}:{fact['column']}" if fact.get("line") else str(fact["file"])
             )
             out.print(f"    [dim]{shown(place)}: {shown(fact['text'])}[/]")
-    out.print(f"[bold red]refused[/]: {shown(op + ' ' + ' '.join(features))}: nothing changed")
+    out.print(f"[bold red]refused[/]: {shown(asked)}: nothing changed")
     sys.exit(1)
 
 
