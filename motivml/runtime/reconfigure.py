@@ -92,41 +92,8 @@ class Reconfigurer:
         """The new active set of an accepted request; `Refused` says why not, and (with
         `repairs`) how the request could change to be accepted, where moving other features
         would help (reference.md section 6)."""
-        root = self.explainer.model_location(0)
+        request = self._usage(request)
         named = requests.named(request)
-        if not named:
-            raise Refused(
-                error(
-                    root,
-                    "swap takes two features (out, then in); the others one or more",
-                    "reconfigure.usage",
-                )
-            )
-        for feature in named:
-            if feature not in self.model.index:
-                close = difflib.get_close_matches(feature, list(self.model.index), n=1, cutoff=0.75)
-                hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise Refused(
-                    error(
-                        self.explainer.model_location(0),
-                        f"no feature {feature!r} in the model{hint}",
-                        "reconfigure.unknown",
-                    )
-                )
-        if isinstance(request, requests.Swap) and request.out == request.into:
-            raise Refused(
-                error(root, "swap takes two different features (out, then in)", "reconfigure.usage")
-            )
-        # (a feature named twice counts once)
-        if isinstance(request, requests.Set):
-            request = replace(request, loads=tuple(dict.fromkeys(request.loads)), unloads=tuple(dict.fromkeys(request.unloads)))
-            both = [f for f in request.loads if f in request.unloads]
-            if both:
-                raise self._refuse(
-                    both[0], f"{both[0]} cannot be loaded and unloaded in one request", "reconfigure.usage"
-                )
-        elif not isinstance(request, requests.Swap):
-            request = replace(request, features=tuple(dict.fromkeys(request.features)))
         before = frozenset(active)
         if isinstance(request, requests.Reload):
             for feature in request.features:
@@ -177,6 +144,46 @@ class Reconfigurer:
             self._ordered(to_load - (before - to_unload)),
             self._ordered(to_unload, reverse=True),
         )
+
+    def _usage(self, request: Request) -> Request:
+        """The request as checked: every feature it names known, swap's two different, none
+        loaded and unloaded at once; a feature named twice counts once. Refused otherwise."""
+        root = self.explainer.model_location(0)
+        named = requests.named(request)
+        if not named:
+            raise Refused(
+                error(
+                    root,
+                    "swap takes two features (out, then in); the others one or more",
+                    "reconfigure.usage",
+                )
+            )
+        for feature in named:
+            if feature not in self.model.index:
+                close = difflib.get_close_matches(feature, list(self.model.index), n=1, cutoff=0.75)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise Refused(
+                    error(
+                        self.explainer.model_location(0),
+                        f"no feature {feature!r} in the model{hint}",
+                        "reconfigure.unknown",
+                    )
+                )
+        if isinstance(request, requests.Swap) and request.out == request.into:
+            raise Refused(
+                error(root, "swap takes two different features (out, then in)", "reconfigure.usage")
+            )
+        # (a feature named twice counts once)
+        if isinstance(request, requests.Set):
+            request = replace(request, loads=tuple(dict.fromkeys(request.loads)), unloads=tuple(dict.fromkeys(request.unloads)))
+            both = [f for f in request.loads if f in request.unloads]
+            if both:
+                raise self._refuse(
+                    both[0], f"{both[0]} cannot be loaded and unloaded in one request", "reconfigure.usage"
+                )
+        elif not isinstance(request, requests.Swap):
+            request = replace(request, features=tuple(dict.fromkeys(request.features)))
+        return request
 
     def _with_repairs(
         self,
