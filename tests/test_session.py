@@ -13,7 +13,7 @@ from paths import ROOT, SIMPLEBOT
 from motivml.errors import EnvironmentProblem
 from motivml.runtime.launch import launch
 from motivml.runtime.requests import Load, Swap
-from motivml.runtime.session import End, Session
+from motivml.runtime.session import End, Session, ending
 
 
 def _run(session: Session) -> None:
@@ -58,10 +58,10 @@ def test_how_a_run_ended_gives_its_record_row_and_its_exit_code() -> None:
     session = Session(launch(SIMPLEBOT, "field"), 0.1, "simulated")
     _run(session)
     session.close()
-    assert session.end() is End.ELAPSED and session._ending() == "its duration elapsed"
+    assert session.end() is End.ELAPSED and ending(session) == "its duration elapsed"
     assert session.exit_code() == 0
     session.stopped_by = signal.SIGTERM  # a service manager's stop: a normal end
-    assert session.end() is End.SIGNALLED and session._ending() == "stopped by SIGTERM"
+    assert session.end() is End.SIGNALLED and ending(session) == "stopped by SIGTERM"
     assert session.exit_code() == 0
     session.stopped_by = signal.SIGINT
     assert session.exit_code() == 130

@@ -433,10 +433,7 @@ class Runtime:
     # coordinator and the recorder call these instead of writing its attributes)
     def after_each_tick(self, hook: Callable[[], None], first: bool = False) -> None:
         """Call `hook` after every tick, on the control thread (`first`: before the others)."""
-        if first:
-            self.hooks.insert(0, hook)
-        else:
-            self.hooks.append(hook)
+        self.hooks.insert(0 if first else len(self.hooks), hook)
 
     def send_faults_to(self, handler: Callable[[Fault], None]) -> None:
         """Where a Dynamic plugin's fault goes (a Static one's ends the run)."""
@@ -588,32 +585,6 @@ class Runtime:
         if took >= self.watchdog:
             self.note(f"{running.feature}'s step returned after {took:.3f} s: the loop waited for it")
 
-    def _watch(self, ended: threading.Event, clock: SimulatedClock | RealClock) -> None:
-        """The watchdog's thread: note a plugin step that has not returned within `watchdog` s,
-        and make a real-time loop that has not slept for that long ordinary (it would keep its
-        CPU from every ordinary thread, the one that handles Ctrl-C too)."""
-        reported: tuple[Running, float, int] | None = None
-        real = clock if isinstance(clock, RealClock) else None
-        while not ended.wait(self.watchdog / 4):
-            since = real.awake_since if real is not None and real.real_time else None
-            if real is not None and since is not None and time.perf_counter() - since >= self.watchdog:
-                priority = real.priority
-                if real.give_up(f"it had not slept for {self.watchdog:g} s"):
-                    self.note(
-                        f"the loop has not slept for {self.watchdog:g} s: it gives up its real-time priority "
-                        f"{priority} for the rest of the run, so that the machine's other threads get the CPU"
-                    )
-            stepping = self._stepping
-            if stepping is None or stepping is reported:
-                continue
-            running, began, tick = stepping
-            if time.perf_counter() - began >= self.watchdog:
-                reported = stepping
-                self.note(
-                    f"{running.feature}'s step has not returned after {self.watchdog:g} s (the step of tick "
-                    f"{tick}): the loop waits for it"
-                )
-
     def note(self, text: str) -> None:
         """A line in the run's log, stamped with the control time and tick."""
         self.notes.append((self.time, self.ticks, text))
@@ -647,26 +618,7 @@ class Runtime:
     def status(self) -> Snapshot:
         """The components, plugins and active set of one moment: never half of a commit."""
         with self._lock:  # the architecture, the plugins and the active set change together
-            assembly, running, active = self.assembly, list(self.plugins.values()), self.active
-            ticks = self.ticks
-        components = tuple(
-            ComponentStatus(
-                c.id,
-                c.kind,
-                c.feature,
-                c.status if c.running else "stopped",
-                c.error,
-                c.module.id,
-                c.module.state,
-            )
-            for c in assembly.components
-        )
-        modules = tuple((m.id, m.state, m.learned) for m in assembly.modules.values())
-        plugins = tuple((r.feature, "faulted" if r.faulted else _status(r.instance)) for r in running)
-        slowest = tuple(
-            sorted(((f, took, tick) for f, (took, tick) in list(self.slowest.items())), key=lambda s: -s[1])
-        )
-        return Snapshot(ticks, ticks / self.rate, components, modules, plugins, slowest, active)
+            return _snapshot(self, self.assembly, list(self.plugins.values()), self.active, self.ticks)
 
     def run(
         self,
@@ -676,34 +628,81 @@ class Runtime:
     ) -> RunStats:
         """Tick for `duration` seconds of clock time (or until `until` or `stop()`)."""
         clock = clock or SimulatedClock()
+        ticking = _Ticking(self)
         ended = threading.Event()
-        watchdog = threading.Thread(target=self._watch, args=(ended, clock), daemon=True, name="motivml-watchdog")
+        watchdog = threading.Thread(target=ticking.watch, args=(ended, clock), daemon=True, name="motivml-watchdog")
         watchdog.start()
         try:
             with np.errstate(all="ignore"):  # a diverging system shows in the values, not as warnings
-                return self._run(duration, clock, until)
+                return ticking.run(duration, clock, until)
         finally:
             ended.set()
 
-    def _run(
+    def stop(self) -> None:
+        self.stop_requested.set()
+
+    def diverged(self) -> list[str]:
+        """Spaces holding a NaN or an infinity."""
+        return [k for k, v in self.assembly.values.items() if not np.isfinite(v).all()]
+
+
+class _Ticking:
+    """How a runtime is driven by its clock for one run: ticks one after the other on the
+    simulated clock; on the real clock, one per deadline (a thread that sleeps until each,
+    commits from other threads while it waits, a collector that runs only in the slack); and
+    the watchdog beside it."""
+
+    def __init__(self, runtime: Runtime) -> None:
+        self.runtime = runtime
+
+    def watch(self, ended: threading.Event, clock: SimulatedClock | RealClock) -> None:
+        """The watchdog's thread: note a plugin step that has not returned within `watchdog` s,
+        and make a real-time loop that has not slept for that long ordinary (it would keep its
+        CPU from every ordinary thread, the one that handles Ctrl-C too)."""
+        rt = self.runtime
+        reported: tuple[Running, float, int] | None = None
+        real = clock if isinstance(clock, RealClock) else None
+        while not ended.wait(rt.watchdog / 4):
+            since = real.awake_since if real is not None and real.real_time else None
+            if real is not None and since is not None and time.perf_counter() - since >= rt.watchdog:
+                priority = real.priority
+                if real.give_up(f"it had not slept for {rt.watchdog:g} s"):
+                    rt.note(
+                        f"the loop has not slept for {rt.watchdog:g} s: it gives up its real-time priority "
+                        f"{priority} for the rest of the run, so that the machine's other threads get the CPU"
+                    )
+            stepping = rt._stepping
+            if stepping is None or stepping is reported:
+                continue
+            running, began, tick = stepping
+            if time.perf_counter() - began >= rt.watchdog:
+                reported = stepping
+                rt.note(
+                    f"{running.feature}'s step has not returned after {rt.watchdog:g} s (the step of tick "
+                    f"{tick}): the loop waits for it"
+                )
+
+    def run(
         self, duration: float, clock: SimulatedClock | RealClock, until: Callable[[Runtime], bool] | None
     ) -> RunStats:
-        stats = RunStats(clock.name, self.rate)
-        total = round(duration * self.rate) if math.isfinite(duration) else sys.maxsize  # inf: until stopped
+        rt = self.runtime
+        stats = RunStats(clock.name, rt.rate)
+        total = round(duration * rt.rate) if math.isfinite(duration) else sys.maxsize  # inf: until stopped
         if isinstance(clock, SimulatedClock):
             for _ in range(total):
-                if self.stop_requested.is_set() or (until is not None and until(self)):
+                if rt.stop_requested.is_set() or (until is not None and until(rt)):
                     break
-                self.tick()
+                rt.tick()
                 stats.ticks += 1
-            stats.elapsed = stats.ticks / self.rate
+            stats.elapsed = stats.ticks / rt.rate
             return stats
         return self._run_real(total, clock, until, stats)
 
     def _run_real(
         self, total: int, clock: RealClock, until: Callable[[Runtime], bool] | None, stats: RunStats
     ) -> RunStats:
-        period = 1.0 / self.rate
+        rt = self.runtime
+        period = 1.0 / rt.rate
         kept = min(total, SAMPLES)
         jitter, work = np.empty(kept), np.empty(kept)
         switch = sys.getswitchinterval()
@@ -721,19 +720,19 @@ class Runtime:
             clock.enter()
             others_commit = clock.priority is None  # (see commit_waiting)
             if clock.refused is not None:
-                self.note(f"the loop runs at ordinary priority: {clock.refused}")
+                rt.note(f"the loop runs at ordinary priority: {clock.refused}")
             while slot < total:
-                if self.stop_requested.is_set() or (until is not None and until(self)):
+                if rt.stop_requested.is_set() or (until is not None and until(rt)):
                     break
                 deadline = start + slot * period
                 if others_commit:  # between two ticks: a commit may come (commit_waiting)
-                    with self._ticking:
-                        self._waiting_for = (clock, deadline - margin)
+                    with rt._ticking:
+                        rt._waiting_for = (clock, deadline - margin)
                 began = clock.wait_until(deadline)
                 if others_commit:
-                    with self._ticking:  # (a commit being applied ends first)
-                        self._waiting_for = None
-                self.tick()
+                    with rt._ticking:  # (a commit being applied ends first)
+                        rt._waiting_for = None
+                rt.tick()
                 ended = clock.now()
                 if stats.ticks < kept:
                     jitter[stats.ticks] = began - deadline
@@ -744,11 +743,11 @@ class Runtime:
                 if ended > start + slot * period:  # overran: skip to the first slot still ahead
                     ahead = math.ceil((ended - start) / period)
                     stats.missed += min(ahead, total) - slot
-                    self.missed = stats.missed
+                    rt.missed = stats.missed
                     slot = ahead
         finally:
-            with self._ticking:
-                self._waiting_for = None
+            with rt._ticking:
+                rt._waiting_for = None
             stats.elapsed = max(clock.now() - start, min(slot, total) * period, 0.0)
             stats.cpu = time.process_time() - cpu0
             stats.jitter, stats.work = jitter[: min(stats.ticks, kept)], work[: min(stats.ticks, kept)]
@@ -760,9 +759,26 @@ class Runtime:
                 gc.enable()
         return stats
 
-    def stop(self) -> None:
-        self.stop_requested.set()
 
-    def diverged(self) -> list[str]:
-        """Spaces holding a NaN or an infinity."""
-        return [k for k, v in self.assembly.values.items() if not np.isfinite(v).all()]
+def _snapshot(
+    runtime: Runtime, assembly: Assembly, running: list[Running], active: frozenset[str], ticks: int
+) -> Snapshot:
+    """`Runtime.status` from what it took together under its lock."""
+    components = tuple(
+        ComponentStatus(
+            c.id,
+            c.kind,
+            c.feature,
+            c.status if c.running else "stopped",
+            c.error,
+            c.module.id,
+            c.module.state,
+        )
+        for c in assembly.components
+    )
+    modules = tuple((m.id, m.state, m.learned) for m in assembly.modules.values())
+    plugins = tuple((r.feature, "faulted" if r.faulted else _status(r.instance)) for r in running)
+    slowest = tuple(
+        sorted(((f, took, tick) for f, (took, tick) in list(runtime.slowest.items())), key=lambda s: -s[1])
+    )
+    return Snapshot(ticks, ticks / runtime.rate, components, modules, plugins, slowest, active)

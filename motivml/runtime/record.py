@@ -133,6 +133,33 @@ class _Block:
     events: dict[int, str] = field(default_factory=dict)
 
 
+def _hidden_file(path: Path) -> tuple[Path | None, IO[str]]:
+    """A file for the record that no one sees before it is complete: unnamed in `path`'s
+    folder where Linux can name it at the end (O_TMPFILE), else a hidden name (returned)."""
+    try:
+        if path.is_dir():
+            raise IsADirectoryError(21, "a folder is in the way")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        name: str | None = None
+        try:  # (the mode less the umask, as any output: a record is shared like one)
+            if not os.path.isdir("/proc/self/fd"):  # (where it would be named at the end)
+                raise NotImplementedError
+            descriptor = os.open(path.parent, os.O_TMPFILE | os.O_WRONLY | os.O_CLOEXEC, 0o666)
+        except (AttributeError, NotImplementedError, OSError) as exc:  # a hidden name from the start
+            if isinstance(exc, PermissionError):
+                raise
+            descriptor, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(name, 0o666 & ~umask)  # (not mkstemp's 0600)
+        handle = os.fdopen(descriptor, "w", encoding="utf-8", newline="", buffering=1 << 16)
+    except OSError as exc:
+        raise EnvironmentProblem(
+            error(Location(str(path)), f"cannot write the record: {exc.strerror or exc}", "io")
+        ) from None
+    return (Path(name) if name is not None else None), handle
+
+
 class Recorder:
     """Streams a run into a record file (see the module's docstring).
 
@@ -159,28 +186,7 @@ class Recorder:
     @classmethod
     def create(cls, path: Path) -> Recorder:
         """A recorder writing to `path`: its hidden file is made now (EnvironmentProblem if it cannot be)."""
-        try:
-            if path.is_dir():
-                raise IsADirectoryError(21, "a folder is in the way")
-            path.parent.mkdir(parents=True, exist_ok=True)
-            name: str | None = None
-            try:  # (the mode less the umask, as any output: a record is shared like one)
-                if not os.path.isdir("/proc/self/fd"):  # (where it would be named at the end)
-                    raise NotImplementedError
-                descriptor = os.open(path.parent, os.O_TMPFILE | os.O_WRONLY | os.O_CLOEXEC, 0o666)
-            except (AttributeError, NotImplementedError, OSError) as exc:  # a hidden name from the start
-                if isinstance(exc, PermissionError):
-                    raise
-                descriptor, name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-                umask = os.umask(0)
-                os.umask(umask)
-                os.chmod(name, 0o666 & ~umask)  # (not mkstemp's 0600)
-            handle = os.fdopen(descriptor, "w", encoding="utf-8", newline="", buffering=1 << 16)
-        except OSError as exc:
-            raise EnvironmentProblem(
-                error(Location(str(path)), f"cannot write the record: {exc.strerror or exc}", "io")
-            ) from None
-        return cls(path, Path(name) if name is not None else None, handle)
+        return cls(path, *_hidden_file(path))
 
     # ------------------------------------------------------------------ running
     def start(
@@ -547,36 +553,9 @@ class _RecordReader:
                     1,
                     f"{len(fields)} fields, where the first line names {len(names)} columns",
                 )
-            try:
-                tick = int(fields[0])
-            except ValueError:
-                raise _bad(self.path, line, 1, f"tick {fields[0]!r} is not a whole number") from None
-            if previous is not None and tick != previous + 1:
-                raise _bad(
-                    self.path,
-                    line,
-                    1,
-                    f"tick {tick} follows tick {previous}: a record has one row per tick, in order",
-                )
+            tick, time, numbers = self.row(fields, names, line, previous)
             previous = tick
-            try:
-                time = float(fields[1])
-            except ValueError:
-                time = math.nan
-            if not math.isfinite(time):
-                raise _bad(
-                    self.path, line, self.column(fields, 1), f"time {fields[1]!r} is not a number of seconds"
-                )
-            try:
-                rows.append([float(v) if v else math.nan for v in fields[2:-1]])
-            except ValueError:
-                index = next(i for i, v in enumerate(fields[2:-1], 2) if v and not _is_number(v))
-                raise _bad(
-                    self.path,
-                    line,
-                    self.column(fields, index),
-                    f"{names[index]}: {fields[index]!r} is not a number",
-                ) from None
+            rows.append(numbers)
             times.append(time)
             if fields[-1]:
                 self.read_events(fields, tick, time)
@@ -609,6 +588,32 @@ class _RecordReader:
             self.events,
             self.more_events,
         )
+
+    def row(
+        self, fields: list[str], names: list[str], line: int, previous: int | None
+    ) -> tuple[int, float, list[float]]:
+        """One row's tick (the one after `previous`), time and numbers, or where it is wrong."""
+        try:
+            tick = int(fields[0])
+        except ValueError:
+            raise _bad(self.path, line, 1, f"tick {fields[0]!r} is not a whole number") from None
+        if previous is not None and tick != previous + 1:
+            raise _bad(
+                self.path, line, 1, f"tick {tick} follows tick {previous}: a record has one row per tick, in order"
+            )
+        try:
+            time = float(fields[1])
+        except ValueError:
+            time = math.nan
+        if not math.isfinite(time):
+            raise _bad(self.path, line, self.column(fields, 1), f"time {fields[1]!r} is not a number of seconds")
+        try:
+            return tick, time, [float(v) if v else math.nan for v in fields[2:-1]]
+        except ValueError:
+            index = next(i for i, v in enumerate(fields[2:-1], 2) if v and not _is_number(v))
+            raise _bad(
+                self.path, line, self.column(fields, index), f"{names[index]}: {fields[index]!r} is not a number"
+            ) from None
 
     def spaces(self, names: list[str]) -> list[tuple[str, int]]:
         spaces: list[tuple[str, int]] = []

@@ -289,7 +289,7 @@ class Session:
             self.record.discard()
             return
         try:
-            self.recorded = self.record.finish(end or self._ending(), extra)
+            self.recorded = self.record.finish(end or ending(self), extra)
         except MotivmlError as exc:
             self.record_problem = exc
 
@@ -307,28 +307,6 @@ class Session:
         if self.stats is None:
             return End.NO_RESULT
         return End.STOPPED if runtime.stop_requested.is_set() else End.ELAPSED
-
-    def _ending(self) -> str:
-        """How the run ended, in a few words (the record's last event)."""
-        end, runtime = self.end(), self.runtime
-        if end is End.SIGNALLED:
-            assert self.stopped_by is not None
-            why = f"stopped by {signal.Signals(self.stopped_by).name}"
-        elif end is End.FAILED:
-            assert runtime.failure is not None
-            why = f"{runtime.failure.feature} failed: the run stopped"
-        elif end is End.FINISHED:
-            assert self.coordinator is not None and self.coordinator.finished is not None
-            why = f"the coordination reached its final state {self.coordinator.finished[2]}"
-        else:
-            why = {
-                End.COORDINATION_STOPPED: "the coordination stopped the run",
-                End.NO_RESULT: "the loop ended without a result",
-                End.STOPPED: "stopped",
-                End.ELAPSED: "its duration elapsed",
-            }[end]
-        diverged = runtime.diverged()
-        return why + (f"; {', '.join(diverged)} diverged" if diverged else "")
 
     def exit_code(self) -> int:
         """The run's exit code, once it is closed: 3 without a result, 130 after Ctrl-C, 1
@@ -404,3 +382,26 @@ class Session:
     def unsettled(self) -> bool:
         """The coordination stopped because its statechart never settled."""
         return self.coordinator is not None and self.coordinator.unsettled
+
+
+def ending(session: Session) -> str:
+    """How the run ended, in a few words (the record's last event)."""
+    end, runtime = session.end(), session.runtime
+    if end is End.SIGNALLED:
+        assert session.stopped_by is not None
+        why = f"stopped by {signal.Signals(session.stopped_by).name}"
+    elif end is End.FAILED:
+        assert runtime.failure is not None
+        why = f"{runtime.failure.feature} failed: the run stopped"
+    elif end is End.FINISHED:
+        assert session.coordinator is not None and session.coordinator.finished is not None
+        why = f"the coordination reached its final state {session.coordinator.finished[2]}"
+    else:
+        why = {
+            End.COORDINATION_STOPPED: "the coordination stopped the run",
+            End.NO_RESULT: "the loop ended without a result",
+            End.STOPPED: "stopped",
+            End.ELAPSED: "its duration elapsed",
+        }[end]
+    diverged = runtime.diverged()
+    return why + (f"; {', '.join(diverged)} diverged" if diverged else "")
