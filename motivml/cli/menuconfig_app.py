@@ -1,0 +1,265 @@
+"""The Textual application of `motivml menuconfig` (menuconfig.py): the feature tree, its
+detail pane and the keys. A module of its own so that Textual is imported only when the
+configurator runs (menuconfig.py imports this inside `MenuConfig`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+from rich.text import Text
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.containers import VerticalScroll
+from textual.widgets import Footer, Header, Static, Tree
+
+from ..binding.configurator import Configurator
+from ..errors import MotivmlError, repair_text
+from ..language.model import OFF, Mode, Time
+from ..language.model import Binding as FeatureBinding
+from .common import plural
+from .menuconfig import EXIT_INTERRUPTED, HINT
+
+
+class FeatureTree(Tree[str]):
+    """The feature tree: space cycles the feature under the cursor (as `y`, `n`, `u`)."""
+
+    BINDINGS: ClassVar[list[Any]] = [Binding("space", "app.cycle", "select", show=False)]
+
+
+class MenuConfigApp(App[None]):
+    """menuconfig's application: a Configurator shown as a tree, changed by keys, saved to a path."""
+
+    CSS = """
+    FeatureTree { height: 1fr; }
+    #detail { height: 8; border-top: solid $accent; padding: 0 1; }
+    """
+    TITLE = "motivml menuconfig"
+    BINDINGS: ClassVar[list[Any]] = [
+        Binding("y", "select(True)", "yes"),
+        Binding("n", "select(False)", "no"),
+        Binding("u", "clear", "undecide"),
+        Binding("t", "time", "time"),
+        Binding("m", "mode", "mode"),
+        Binding("question_mark", "why", "why"),
+        Binding("s", "save", "save"),
+        Binding("q", "quit_menu", "quit"),
+        # Ctrl+Q as q (Textual's own quit lost unsaved decisions at once); Ctrl-C, which
+        # a terminal application gets as a key, ends it as an interrupt does elsewhere
+        Binding("ctrl+q", "quit_menu", show=False, priority=True),
+        Binding("ctrl+c", "interrupt", show=False, priority=True),
+        *(Binding(str(k), f"repair({k})", show=False) for k in range(1, 6)),
+    ]
+
+    def __init__(self, session: Configurator, path: Path) -> None:
+        super().__init__()
+        self.session = session
+        self.path = path
+        self.nodes: dict[str, Any] = {}
+        self.leaving = False
+        self.sub_title = str(path)
+
+    def compose(self) -> ComposeResult:
+        yield Header()
+        yield FeatureTree(self._label(0), id="features")
+        with VerticalScroll(id="detail"):
+            yield Static(id="text")
+        yield Footer()
+
+    def on_mount(self) -> None:
+        import asyncio
+        import signal
+
+        # SIGTERM and SIGHUP end the application as q would, without asking: Textual
+        # then gives the terminal back (they left it in the alternate screen with mouse
+        # reporting on). The exit code says which signal (128 + its number).
+        loop = asyncio.get_running_loop()
+        for signum in (signal.SIGTERM, signal.SIGHUP):
+            try:
+                loop.add_signal_handler(signum, self.exit, None, 128 + signum)
+            except (NotImplementedError, RuntimeError, ValueError):  # (not the main thread: a test's)
+                pass
+        tree = self.query_one(FeatureTree)
+        model = self.session.model
+        tree.root.data = model.features[0].id
+        self.nodes[model.features[0].id] = tree.root
+        for f in model.features[1:]:
+            assert f.parent is not None
+            parent = self.nodes[model.features[f.parent].id]
+            label = self._label(f.index)
+            self.nodes[f.id] = (
+                parent.add(label, data=f.id, expand=True)
+                if f.children
+                else parent.add_leaf(label, data=f.id)
+            )
+        tree.root.expand()
+        tree.focus()
+        self._show_status()
+
+    # ------------------------------------------------------------- drawing
+    def _label(self, i: int) -> Any:
+        session = self.session
+        f = session.model.features[i]
+        decided = session.decided(f.id)
+        possible = session.possible(f.id)
+        bindings = [s for s in possible if s != OFF]
+        text = Text()
+        if f.parent is None:
+            text.append("-x-", "dim")
+        elif decided.selected is True:
+            text.append("[x]", "bold")
+        elif decided.selected is False:
+            text.append("[ ]", "bold")
+        elif not session.valid:
+            text.append("( )")
+        elif OFF not in possible:
+            text.append("-x-", "dim")
+        elif not bindings:
+            text.append("---", "dim")
+        else:
+            text.append("( )")
+        mark = f"[{f.group}] " if f.group else "" if f.parent is None or f.mandatory else "? "
+        text.append(f" {mark}{f.id}")
+        selectable = decided.selected is not False and (bindings or not session.valid)
+        if selectable:
+            text.append("  ")
+            for said, values in (
+                (decided.mode, {FeatureBinding(b).mode for b in bindings}),
+                (decided.time, {FeatureBinding(b).time for b in bindings}),
+            ):
+                if said is not None:
+                    text.append(said.value[0], "bold")
+                elif len(values) == 1:
+                    text.append(next(iter(values)).value[0], "dim")
+                else:
+                    text.append("*")
+        return text
+
+    def _redraw(self) -> None:
+        for f in self.session.model.features:
+            self.nodes[f.id].set_label(self._label(f.index))
+        self._show_status()
+
+    def _detail(self, text: Any) -> None:
+        self.query_one("#text", Static).update(text)
+
+    def _show_status(self) -> None:
+        session = self.session
+        text = Text()
+        if session.valid:
+            chosen = sum(1 for s in session.states if OFF not in s)
+            text.append("valid", "bold green")
+            text.append(
+                f": {plural(len(session.decisions), 'decision')}, {plural(chosen, 'feature')} selected "
+                "in every variant they allow\n"
+            )
+            text.append(HINT, "dim")
+        else:
+            first = session.problems[0]
+            text.append("no valid variant", "bold red")
+            text.append(f": {first.message}\n")
+            if session.repairs:
+                text.append("repairs (press the digit):\n", "dim")
+                for k, repair in enumerate(session.repairs, 1):
+                    text.append(f"{k}", "bold cyan")
+                    text.append(f" {repair_text(repair)}\n")
+            else:
+                text.append("no change to the decisions helps: the model has no valid variant\n")
+        self._detail(text)
+
+    def _feature(self) -> str | None:
+        node = self.query_one(FeatureTree).cursor_node
+        fid = None if node is None else node.data
+        if fid is None or self.session.model.index[fid] == 0:
+            self.notify("the root is always selected, Static and Early (rule 2.1)", severity="warning")
+            return None
+        return fid
+
+    # ------------------------------------------------------------- actions
+    def action_cycle(self) -> None:
+        fid = self._feature()
+        if fid is not None:
+            now = self.session.decided(fid).selected
+            self._change(lambda: self.session.select(fid, {None: True, True: False, False: None}[now]))
+
+    def action_select(self, value: bool | None) -> None:
+        fid = self._feature()
+        if fid is not None:
+            self._change(lambda: self.session.select(fid, value))
+
+    def action_clear(self) -> None:
+        fid = self._feature()
+        if fid is not None:
+            self._change(lambda: self.session.clear(fid))
+
+    def action_time(self) -> None:
+        fid = self._feature()
+        if fid is not None:
+            d = self.session.decided(fid)
+            after = {None: Time.EARLY, Time.EARLY: Time.LATE, Time.LATE: None}[d.time]
+            self._change(lambda: self.session.bind(fid, after, d.mode))
+
+    def action_mode(self) -> None:
+        fid = self._feature()
+        if fid is not None:
+            d = self.session.decided(fid)
+            after = {None: Mode.STATIC, Mode.STATIC: Mode.DYNAMIC, Mode.DYNAMIC: None}[d.mode]
+            self._change(lambda: self.session.bind(fid, d.time, after))
+
+    def action_repair(self, k: int) -> None:
+        repairs = self.session.repairs
+        if not 1 <= k <= len(repairs):
+            self.notify(f"there is no repair {k}", severity="warning")
+            return
+        self._change(lambda: self.session.apply(repairs[k - 1]))
+
+    def action_why(self) -> None:
+        node = self.query_one(FeatureTree).cursor_node
+        if node is None or node.data is None:
+            return
+        if not self.session.valid:
+            self.notify("the decisions conflict: repair them first (1-5)", severity="warning")
+            return
+        text = Text()
+        for reason in self.session.why(node.data):
+            text.append(reason.statement, "bold")
+            text.append(f": {reason.because}\n")
+            for fact in reason.facts:
+                text.append(f"  {fact.location}: {fact.text}\n", "dim")
+        self._detail(text)
+
+    def action_save(self) -> None:
+        from ..documents.writing import write_if_changed
+
+        if not self.session.valid:
+            self.notify(
+                "not saved: the decisions have no valid variant (apply a repair: 1-5)", severity="error"
+            )
+            return
+        try:
+            write_if_changed(self.path.parent, {self.path.name: self.session.text()})
+        except MotivmlError as exc:
+            self.notify(exc.diagnostics[0].message, title="not saved", severity="error")
+            return
+        self.session.saved()
+        self.notify(f"saved {self.path}")
+
+    def action_interrupt(self) -> None:
+        self.exit(None, EXIT_INTERRUPTED)
+
+    def action_quit_menu(self) -> None:
+        if self.session.unsaved and not self.leaving:
+            self.leaving = True
+            self.notify(
+                "unsaved decisions: s saves them, q again quits without saving", severity="warning"
+            )
+            return
+        self.exit()
+
+    def _change(self, change: Any) -> None:
+        self.leaving = False
+        try:
+            change()
+        except MotivmlError as exc:  # cannot happen with the session's own documents
+            self.notify(exc.diagnostics[0].message, severity="error")
+        self._redraw()
