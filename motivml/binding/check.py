@@ -166,12 +166,12 @@ def _dead_warnings(encoding: enc.Encoding, explainer: Explainer, dead: list[int]
     known_dead = explainer.known_dead  # queries "y is dead", of the subtrees explained so far
     for i in sorted(listed, key=lambda i: -size[i])[:EXPLAINED_WARNINGS]:
         f = features[i]
-        q = encoding.query("query-selected", i, encoding.s(i))
+        q = encoding.query(enc.FactKind.QUERY_SELECTED, i, encoding.s(i))
         explainer.query_words[q] = f"{f.id} would be selected"
         (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q, *known_dead])
         reasons[i] = explainer.diagnostic(mus)
         for j in model.subtree(i):  # (a conflict may reach a dead subtree anywhere in it)
-            known = encoding.query(enc.DEAD, j, -encoding.s(j))
+            known = encoding.query(enc.FactKind.DEAD, j, -encoding.s(j))
             explainer.query_words[known] = f"{features[j].id} is dead" + (f" (below {f.id})" if j != i else "")
             known_dead.append(known)
     found: list[Diagnostic] = []
@@ -221,8 +221,8 @@ def _binding_warnings(
             Mode.STATIC: encoding.S(i),
             Mode.DYNAMIC: -encoding.S(i),
         }
-        q1 = encoding.query("query-selected", i, encoding.s(i))
-        q2 = encoding.query("query-binding", i, literal[value])
+        q1 = encoding.query(enc.FactKind.QUERY_SELECTED, i, encoding.s(i))
+        q2 = encoding.query(enc.FactKind.QUERY_BINDING, i, literal[value])
         explainer.query_words[q1] = f"{f.id} would be selected"
         explainer.query_words[q2] = f"{f.id} would be {value}"
         (mus, *_) = encoding.conflicts(with_config=False, limit=1, queries=[q1, q2, *explainer.known_dead])

@@ -30,6 +30,7 @@ from array import array
 from collections import ChainMap, deque
 from collections.abc import Callable, Collection, Container, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from enum import StrEnum
 from itertools import accumulate, chain, compress, repeat
 from operator import itemgetter
 from types import TracebackType
@@ -43,49 +44,58 @@ from ..process import keep_till_exit, keeping_all
 
 SOLVER = "glucose4"  # forgiving API, assumptions and cores; CaDiCaL aborts the process on misuse
 
-# Fact kinds: the statement and the rule it is used under (see explain.py for the words).
-ROOT = "root"  # 2.1: the root is selected, Static and Early
-PARENT = "parent"  # 2.1: s(c) -> s(p)
-MANDATORY = "mandatory"  # 2.2: s(p) -> s(c) for an ungrouped mandatory child
-GROUP_OR = "or-group"  # 2.2: s(p) -> some member
-GROUP_XOR = "xor-group"  # 2.2: s(p) -> some member (at most one: XOR_PAIR)
-XOR_PAIR = "xor-pair"  # 2.2 + 3.3: two members selected together only as Dynamic alternatives
-XOR_ALTERNATIVES = "xor-alternatives"  # XOR_PAIR over a whole group (linear: `_all_alternatives`)
-INCLUDE = "include"  # 2.3: s(x) -> s(y)
-EXCLUDE = "exclude"  # 2.3 + 3.3: like XOR_PAIR
-INCLUDE_STATIC = "include-static"  # 3.1: an included feature is Static
-INCLUDE_TIME = "include-time"  # 3.1: ... and bound no later than its includer
-MANDATORY_STATIC = "mandatory-static"  # 3.1: a Static parent requires its mandatory child Static
-MANDATORY_TIME = "mandatory-time"  # 3.1: ... bound no later
-SUB_MODE = "sub-mode"  # 3.2: a Dynamic parent has no Static child
-SUB_TIME = "sub-time"  # 3.2: a child is not bound before its parent
-UNIT_TIME = "unit-time"  # 3.2: a Dynamic parent's mandatory child has its time (both ways)
-UNIT_MODE = "unit-mode"  # 3.2: ... and its mode (Dynamic)
-FORMULA = "formula"  # 2.4: a formula of the root holds over s and (with START) over a; `a` is its index
-ALLOWED_TIME = "allowed-time"  # 3: bindingTimeAllowed
-ALLOWED_MODE = "allowed-mode"  # 3: bindingModeAllowed
-START = "start"  # 4: the active set is part of the selection and satisfies section 2
-START_EARLY = "start-early"  # 4: at start, every selected Early feature is active
-ACTIVE = "active"  # run time: a feature is in the active set a reconfiguration asks for
-INACTIVE = "inactive"  # run time: ... or not
-# A query (no selector): a feature already shown dead, so a conflict can say "y is dead" where
-# it would otherwise repeat y's own conflict (`check._dead_warnings`); shrinking drops it last.
-DEAD = "dead"
-# XOR groups: pair by pair (one XOR_PAIR fact each) up to PAIRWISE_UP_TO members, beyond that
+class FactKind(StrEnum):
+    """What a fact of the encoding states, and the rule of reference.md it is used under
+    (explain.py puts each in words). A fact of the model has a selector; a fact of the
+    configuration, and a query, are literals (no selector)."""
+
+    ROOT = "root"  # 2.1: the root is selected, Static and Early
+    PARENT = "parent"  # 2.1: s(c) -> s(p)
+    MANDATORY = "mandatory"  # 2.2: s(p) -> s(c) for an ungrouped mandatory child
+    GROUP_OR = "or-group"  # 2.2: s(p) -> some member
+    GROUP_XOR = "xor-group"  # 2.2: s(p) -> some member (at most one: XOR_PAIR)
+    XOR_PAIR = "xor-pair"  # 2.2 + 3.3: two members selected together only as Dynamic alternatives
+    XOR_ALTERNATIVES = "xor-alternatives"  # XOR_PAIR over a whole group (linear: `_all_alternatives`)
+    INCLUDE = "include"  # 2.3: s(x) -> s(y)
+    EXCLUDE = "exclude"  # 2.3 + 3.3: like XOR_PAIR
+    INCLUDE_STATIC = "include-static"  # 3.1: an included feature is Static
+    INCLUDE_TIME = "include-time"  # 3.1: ... and bound no later than its includer
+    MANDATORY_STATIC = "mandatory-static"  # 3.1: a Static parent requires its mandatory child Static
+    MANDATORY_TIME = "mandatory-time"  # 3.1: ... bound no later
+    SUB_MODE = "sub-mode"  # 3.2: a Dynamic parent has no Static child
+    SUB_TIME = "sub-time"  # 3.2: a child is not bound before its parent
+    UNIT_TIME = "unit-time"  # 3.2: a Dynamic parent's mandatory child has its time (both ways)
+    UNIT_MODE = "unit-mode"  # 3.2: ... and its mode (Dynamic)
+    FORMULA = "formula"  # 2.4: a formula of the root holds over s and (with START) over a; `a` is its index
+    ALLOWED_TIME = "allowed-time"  # 3: bindingTimeAllowed
+    ALLOWED_MODE = "allowed-mode"  # 3: bindingModeAllowed
+    START = "start"  # 4: the active set is part of the selection and satisfies section 2
+    START_EARLY = "start-early"  # 4: at start, every selected Early feature is active
+    ACTIVE = "active"  # run time: a feature is in the active set a reconfiguration asks for
+    INACTIVE = "inactive"  # run time: ... or not
+    # a query (no selector): a feature already shown dead, so a conflict can say "y is dead"
+    # where it would otherwise repeat y's own conflict (`check._dead_warnings`); shrinking
+    # drops it last
+    DEAD = "dead"
+    # configuration facts (literals, no selector)
+    CONFIG_SELECTED = "config-selected"
+    CONFIG_DESELECTED = "config-deselected"
+    CONFIG_TIME = "config-time"
+    CONFIG_MODE = "config-mode"
+    # questions asked of the model (literals): "f would be selected", "f would be Early" ...
+    QUERY_SELECTED = "query-selected"
+    QUERY_BINDING = "query-binding"
+
+
+# XOR groups: pair by pair (one FactKind.XOR_PAIR fact each) up to PAIRWISE_UP_TO members, beyond that
 # a linear encoding of the same rule; the explain build keeps the pairs, whose facts name two
-# members, for groups up to PAIRWISE_EXPLAINED members, and one XOR_ALTERNATIVES fact above.
+# members, for groups up to PAIRWISE_EXPLAINED members, and one FactKind.XOR_ALTERNATIVES fact above.
 PAIRWISE_UP_TO = 8
 # Encoding.cover: a witness solve is worth another while it settles this many open targets
 # (a solve of a large model costs about as much as a few hundred unit propagations).
 WITNESS_GAIN = 256
 PAIRWISE_EXPLAINED = 64
-# Configuration facts (literals, no selector)
-CONFIG_SELECTED = "config-selected"
-CONFIG_DESELECTED = "config-deselected"
-CONFIG_TIME = "config-time"
-CONFIG_MODE = "config-mode"
-
-CONFIG_KINDS = frozenset({CONFIG_SELECTED, CONFIG_DESELECTED, CONFIG_TIME, CONFIG_MODE})
+CONFIG_KINDS = frozenset({FactKind.CONFIG_SELECTED, FactKind.CONFIG_DESELECTED, FactKind.CONFIG_TIME, FactKind.CONFIG_MODE})
 
 
 class EncodedFact(NamedTuple):
@@ -98,7 +108,7 @@ class EncodedFact(NamedTuple):
     made for an explanation of a 100,000-feature model, twice as fast as a dataclass.)
     """
 
-    kind: str
+    kind: FactKind
     a: int
     b: int = -1
 
@@ -426,7 +436,7 @@ class _Rotation:
     10,000 features).
 
     Clauses are the explain build's, renumbered: each begins with its fact's selector
-    negated, and a clause under START has START's selector too. A selector counts as true
+    negated, and a clause under FactKind.START has FactKind.START's selector too. A selector counts as true
     exactly when its fact is assumed; selectors and `fixed` literals are never flipped.
     """
 
@@ -571,7 +581,7 @@ class Encoding:
         self.facts: list[EncodedFact] = []  # explain build: every fact; hard build: config facts
         self.literals: list[int] = []  # the assumption literal of each fact
         self._top = 4 * n
-        self._activity: int | None = None  # index of the first ACTIVE fact, once made
+        self._activity: int | None = None  # index of the first FactKind.ACTIVE fact, once made
         self._final = False  # a configuration or variant is in the solver as units (optimise, start_state)
         self._config_units = False  # ... the configuration is (fix_configuration): not assumed any more
         self._clauses: list[list[int]] = []
@@ -635,7 +645,7 @@ class Encoding:
         self._top += 1
         return self._top
 
-    def _fact(self, kind: str, a: int, b: int = -1) -> int:
+    def _fact(self, kind: FactKind, a: int, b: int = -1) -> int:
         """A model fact: its selector in the explain build, 0 (always in force) otherwise."""
         if not self.explain:
             return 0
@@ -648,7 +658,7 @@ class Encoding:
         if selector:
             for clause in clauses:
                 self._clauses.append([-selector, *clause])
-        else:  # hard build: drop the (absent) selectors, including START's inside clauses
+        else:  # hard build: drop the (absent) selectors, including FactKind.START's inside clauses
             for clause in clauses:
                 self._clauses.append([lit for lit in clause if lit] if 0 in clause else clause)
         if len(self._clauses) >= FLUSH_EVERY:
@@ -670,7 +680,7 @@ class Encoding:
         self._clauses.clear()
 
     # ------------------------------------------------------------------ encoding
-    def _guard(self, kind: str, a: int, b: int = -1) -> list[int]:
+    def _guard(self, kind: FactKind, a: int, b: int = -1) -> list[int]:
         """A new model fact (explain build): `[-selector]`, to begin each of its clauses."""
         return [-self._fact(kind, a, b)]
 
@@ -678,12 +688,12 @@ class Encoding:
         s, E, S, a = self.s, self.E, self.S, self.a  # noqa: N806
         early_time, static_mode = Time.EARLY, Mode.STATIC  # local: an enum member lookup is slow
         features = self.model.features
-        start = self._fact(START, 0)
-        early = self._fact(START_EARLY, 0)
+        start = self._fact(FactKind.START, 0)
+        early = self._fact(FactKind.START_EARLY, 0)
         # The clauses of the many per-feature facts are built here directly, as `_add` would
         # (the same literals in the same order): each begins with the fact's guard (`head`), its
         # negated selector in the explain build and nothing in the hard build, and a clause
-        # under START has START's guard next. A call per clause cost a fifth of a
+        # under FactKind.START has FactKind.START's guard next. A call per clause cost a fifth of a
         # configuration check at 100,000 features.
         explain, guard = self.explain, self._guard
         always: list[int] = []
@@ -692,73 +702,73 @@ class Encoding:
         under_start = [-start] if start else always
         under_early = [-early] if early else always
         # Section 4: A is a subset of the selection and satisfies section 2 in full (the
-        # a-level clauses below, each under START too); at start it holds every selected
-        # Early feature (START_EARLY, left out when the run time checks a reconfiguration).
+        # a-level clauses below, each under FactKind.START too); at start it holds every selected
+        # Early feature (FactKind.START_EARLY, left out when the run time checks a reconfiguration).
         for i in range(self.n):
             add([*under_start, -a(i), s(i)])
             add([*under_early, -s(i), -E(i), a(i)])
-        root = self._fact(ROOT, 0)
+        root = self._fact(FactKind.ROOT, 0)
         self._add(root, [s(0)], [E(0)], [S(0)])
-        # The root is active because it is the root (so START cannot stand in for ROOT).
+        # The root is active because it is the root (so FactKind.START cannot stand in for FactKind.ROOT).
         self._add(start, [-root, a(0)])
 
         for f in features:
             i = f.index
             si, ei, mi, ai = 4 * i + 1, 4 * i + 2, 4 * i + 3, 4 * i + 4  # s, E, S, a of f
             if f.time_allowed is not None:
-                head = guard(ALLOWED_TIME, i) if explain else always
+                head = guard(FactKind.ALLOWED_TIME, i) if explain else always
                 add([*head, -si, ei if f.time_allowed is early_time else -ei])
             if f.mode_allowed is not None:
-                head = guard(ALLOWED_MODE, i) if explain else always
+                head = guard(FactKind.ALLOWED_MODE, i) if explain else always
                 add([*head, -si, mi if f.mode_allowed is static_mode else -mi])
             p = f.parent
             if p is None:
                 continue
             sp, ep, mp, ap = 4 * p + 1, 4 * p + 2, 4 * p + 3, 4 * p + 4  # s, E, S, a of the parent
-            head = guard(PARENT, i) if explain else always
+            head = guard(FactKind.PARENT, i) if explain else always
             add([*head, -si, sp])
             add([*head, *under_start, -ai, ap])
-            head = guard(SUB_MODE, i) if explain else always
+            head = guard(FactKind.SUB_MODE, i) if explain else always
             add([*head, -si, mp, -mi])
-            head = guard(SUB_TIME, i) if explain else always
+            head = guard(FactKind.SUB_TIME, i) if explain else always
             add([*head, -si, -ei, ep])
             if f.mandatory:
-                head = guard(MANDATORY, i) if explain else always
+                head = guard(FactKind.MANDATORY, i) if explain else always
                 add([*head, -sp, si])
                 add([*head, *under_start, -ap, ai])
-                head = guard(MANDATORY_STATIC, i) if explain else always
+                head = guard(FactKind.MANDATORY_STATIC, i) if explain else always
                 add([*head, -sp, -si, -mp, mi])
-                head = guard(MANDATORY_TIME, i) if explain else always
+                head = guard(FactKind.MANDATORY_TIME, i) if explain else always
                 add([*head, -sp, -si, -mp, -ep, ei])
-                # 3.2: with a Dynamic parent, one binding unit: same time and mode. SUB_TIME
-                # and SUB_MODE say half of this of every child; the mandatory statement says
+                # 3.2: with a Dynamic parent, one binding unit: same time and mode. FactKind.SUB_TIME
+                # and FactKind.SUB_MODE say half of this of every child; the mandatory statement says
                 # all of it by itself, so that a conflict setting the sub-feature facts
                 # aside does not hide another one that the unit alone makes.
-                head = guard(UNIT_TIME, i) if explain else always
+                head = guard(FactKind.UNIT_TIME, i) if explain else always
                 add([*head, -sp, -si, mp, -ep, ei])
                 add([*head, -sp, -si, mp, ep, -ei])
-                head = guard(UNIT_MODE, i) if explain else always
+                head = guard(FactKind.UNIT_MODE, i) if explain else always
                 add([*head, -sp, -si, mp, -mi])
             if not i & 4095 and len(clauses) >= FLUSH_EVERY:
                 self._flush()
 
         for g, group in enumerate(self.model.groups):
             p, members = group.parent, group.members
-            kind = GROUP_OR if group.kind == "OR" else GROUP_XOR
+            kind = FactKind.GROUP_OR if group.kind == "OR" else FactKind.GROUP_XOR
             sel = self._fact(kind, g)
             self._add(sel, [-s(p), *(s(m) for m in members)], [-start, -a(p), *(a(m) for m in members)])
             if group.kind == "XOR":
                 if self.explain and len(members) <= PAIRWISE_EXPLAINED:
                     for x, m1 in enumerate(members):
                         for m2 in members[x + 1 :]:
-                            sel = self._fact(XOR_PAIR, m1, m2)
+                            sel = self._fact(FactKind.XOR_PAIR, m1, m2)
                             self._alternatives(sel, start, m1, m2)
                 elif len(members) <= PAIRWISE_UP_TO:
                     for x, m1 in enumerate(members):
                         for m2 in members[x + 1 :]:
                             self._alternatives(0, start, m1, m2)
                 else:
-                    self._all_alternatives(self._fact(XOR_ALTERNATIVES, g), start, members)
+                    self._all_alternatives(self._fact(FactKind.XOR_ALTERNATIVES, g), start, members)
 
         index = self.model.index
         for f in features:
@@ -767,25 +777,25 @@ class Encoding:
                 if y is None or y == f.index:
                     continue
                 x = f.index
-                head = guard(INCLUDE, x, y) if explain else always
+                head = guard(FactKind.INCLUDE, x, y) if explain else always
                 add([*head, -s(x), s(y)])
                 add([*head, *under_start, -a(x), a(y)])
-                head = guard(INCLUDE_STATIC, x, y) if explain else always
+                head = guard(FactKind.INCLUDE_STATIC, x, y) if explain else always
                 add([*head, -s(x), -s(y), S(y)])
-                head = guard(INCLUDE_TIME, x, y) if explain else always
+                head = guard(FactKind.INCLUDE_TIME, x, y) if explain else always
                 add([*head, -s(x), -s(y), -E(x), E(y)])
             for target in dict.fromkeys(f.excludes):
                 y = index.get(target)
                 if y is None or y == f.index:
                     continue
-                sel = self._fact(EXCLUDE, f.index, y)
+                sel = self._fact(FactKind.EXCLUDE, f.index, y)
                 self._alternatives(sel, start, f.index, y)
 
         for k, formula in enumerate(self.model.formulas):
-            self._formula(self._fact(FORMULA, k), start, formula)
+            self._formula(self._fact(FactKind.FORMULA, k), start, formula)
 
     def _formula(self, sel: int, start: int, formula: Formula) -> None:
-        """Rule 2.4: the formula holds over the selection and, under START, over the active set."""
+        """Rule 2.4: the formula holds over the selection and, under FactKind.START, over the active set."""
         index = self.model.index
         for variable, guard in ((self.s, 0), (self.a, start)):
             top = tseitin(
@@ -870,16 +880,16 @@ class Encoding:
             if i is None:
                 continue
             if not entry.selected:
-                fact(EncodedFact(CONFIG_DESELECTED, i))
+                fact(EncodedFact(FactKind.CONFIG_DESELECTED, i))
                 literal(-s(i))
                 continue
-            fact(EncodedFact(CONFIG_SELECTED, i))
+            fact(EncodedFact(FactKind.CONFIG_SELECTED, i))
             literal(s(i))
             if entry.time is not None:
-                fact(EncodedFact(CONFIG_TIME, i))
+                fact(EncodedFact(FactKind.CONFIG_TIME, i))
                 literal(E(i) if entry.time is early_time else -E(i))
             if entry.mode is not None:
-                fact(EncodedFact(CONFIG_MODE, i))
+                fact(EncodedFact(FactKind.CONFIG_MODE, i))
                 literal(S(i) if entry.mode is static_mode else -S(i))
         self._config_fact_range = (first, len(self.facts))
 
@@ -912,7 +922,7 @@ class Encoding:
         model = self.solver.get_model()
         return list(model) if model is not None else []
 
-    def query(self, kind: str, i: int, literal: int) -> int:
+    def query(self, kind: FactKind, i: int, literal: int) -> int:
         """A hypothetical fact ("f is selected") to explain why it cannot hold; its index."""
         self.facts.append(EncodedFact(kind, i))
         self.literals.append(literal)
@@ -1030,7 +1040,7 @@ class Encoding:
         # fact goes first, so a conflict that section 2 or 3 explains is not blamed on it.
         # A fact already shown (a dead feature) goes last: it stands for a conflict of its own,
         # which the facts before it would otherwise spell out again.
-        current = sorted(core, key=lambda k: (self.facts[k].kind not in (START, START_EARLY), self.facts[k].kind == DEAD))
+        current = sorted(core, key=lambda k: (self.facts[k].kind not in (FactKind.START, FactKind.START_EARLY), self.facts[k].kind == FactKind.DEAD))
         rotation = _Rotation(clauses, by_literal, fixed)
         with Solver(name=self.solver_name, bootstrap_with=clauses) as solver:
             i = 0
@@ -1057,9 +1067,9 @@ class Encoding:
 
     def _first_feature(self, k: int) -> int:
         fact = self.facts[k]
-        if fact.kind in (GROUP_OR, GROUP_XOR, XOR_ALTERNATIVES):
+        if fact.kind in (FactKind.GROUP_OR, FactKind.GROUP_XOR, FactKind.XOR_ALTERNATIVES):
             return self.model.groups[fact.a].parent
-        if fact.kind == FORMULA:
+        if fact.kind == FactKind.FORMULA:
             return min(self.model.index[name] for name in self.model.formulas[fact.a].ids())
         return fact.a
 
@@ -1374,7 +1384,7 @@ class Encoding:
         """Why `active` (feature indices) cannot be the run time's active set; [] if it can.
 
         Explain build only. `fixed` are the variant's literals (s, E, S of every feature),
-        assumed but never blamed. The facts are every model fact except START_EARLY (a
+        assumed but never blamed. The facts are every model fact except FactKind.START_EARLY (a
         Dynamic Early feature may be unloaded at run time) and, per feature, "active" or
         "inactive" as asked: a conflict names the model statements and the features whose
         activity contradicts them (reference.md section 4: A satisfies section 2).
@@ -1383,13 +1393,13 @@ class Encoding:
             raise ValueError("active_set_conflicts() needs Encoding(model, explain=True)")
         if self._activity is None:
             self._activity = len(self.facts)
-            for kind, sign in ((ACTIVE, 1), (INACTIVE, -1)):
+            for kind, sign in ((FactKind.ACTIVE, 1), (FactKind.INACTIVE, -1)):
                 for i in range(self.n):
                     self.facts.append(EncodedFact(kind, i))
                     self.literals.append(sign * self.a(i))
         wanted = set(active)
         chosen = [self._activity + (i if i in wanted else self.n + i) for i in range(self.n)]
-        model = [k for k in range(self.model_facts) if self.facts[k].kind != START_EARLY]
+        model = [k for k in range(self.model_facts) if self.facts[k].kind != FactKind.START_EARLY]
         assumptions = [*fixed, *(self.literals[k] for k in model), *(self.literals[k] for k in chosen)]
         if self.solver.solve(assumptions=assumptions):
             return []

@@ -22,84 +22,84 @@ from . import encoding as enc
 
 # kind -> (rule, why); the first matching kind in PRIORITY gives the sentence its "why".
 WHY: dict[str, tuple[str, str]] = {
-    enc.START: (
+    enc.FactKind.START: (
         "section 4",
         "no start state exists: at start every selected Early feature is active, and the active "
         "set needs every active parent's mandatory sub-features, one active member of each of its "
         "groups (exactly one for XOR) and no two active features that exclude each other (section 4)",
     ),
-    enc.INCLUDE_STATIC: ("3.1", "a required feature must be Static (binding rule 3.1)"),
-    enc.MANDATORY_STATIC: ("3.1", "a required feature must be Static (binding rule 3.1)"),
-    enc.INCLUDE_TIME: (
+    enc.FactKind.INCLUDE_STATIC: ("3.1", "a required feature must be Static (binding rule 3.1)"),
+    enc.FactKind.MANDATORY_STATIC: ("3.1", "a required feature must be Static (binding rule 3.1)"),
+    enc.FactKind.INCLUDE_TIME: (
         "3.1",
         "a required feature must be bound no later than the feature that requires it (binding rule 3.1)",
     ),
-    enc.MANDATORY_TIME: (
+    enc.FactKind.MANDATORY_TIME: (
         "3.1",
         "a required feature must be bound no later than the feature that requires it (binding rule 3.1)",
     ),
-    enc.SUB_MODE: ("3.2", "a Dynamic parent cannot have a Static sub-feature (binding rule 3.2)"),
-    enc.SUB_TIME: ("3.2", "a sub-feature cannot be bound before its parent (binding rule 3.2)"),
-    enc.UNIT_TIME: (
+    enc.FactKind.SUB_MODE: ("3.2", "a Dynamic parent cannot have a Static sub-feature (binding rule 3.2)"),
+    enc.FactKind.SUB_TIME: ("3.2", "a sub-feature cannot be bound before its parent (binding rule 3.2)"),
+    enc.FactKind.UNIT_TIME: (
         "3.2",
         "a mandatory sub-feature of a Dynamic parent is bound with it, at the same time (binding rule 3.2)",
     ),
-    enc.UNIT_MODE: (
+    enc.FactKind.UNIT_MODE: (
         "3.2",
         "a mandatory sub-feature of a Dynamic parent is bound with it, in the same mode (binding rule 3.2)",
     ),
-    enc.XOR_PAIR: (
+    enc.FactKind.XOR_PAIR: (
         "3.3",
         "two members of an XOR group can both be selected only as Dynamic alternatives, at most one "
         "of them Early (rules 2.2 and 3.3)",
     ),
-    enc.XOR_ALTERNATIVES: (
+    enc.FactKind.XOR_ALTERNATIVES: (
         "3.3",
         "members of an XOR group can be selected together only as Dynamic alternatives, at most one "
         "of them Early, and only one of them is active at a time (rules 2.2 and 3.3)",
     ),
-    enc.EXCLUDE: (
+    enc.FactKind.EXCLUDE: (
         "3.3",
         "features that exclude each other can both be selected only as Dynamic alternatives, at most "
         "one of them Early (rules 2.3 and 3.3)",
     ),
-    enc.FORMULA: ("2.4", "every formula of the model holds over the selection (rule 2.4)"),
-    enc.GROUP_XOR: ("2.2", "an XOR group needs a selected member when its parent is selected (rule 2.2)"),
-    enc.GROUP_OR: ("2.2", "an OR group needs a selected member when its parent is selected (rule 2.2)"),
-    enc.MANDATORY: ("2.2", "a mandatory sub-feature is selected whenever its parent is (rule 2.2)"),
-    enc.INCLUDE: (
+    enc.FactKind.FORMULA: ("2.4", "every formula of the model holds over the selection (rule 2.4)"),
+    enc.FactKind.GROUP_XOR: ("2.2", "an XOR group needs a selected member when its parent is selected (rule 2.2)"),
+    enc.FactKind.GROUP_OR: ("2.2", "an OR group needs a selected member when its parent is selected (rule 2.2)"),
+    enc.FactKind.MANDATORY: ("2.2", "a mandatory sub-feature is selected whenever its parent is (rule 2.2)"),
+    enc.FactKind.INCLUDE: (
         "2.3",
         "an included feature is selected whenever the feature that includes it is (rule 2.3)",
     ),
-    enc.PARENT: ("2.1", "a selected feature needs its parent selected (rule 2.1)"),
-    enc.ROOT: ("2.1", "the root is always selected, Static and Early (rule 2.1)"),
-    enc.ALLOWED_TIME: ("3", "a feature is bound only as its constraints allow (section 3)"),
-    enc.ALLOWED_MODE: ("3", "a feature is bound only as its constraints allow (section 3)"),
+    enc.FactKind.PARENT: ("2.1", "a selected feature needs its parent selected (rule 2.1)"),
+    enc.FactKind.ROOT: ("2.1", "the root is always selected, Static and Early (rule 2.1)"),
+    enc.FactKind.ALLOWED_TIME: ("3", "a feature is bound only as its constraints allow (section 3)"),
+    enc.FactKind.ALLOWED_MODE: ("3", "a feature is bound only as its constraints allow (section 3)"),
 }
 PRIORITY = list(WHY)
-_INCLUDES = frozenset({enc.INCLUDE, enc.INCLUDE_STATIC, enc.INCLUDE_TIME})
+_INCLUDES = frozenset({enc.FactKind.INCLUDE, enc.FactKind.INCLUDE_STATIC, enc.FactKind.INCLUDE_TIME})
 # Facts about one model relation, said once (by the first of the family in PRIORITY).
 _FAMILY = {
     **dict.fromkeys(_INCLUDES, "include"),
     **dict.fromkeys(
-        (enc.MANDATORY, enc.MANDATORY_STATIC, enc.MANDATORY_TIME, enc.UNIT_TIME, enc.UNIT_MODE), "mandatory"
+        (enc.FactKind.MANDATORY, enc.FactKind.MANDATORY_STATIC, enc.FactKind.MANDATORY_TIME, enc.FactKind.UNIT_TIME, enc.FactKind.UNIT_MODE), "mandatory"
     ),
-    **dict.fromkeys((enc.PARENT, enc.SUB_MODE, enc.SUB_TIME), "parent"),
+    **dict.fromkeys((enc.FactKind.PARENT, enc.FactKind.SUB_MODE, enc.FactKind.SUB_TIME), "parent"),
 }
 VALUE_KINDS = frozenset(
     {
-        enc.ROOT,
-        enc.ALLOWED_TIME,
-        enc.ALLOWED_MODE,
+        enc.FactKind.ROOT,
+        enc.FactKind.ALLOWED_TIME,
+        enc.FactKind.ALLOWED_MODE,
         *enc.CONFIG_KINDS,
-        "query-selected",
-        "query-binding",
-        enc.DEAD,
-        enc.ACTIVE,
-        enc.INACTIVE,
+        enc.FactKind.QUERY_SELECTED,
+        enc.FactKind.QUERY_BINDING,
+        enc.FactKind.DEAD,
+        enc.FactKind.ACTIVE,
+        enc.FactKind.INACTIVE,
     }
 )
-STATE_KINDS = frozenset({enc.START, enc.START_EARLY})
+STATE_KINDS = frozenset({enc.FactKind.START, enc.FactKind.START_EARLY})
 # A formula in a conflict about the active set (a start state, a reconfiguration).
 START_FORMULA_WHY = (
     "no start state exists: at start every selected Early feature is active, and the active set "
@@ -157,7 +157,7 @@ class Explainer:
         kind, a, b = fact.kind, fact.a, fact.b
         model = self.model
         rule = WHY.get(kind, ("", ""))[0]
-        if kind in (enc.GROUP_OR, enc.GROUP_XOR):
+        if kind in (enc.FactKind.GROUP_OR, enc.FactKind.GROUP_XOR):
             group = model.groups[a]
             members = ", ".join(self._id(m) for m in group.members)
             return LocatedFact(
@@ -165,7 +165,7 @@ class Explainer:
                 self.model_location(group.members[0], "group"),
                 rule,
             )
-        if kind == enc.ROOT:
+        if kind == enc.FactKind.ROOT:
             return LocatedFact(f"{self._id(0)} is the root", self.model_location(0, "id"), rule)
         if kind in STATE_KINDS:
             text = (
@@ -174,16 +174,16 @@ class Explainer:
                 else "the robot must be able to start"
             )
             return LocatedFact(text, self.model_location(0), "section 4")
-        if kind in (enc.ACTIVE, enc.INACTIVE):
-            state = "active" if kind == enc.ACTIVE else "inactive"
+        if kind in (enc.FactKind.ACTIVE, enc.FactKind.INACTIVE):
+            state = "active" if kind == enc.FactKind.ACTIVE else "inactive"
             return LocatedFact(f"{self._id(a)} would be {state}", self.model_location(a, "id"), "request")
-        if kind in (enc.PARENT, enc.SUB_MODE, enc.SUB_TIME):
+        if kind in (enc.FactKind.PARENT, enc.FactKind.SUB_MODE, enc.FactKind.SUB_TIME):
             parent = model.features[a].parent
             assert parent is not None
             return LocatedFact(
                 f"{self._id(a)} is a sub-feature of {self._id(parent)}", self.model_location(a, "id"), rule
             )
-        if kind in (enc.MANDATORY, enc.UNIT_TIME, enc.UNIT_MODE):
+        if kind in (enc.FactKind.MANDATORY, enc.FactKind.UNIT_TIME, enc.FactKind.UNIT_MODE):
             parent = model.features[a].parent
             assert parent is not None
             where = "isMandatory" if model.features[a].declared_mandatory is not None else "id"
@@ -192,7 +192,7 @@ class Explainer:
                 self.model_location(a, where),
                 rule,
             )
-        if kind in (enc.MANDATORY_STATIC, enc.MANDATORY_TIME):
+        if kind in (enc.FactKind.MANDATORY_STATIC, enc.FactKind.MANDATORY_TIME):
             parent = model.features[a].parent
             assert parent is not None
             where = "isMandatory" if model.features[a].declared_mandatory is not None else "id"
@@ -201,14 +201,14 @@ class Explainer:
                 self.model_location(a, where),
                 rule,
             )
-        if kind == enc.XOR_ALTERNATIVES:
+        if kind == enc.FactKind.XOR_ALTERNATIVES:
             group = model.groups[a]
             return LocatedFact(
                 f"the {len(group.members)} members of {self._id(group.parent)}'s XOR group are alternatives",
                 self.model_location(group.members[0], "group"),
                 rule,
             )
-        if kind == enc.XOR_PAIR:
+        if kind == enc.FactKind.XOR_PAIR:
             parent = model.features[a].parent
             assert parent is not None
             return LocatedFact(
@@ -216,16 +216,16 @@ class Explainer:
                 self.model_location(b, "group"),
                 rule,
             )
-        if kind in (enc.INCLUDE, enc.INCLUDE_STATIC, enc.INCLUDE_TIME):
+        if kind in (enc.FactKind.INCLUDE, enc.FactKind.INCLUDE_STATIC, enc.FactKind.INCLUDE_TIME):
             target = self._id(b)
             position = list(model.features[a].includes).index(target)
-            verb = "includes" if kind == enc.INCLUDE else "requires"
+            verb = "includes" if kind == enc.FactKind.INCLUDE else "requires"
             return LocatedFact(
                 f"{self._id(a)} {verb} {target}",
                 self.model_location(a, "constraints", "featuresIncluded", position),
                 rule,
             )
-        if kind == enc.EXCLUDE:
+        if kind == enc.FactKind.EXCLUDE:
             target = self._id(b)
             position = list(model.features[a].excludes).index(target)
             return LocatedFact(
@@ -233,21 +233,21 @@ class Explainer:
                 self.model_location(a, "constraints", "featuresExcluded", position),
                 rule,
             )
-        if kind == enc.FORMULA:
+        if kind == enc.FactKind.FORMULA:
             formula = model.formulas[a]
             return LocatedFact(
                 f"formula {formula.position + 1}, `{formula.text}`, must hold",
                 self.model_location(0, "formulas", formula.position),
                 rule,
             )
-        if kind == enc.ALLOWED_TIME:
+        if kind == enc.FactKind.ALLOWED_TIME:
             feature = model.features[a]
             return LocatedFact(
                 f"{feature.id} allows only {feature.time_allowed} binding",
                 self.model_location(a, "constraints", "bindingTimeAllowed"),
                 "3",
             )
-        if kind == enc.ALLOWED_MODE:
+        if kind == enc.FactKind.ALLOWED_MODE:
             feature = model.features[a]
             return LocatedFact(
                 f"{feature.id} allows only {feature.mode_allowed} binding",
@@ -256,13 +256,13 @@ class Explainer:
             )
         if kind in enc.CONFIG_KINDS:
             literal = self.encoding.literals[k]
-            if kind == enc.CONFIG_SELECTED:
+            if kind == enc.FactKind.CONFIG_SELECTED:
                 return LocatedFact(f"{self._id(a)} is selected", self._config_loc(a), "config")
-            if kind == enc.CONFIG_DESELECTED:
+            if kind == enc.FactKind.CONFIG_DESELECTED:
                 return LocatedFact(
                     f"{self._id(a)} is not selected", self._config_loc(a, "selected"), "config"
                 )
-            if kind == enc.CONFIG_TIME:
+            if kind == enc.FactKind.CONFIG_TIME:
                 time = Time.EARLY if literal > 0 else Time.LATE
                 return LocatedFact(
                     f"{self._id(a)} is configured {time}", self._config_loc(a, "props", "time"), "config"
@@ -279,14 +279,14 @@ class Explainer:
     def mentions(self, k: int) -> tuple[int, ...]:
         """Features a fact's sentence names, the one a change most likely concerns first."""
         fact = self.encoding.facts[k]
-        if fact.kind in (enc.GROUP_OR, enc.GROUP_XOR, enc.XOR_ALTERNATIVES):
+        if fact.kind in (enc.FactKind.GROUP_OR, enc.FactKind.GROUP_XOR, enc.FactKind.XOR_ALTERNATIVES):
             group = self.model.groups[fact.a]
             return (*group.members, group.parent)
         if fact.kind in _INCLUDES:
             return (fact.b, fact.a)
-        if fact.kind in (enc.EXCLUDE, enc.XOR_PAIR):
+        if fact.kind in (enc.FactKind.EXCLUDE, enc.FactKind.XOR_PAIR):
             return (fact.a, fact.b)
-        if fact.kind == enc.FORMULA:
+        if fact.kind == enc.FactKind.FORMULA:
             return tuple(self.model.index[name] for name in self.model.formulas[fact.a].ids())
         parent = self.model.features[fact.a].parent
         return (fact.a,) if parent is None else (fact.a, parent)
@@ -300,10 +300,10 @@ class Explainer:
         main = next((kind for kind in PRIORITY if kind in kinds), None)
         rule, why = WHY[main] if main is not None else ("", "these facts contradict each other")
         if self.run_time:
-            main, (rule, why) = enc.START, RUN_TIME_WHY
-            if enc.FORMULA in kinds:
+            main, (rule, why) = enc.FactKind.START, RUN_TIME_WHY
+            if enc.FactKind.FORMULA in kinds:
                 rule, why = "2.4", RUN_TIME_FORMULA_WHY
-        elif main == enc.START and enc.FORMULA in kinds:
+        elif main == enc.FactKind.START and enc.FactKind.FORMULA in kinds:
             rule, why = "2.4", START_FORMULA_WHY
         main_k = next((k for k in mus if facts[k].kind == main), mus[0])
         focus = self.mentions(main_k)[0] if main not in VALUE_KINDS else facts[main_k].a
@@ -319,7 +319,7 @@ class Explainer:
         order = list(mus)
         shown_statements = sorted(statements.values(), key=order.index)
         configured = {
-            facts[k].a for k in mus if facts[k].kind in (enc.CONFIG_TIME, enc.CONFIG_MODE, "query-binding")
+            facts[k].a for k in mus if facts[k].kind in (enc.FactKind.CONFIG_TIME, enc.FactKind.CONFIG_MODE, enc.FactKind.QUERY_BINDING)
         }
         values = [k for k in mus if facts[k].kind in VALUE_KINDS]
         # "x is selected" adds nothing beside "x is configured Late" (only a selected
@@ -327,18 +327,18 @@ class Explainer:
         shown = [
             k
             for k in values
-            if not (facts[k].kind in (enc.CONFIG_SELECTED, "query-selected") and facts[k].a in configured)
+            if not (facts[k].kind in (enc.FactKind.CONFIG_SELECTED, enc.FactKind.QUERY_SELECTED) and facts[k].a in configured)
         ] or values
         # The focus feature first; for each: what the model says, then what is missing,
         # what is set, what is there.
         order_of = {
-            enc.ROOT: 0,
-            enc.ALLOWED_TIME: 0,
-            enc.ALLOWED_MODE: 0,
-            enc.CONFIG_DESELECTED: 1,
-            enc.CONFIG_TIME: 2,
-            enc.CONFIG_MODE: 2,
-            enc.CONFIG_SELECTED: 3,
+            enc.FactKind.ROOT: 0,
+            enc.FactKind.ALLOWED_TIME: 0,
+            enc.FactKind.ALLOWED_MODE: 0,
+            enc.FactKind.CONFIG_DESELECTED: 1,
+            enc.FactKind.CONFIG_TIME: 2,
+            enc.FactKind.CONFIG_MODE: 2,
+            enc.FactKind.CONFIG_SELECTED: 3,
         }
         shown.sort(key=lambda k: (facts[k].a != focus, order_of.get(facts[k].kind, 4)))
 
@@ -348,7 +348,7 @@ class Explainer:
         message = f"{head}, but {tail}: {why}" if head and tail else f"{head or tail}: {why}"
         # The place to change first: a configured binding (the focus feature's first), then
         # a (de)selection, then the model.
-        rank = {enc.CONFIG_TIME: 0, enc.CONFIG_MODE: 0, enc.CONFIG_DESELECTED: 1, enc.CONFIG_SELECTED: 2}
+        rank = {enc.FactKind.CONFIG_TIME: 0, enc.FactKind.CONFIG_MODE: 0, enc.FactKind.CONFIG_DESELECTED: 1, enc.FactKind.CONFIG_SELECTED: 2}
         config_facts = sorted(
             (k for k in mus if facts[k].kind in rank),
             key=lambda k: (rank[facts[k].kind], facts[k].a != focus),
@@ -364,8 +364,8 @@ class Explainer:
     ) -> Diagnostic:
         message, rule, primary, words, facts = self.sentence(mus)
         fact = self.encoding.facts[primary]
-        group = fact.kind in (enc.GROUP_OR, enc.GROUP_XOR, enc.XOR_ALTERNATIVES)
-        formula = fact.kind == enc.FORMULA
+        group = fact.kind in (enc.FactKind.GROUP_OR, enc.FactKind.GROUP_XOR, enc.FactKind.XOR_ALTERNATIVES)
+        formula = fact.kind == enc.FactKind.FORMULA
         feature = self._id(self.mentions(primary)[0] if formula else self.model.groups[fact.a].parent if group else fact.a)
         return Diagnostic(severity, words[primary].location, prefix + message, rule, feature, facts)
 

@@ -75,8 +75,8 @@ def configuration_repairs(model: FeatureModel, config: Configuration, most: int 
             if entry.selected or i is None:
                 continue
             for kind, value, variable, first in (
-                (enc.CONFIG_TIME, entry.time, encoding.E(i), Time.EARLY),
-                (enc.CONFIG_MODE, entry.mode, encoding.S(i), Mode.STATIC),
+                (enc.FactKind.CONFIG_TIME, entry.time, encoding.E(i), Time.EARLY),
+                (enc.FactKind.CONFIG_MODE, entry.mode, encoding.S(i), Mode.STATIC),
             ):
                 if value is not None:
                     literal = variable if value is first else -variable
@@ -90,19 +90,19 @@ def configuration_repairs(model: FeatureModel, config: Configuration, most: int 
 
 def _ordered(facts: Sequence[enc.EncodedFact], mcs: list[int]) -> list[int]:
     """A repair's changes in definition order, a feature's selection before its binding."""
-    rank = {enc.CONFIG_SELECTED: 0, enc.CONFIG_DESELECTED: 0, enc.CONFIG_TIME: 1, enc.CONFIG_MODE: 2}
+    rank = {enc.FactKind.CONFIG_SELECTED: 0, enc.FactKind.CONFIG_DESELECTED: 0, enc.FactKind.CONFIG_TIME: 1, enc.FactKind.CONFIG_MODE: 2}
     return sorted(mcs, key=lambda k: (facts[k].a, rank[facts[k].kind]))
 
 
 def _config_change(model: FeatureModel, fact: enc.EncodedFact, literal: int) -> Change:
     """The change that turns a configuration fact (assumed as `literal`) over, in the user's words."""
     name = model.features[fact.a].id
-    if fact.kind == enc.CONFIG_SELECTED:
+    if fact.kind == enc.FactKind.CONFIG_SELECTED:
         return Change(name, "select", False, f"deselect {name}")
-    if fact.kind == enc.CONFIG_DESELECTED:
+    if fact.kind == enc.FactKind.CONFIG_DESELECTED:
         return Change(name, "select", True, f"select {name}")
     # the configuration says one value (a positive literal: Early, Static); the repair, the other
-    if fact.kind == enc.CONFIG_TIME:
+    if fact.kind == enc.FactKind.CONFIG_TIME:
         time = Time.LATE if literal > 0 else Time.EARLY
         return Change(name, "time", time.value, f"make {name} {time.value}")
     mode = Mode.DYNAMIC if literal > 0 else Mode.STATIC
@@ -126,7 +126,7 @@ def request_corrections(
     `Encoding.active_set_conflicts`."""
     wanted = set(after)
     model_facts = [
-        encoding.literals[k] for k in range(encoding.model_facts) if encoding.facts[k].kind != enc.START_EARLY
+        encoding.literals[k] for k in range(encoding.model_facts) if encoding.facts[k].kind != enc.FactKind.START_EARLY
     ]
     hard = [*fixed, *model_facts]
     soft: list[int] = []

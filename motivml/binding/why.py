@@ -73,7 +73,7 @@ def why(
             encoding.set_configuration(config)
         explainer = Explainer(encoding, model, config)
 
-        def forced(aspect: str, statement: str, opposite: str, *literals: tuple[str, int, str]) -> Reason:
+        def forced(aspect: str, statement: str, opposite: str, *literals: tuple[enc.FactKind, int, str]) -> Reason:
             queries = []
             for kind, literal, words in literals:
                 q = encoding.query(kind, i, literal)
@@ -113,7 +113,7 @@ def why(
                     "selection",
                     f"{f.id} is always selected",
                     "it cannot be left out",
-                    ("query-selected", -encoding.s(i), f"{f.id} would not be selected"),
+                    (enc.FactKind.QUERY_SELECTED, -encoding.s(i), f"{f.id} would not be selected"),
                 )
             )
         elif not selectable:
@@ -122,7 +122,7 @@ def why(
                     "selection",
                     f"{f.id} is never selected",
                     "it cannot be selected",
-                    ("query-selected", encoding.s(i), f"{f.id} would be selected"),
+                    (enc.FactKind.QUERY_SELECTED, encoding.s(i), f"{f.id} would be selected"),
                 )
             )
         else:
@@ -138,7 +138,7 @@ def why(
             return reasons
 
         # --- time and mode, of a selected feature
-        selected_query = ("query-selected", encoding.s(i), f"{f.id} would be selected")
+        selected_query = (enc.FactKind.QUERY_SELECTED, encoding.s(i), f"{f.id} would be selected")
         aspects: list[tuple[str, Time | Mode | None, set[Time | Mode], dict[Time | Mode, int]]] = [
             (
                 "time",
@@ -165,7 +165,7 @@ def why(
                         f"{f.id} is always {value} when selected",
                         f"it cannot be {other}",
                         selected_query,
-                        ("query-binding", literal[other], f"{f.id} would be {other}"),
+                        (enc.FactKind.QUERY_BINDING, literal[other], f"{f.id} would be {other}"),
                     )
                 )
             else:
