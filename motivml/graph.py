@@ -163,7 +163,8 @@ def _to_graphml(graph: _Graph) -> str:
 
     def data(values: dict[str, Value], domain: str) -> str:
         for name, value in values.items():
-            keys.setdefault(name, (set(), types[type(value)]))[0].add(domain)
+            kind = next(t for base, t in types.items() if isinstance(value, base))  # (an enum is its str)
+            keys.setdefault(name, (set(), kind))[0].add(domain)
         return "".join(f'<data key="{name}">{_xml(value)}</data>' for name, value in values.items())
 
     for node in graph.nodes:

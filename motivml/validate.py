@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -26,12 +27,22 @@ if TYPE_CHECKING:
     from .architecture.document import Architecture
 
 
+class DocumentKind(StrEnum):
+    """What a report is about (its verdict line says "in the model", "in the configuration" ...)."""
+
+    MODEL = "model"
+    CONFIGURATION = "configuration"
+    ARCHITECTURE = "architecture"
+    COORDINATION = "coordination"
+    PLUGINS = "plugins"
+
+
 @dataclass
 class Report:
     """What a check found in one document, errors first (each group best first)."""
 
     file: str
-    kind: str  # "model" or "configuration"
+    kind: DocumentKind
     diagnostics: list[Diagnostic] = field(default_factory=list)
     model: FeatureModel | None = None
     config: Configuration | None = None
@@ -92,7 +103,7 @@ class Validation:
 
 def validate_model(model_path: str | Path, analyse: bool = True) -> Report:
     """Check a model file: syntax, consistency, and (with `analyse`) its variants' space."""
-    report = Report(str(model_path), "model")
+    report = Report(str(model_path), DocumentKind.MODEL)
     model, diagnostics = load_model(model_path)
     report.diagnostics += diagnostics
     report.model = model
@@ -107,7 +118,7 @@ def validate_configuration(
 ) -> Report:
     """Check a configuration file against a (sound) model; without `solve`, only what can be
     checked without a solver (for a caller that solves it next, as `configure` does)."""
-    report = Report(str(config_path), "configuration", model=model)
+    report = Report(str(config_path), DocumentKind.CONFIGURATION, model=model)
     config, diagnostics = load_configuration(config_path, model, partial)
     report.diagnostics += diagnostics
     report.config = config
@@ -130,7 +141,7 @@ def validate_architecture(model: FeatureModel, path: str | Path) -> Report:
     from .architecture.family import architecture_bindings
     from .architecture.stability import stability
 
-    report = Report(str(path), "architecture", model=model)
+    report = Report(str(path), DocumentKind.ARCHITECTURE, model=model)
     doc, problems = read_checked(path, lambda d: [])
     report.diagnostics += problems
     if doc is not None:
@@ -184,7 +195,7 @@ def validate_plugins(robot: RobotFolder, model: FeatureModel) -> Report:
     from .plugins.manifests import discover
     from .plugins.registry import KINDS
 
-    report = Report(str(robot.settings_path), "plugins", model=model)
+    report = Report(str(robot.settings_path), DocumentKind.PLUGINS, model=model)
     plugins, problems = discover(robot, model)
     report.diagnostics += problems
     for plugin in plugins.values():  # what a run would stop on when it loads one (issue 31)
@@ -199,7 +210,7 @@ def validate_coordination(
     from .binding.resolve import resolve
     from .coordination.document import VariantBindings, read_coordination
 
-    report = Report(str(path), "coordination", model=model)
+    report = Report(str(path), DocumentKind.COORDINATION, model=model)
     doc, problems = read_checked(path, lambda d: [])
     report.diagnostics += problems
     if doc is None:

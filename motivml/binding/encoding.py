@@ -39,7 +39,7 @@ from typing import Any, NamedTuple
 from pysat.solvers import Solver
 
 from ..language.formula import AND, IFF, IMPLIES, OR, Formula, Var, fold
-from ..language.model import Configuration, FeatureModel, Mode, Time
+from ..language.model import Configuration, FeatureModel, GroupKind, Mode, Time
 from ..process import keep_till_exit, keeping_all
 
 SOLVER = "glucose4"  # forgiving API, assumptions and cores; CaDiCaL aborts the process on misuse
@@ -754,10 +754,10 @@ class Encoding:
 
         for g, group in enumerate(self.model.groups):
             p, members = group.parent, group.members
-            kind = FactKind.GROUP_OR if group.kind == "OR" else FactKind.GROUP_XOR
+            kind = FactKind.GROUP_OR if group.kind is GroupKind.OR else FactKind.GROUP_XOR
             sel = self._fact(kind, g)
             self._add(sel, [-s(p), *(s(m) for m in members)], [-start, -a(p), *(a(m) for m in members)])
-            if group.kind == "XOR":
+            if group.kind is GroupKind.XOR:
                 if self.explain and len(members) <= PAIRWISE_EXPLAINED:
                     for x, m1 in enumerate(members):
                         for m2 in members[x + 1 :]:
@@ -1102,7 +1102,7 @@ class Encoding:
             self._xor_member = {
                 self.s(m): g
                 for g, group in enumerate(self.model.groups)
-                if group.kind == "XOR" and len(group.members) > ONE_HINTED_FROM
+                if group.kind is GroupKind.XOR and len(group.members) > ONE_HINTED_FROM
                 for m in group.members
             }
         member = self._xor_member
@@ -1513,7 +1513,7 @@ def selection_cnf(model: FeatureModel) -> SelectionCNF:
     for group in model.groups:
         members = [m + 1 for m in group.members]
         clauses.append([-(group.parent + 1), *members])
-        if group.kind != "XOR":
+        if group.kind is not GroupKind.XOR:
             continue
         if len(members) <= PAIRWISE_UP_TO:
             clauses += [[-x, -y] for k, x in enumerate(members) for y in members[k + 1 :]]

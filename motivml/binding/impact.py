@@ -11,12 +11,22 @@ running program iff every change is *run time*.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
 
 from ..language.model import OFF, Binding, FeatureState
 from .resolve import Decision, Variant
 
-REBUILD, RESTART, RUN_TIME = "rebuild", "restart", "run time"
-ORDER = (REBUILD, RESTART, RUN_TIME)
+
+class Impact(StrEnum):
+    """What a feature's change takes, worst first (the words `diff` prints)."""
+
+    REBUILD = "rebuild"
+    RESTART = "restart"
+    RUN_TIME = "run time"
+
+
+REBUILD, RESTART, RUN_TIME = Impact.REBUILD, Impact.RESTART, Impact.RUN_TIME
+ORDER = tuple(Impact)
 
 
 @dataclass(frozen=True)
@@ -26,7 +36,7 @@ class FeatureChange:
     feature: str
     before: FeatureState
     after: FeatureState
-    impact: str
+    impact: Impact
     reason: str
 
 
@@ -34,7 +44,7 @@ def _state(d: Decision) -> FeatureState:
     return d.binding if d.selected else OFF
 
 
-def classify(before: FeatureState, after: FeatureState) -> tuple[str, str]:
+def classify(before: FeatureState, after: FeatureState) -> tuple[Impact, str]:
     """(impact, reason) of one feature's change from `before` to `after`."""
     if (before == Binding.SE) != (after == Binding.SE):
         verb = "enters" if after == Binding.SE else "leaves"
@@ -64,6 +74,6 @@ def diff(first: Variant, second: Variant) -> list[FeatureChange]:
     return sorted(changes, key=lambda c: ORDER.index(c.impact))
 
 
-def verdict(changes: list[FeatureChange]) -> str:
+def verdict(changes: list[FeatureChange]) -> Impact:
     """The worst impact of all changes ("run time" when there are none)."""
     return min((c.impact for c in changes), key=ORDER.index, default=RUN_TIME)

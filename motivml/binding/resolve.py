@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Collection
 from dataclasses import dataclass, replace
+from enum import StrEnum
 from typing import NamedTuple
 
 from ..errors import MotivmlError
@@ -25,6 +26,14 @@ class NoVariant(MotivmlError):
     """The configuration has no valid completion; the diagnostics explain why."""
 
 
+class DecidedBy(StrEnum):
+    """Who decided a part of a resolved feature (the lock file's `x-decided`)."""
+
+    MODEL = "model"  # the root, or a binding the model allows one way only
+    CONFIGURATION = "configuration"
+    SOLVER = "solver"
+
+
 class Decision(NamedTuple):
     """One feature of a resolved variant, and who decided each part of it. (A named tuple:
     `configure` makes one per feature of the model, 100,000 of them.)"""
@@ -32,9 +41,9 @@ class Decision(NamedTuple):
     feature: Feature
     selected: bool
     binding: Binding  # meaningful when selected
-    selection_by: str  # "configuration" or "solver"
-    time_by: str
-    mode_by: str
+    selection_by: DecidedBy
+    time_by: DecidedBy
+    mode_by: DecidedBy
 
 
 @dataclass(frozen=True)
@@ -86,12 +95,12 @@ def _variant(encoding: enc.Encoding, model: FeatureModel, config: Configuration,
         root = f.parent is None
         # a time or mode the configuration leaves open is the model's if it allows one only
         # (or for the root), else the solver's
-        time_by = "model" if root or f.time_allowed is not None else "solver"
-        mode_by = "model" if root or f.mode_allowed is not None else "solver"
+        time_by = DecidedBy.MODEL if root or f.time_allowed is not None else DecidedBy.SOLVER
+        mode_by = DecidedBy.MODEL if root or f.mode_allowed is not None else DecidedBy.SOLVER
         if entry is not None:
-            time_by = "configuration" if entry.time is not None else time_by
-            mode_by = "configuration" if entry.mode is not None else mode_by
-        selection_by = "model" if root else "configuration" if entry is not None else "solver"
+            time_by = DecidedBy.CONFIGURATION if entry.time is not None else time_by
+            mode_by = DecidedBy.CONFIGURATION if entry.mode is not None else mode_by
+        selection_by = DecidedBy.MODEL if root else DecidedBy.CONFIGURATION if entry is not None else DecidedBy.SOLVER
         selected, binding = values[s(i) - 1] > 0, from_flags(values[E(i) - 1] > 0, values[S(i) - 1] > 0)
         decisions.append(Decision(f, selected, binding, selection_by, time_by, mode_by))
     return Variant(model, config.name, tuple(decisions))

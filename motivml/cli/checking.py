@@ -51,7 +51,7 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     TARGET is a model.json or a robot folder (default: the current folder). A robot folder
     without --variant checks the model and every variant in variants/.
     """
-    from ..validate import validate
+    from ..validate import DocumentKind, validate
 
     try:
         model_path, configs, analyse = targets(target, config, variant)
@@ -71,16 +71,18 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     else:
         for report in result.reports:
             print_diagnostics(report.errors + report.warnings)
-            if report.kind != "model" or report.analysed or report.diagnostics:
+            if report.kind is not DocumentKind.MODEL or report.analysed or report.diagnostics:
                 _verdict(report, checked_variants=result.checked or not configs)
     sys.exit(0 if result.valid else 1)
 
 
 def _verdict(report: Report, checked_variants: bool) -> None:
+    from ..validate import DocumentKind
+
     counts = f"{plural(len(report.errors), 'error')}, {plural(len(report.warnings), 'warning')}"
     if report.valid:
         extra = ""
-        if report.kind == "model" and report.model is not None and report.analysed:
+        if report.kind is DocumentKind.MODEL and report.model is not None and report.analysed:
             extra = f" ({len(report.model.features)} features)"
         elif report.open_bindings or report.open_features:
             left = [plural(report.open_features, "feature")] if report.open_features else []
@@ -89,7 +91,7 @@ def _verdict(report: Report, checked_variants: bool) -> None:
         out.print(f"[bold green]valid[/]: {escape(report.file)}{escape(extra)}, {counts}")
     else:
         unchecked = (
-            " (its variants were not checked)" if report.kind == "model" and not checked_variants else ""
+            " (its variants were not checked)" if report.kind is DocumentKind.MODEL and not checked_variants else ""
         )
         out.print(f"[bold red]invalid[/]: {escape(report.file)}: {counts} in the {report.kind}{unchecked}")
 
@@ -131,6 +133,7 @@ def configure_command(
     ros2_lifecycle plugin's node, for --ros-args --params-file. Files are rewritten only
     when their content changes; nothing is written when the variant is invalid.
     """
+    from ..binding.resolve import DecidedBy
     from ..configure import NotConfigured, configure
 
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix):
@@ -153,7 +156,7 @@ def configure_command(
     by_solver = sum(
         1
         for d in done.variant.decisions
-        if d.selection_by == "solver" or (d.selected and "solver" in (d.time_by, d.mode_by))
+        if d.selection_by is DecidedBy.SOLVER or (d.selected and DecidedBy.SOLVER in (d.time_by, d.mode_by))
     )
     counts = ", ".join(f"{sum(1 for d in chosen if d.binding is b)} {b.words}" for b in Binding)
     out.print(

@@ -31,7 +31,7 @@ from xml.parsers import expat
 
 from ..errors import DocumentError, Location, error
 from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold
-from .model import Feature, FeatureModel, token
+from .model import Feature, FeatureModel, GroupKind, token
 from .uvl import Ids
 
 _GROUPS = {"and": "", "or": "OR", "alt": "XOR", "feature": ""}
@@ -290,11 +290,11 @@ def write_featureide(model: FeatureModel) -> str:
         tag = _tag(model, feature)
         mixed = tag == "and"
         if mixed:  # groups of a parent with other children: as rules
-            for kind in ("OR", "XOR"):
+            for kind in GroupKind:
                 members = [features[c].id for c in feature.children if features[c].group == kind]
                 if members:
                     rules.append(_rule_disj(feature.id, members))
-                    if kind == "XOR":  # (n log n names, not the n^2 / 2 pairs: 348 MB for 3,000 members)
+                    if kind is GroupKind.XOR:  # (n log n names, not the n^2 / 2 pairs: 348 MB for 3,000 members)
                         rules += [_rule_none_of_both(a, b) for a, b in at_most_one(members)]
         parent = features[feature.parent] if feature.parent is not None else None
         mandatory = parent is None or (feature.mandatory and not feature.group)

@@ -25,6 +25,14 @@ from .formula import Formula
 PathItem = str | int
 
 
+class GroupKind(StrEnum):
+    """A group of sub-features (rule 2.2): at least one of them (OR), or exactly one (XOR,
+    unless they are Dynamic alternatives, rule 3.3)."""
+
+    OR = "OR"
+    XOR = "XOR"
+
+
 class Time(StrEnum):
     """When a feature is bound: while the program is built or started, or while it runs."""
 
@@ -120,7 +128,7 @@ class Feature:
 @dataclass(frozen=True, slots=True)
 class Group:
     parent: int
-    kind: str  # "OR" or "XOR"
+    kind: GroupKind
     members: tuple[int, ...]
 
 

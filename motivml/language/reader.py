@@ -19,7 +19,7 @@ from ..documents.schema import check_configuration, check_feature_model, read_ch
 from ..errors import Diagnostic, Severity, error, warning
 from ..process import no_gc
 from .formula import FormulaError, parse
-from .model import ANY, Configuration, Entry, Feature, FeatureModel, Group, Mode, Time
+from .model import ANY, Configuration, Entry, Feature, FeatureModel, Group, GroupKind, Mode, Time
 
 # Tokens the schema admits, to values, and the model's defaults (reference.md section 1).
 # Dicts and plain strings: enum calls and member lookups cost ~0.25 us each, and a model
@@ -189,7 +189,7 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
     for owner in features:
         if owner.index not in labelled:
             continue
-        for kind in ("OR", "XOR"):
+        for kind in GroupKind:
             members = [c for c in owner.children if features[c].declared_group == kind]
             if len(members) == 1:
                 only = features[members[0]]
