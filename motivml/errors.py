@@ -52,18 +52,38 @@ class LocatedFact:
         }
 
 
+class ChangeKind(StrEnum):
+    """What a repair changes of a feature: its selection, time or mode in a configuration;
+    its load or unload in a run-time request."""
+
+    SELECT = "select"
+    TIME = "time"
+    MODE = "mode"
+    LOAD = "load"
+    UNLOAD = "unload"
+
+
 @dataclass(frozen=True)
 class Change:
     """One change of a repair (reference.md section 6), in the user's words and as data.
 
-    `change` is "select" (value True or False), "time" (Early, Late) or "mode" (Static,
-    Dynamic) for a configuration; "load" or "unload" (value True: add it to the request,
-    False: take it out) for a run-time request."""
+    `change` is SELECT (value True or False), TIME (Early, Late) or MODE (Static, Dynamic)
+    for a configuration; LOAD or UNLOAD (value True: add it to the request, False: take it
+    out) for a run-time request."""
 
     feature: str
-    change: str
+    change: ChangeKind
     value: bool | str
     text: str
+
+    @property
+    def verb(self) -> str:
+        """The words before the feature in `text`: "deselect", "make", "also load" ..."""
+        if self.change in (ChangeKind.TIME, ChangeKind.MODE):
+            return "make"
+        if self.change == ChangeKind.SELECT:
+            return "select" if self.value else "deselect"
+        return f"also {self.change}" if self.value else f"do not {self.change}"
 
     def as_dict(self) -> dict[str, object]:
         return {"feature": self.feature, "change": self.change, "value": self.value, "text": self.text}
@@ -107,13 +127,12 @@ def repair_text(repair: Repair) -> str:
     verbs: dict[str, list[str]] = {}  # verb -> objects, in the repair's order
     binding: dict[str, list[str]] = {}  # feature -> its new mode and time, for one "make"
     for c in repair:
-        if c.change in ("time", "mode"):
+        if c.change in (ChangeKind.TIME, ChangeKind.MODE):
             if c.feature not in binding:
                 verbs.setdefault("make", []).append(c.feature)
             binding.setdefault(c.feature, []).append(str(c.value))
         else:
-            verb, _, what = c.text.rpartition(" ")
-            verbs.setdefault(verb, []).append(what)
+            verbs.setdefault(c.verb, []).append(c.feature)
     groups = []
     for verb, objects in verbs.items():
         if verb == "make":

@@ -25,7 +25,7 @@ from semantic_helpers import variant_errors
 from test_property_sat import configurations, models
 
 from motivml.cli import main
-from motivml.errors import Change, repair_text
+from motivml.errors import Change, ChangeKind, repair_text
 
 Fact = tuple[str, str, Any]  # (feature, "select" | "time" | "mode", value the configuration says)
 
@@ -226,7 +226,7 @@ def test_no_repair_when_the_model_itself_has_no_variant(tmp_path: Any) -> None:
 def test_repair_text_groups_changes_by_verb() -> None:
     def change(fid: str, kind: str, value: Any) -> Change:
         verb = {True: "select", False: "deselect"}.get(value) if kind == "select" else "make"
-        return Change(fid, kind, value, f"{verb} {fid}" if kind == "select" else f"make {fid} {value}")
+        return Change(fid, ChangeKind(kind), value, f"{verb} {fid}" if kind == "select" else f"make {fid} {value}")
 
     repair = (
         change("a", "mode", "Dynamic"),

@@ -22,7 +22,7 @@ from collections.abc import Collection
 from dataclasses import dataclass
 
 from ..documents.loader import parse
-from ..errors import Diagnostic, Repair, Severity
+from ..errors import ChangeKind, Diagnostic, Repair, Severity
 from ..language.model import Configuration, Entry, FeatureModel, FeatureState, Mode, Time
 from ..language.reader import read_configuration
 from .check import binding_states, check_variant
@@ -188,11 +188,11 @@ class Configurator:
         """Make every change of a repair, then refresh once."""
         for change in repair:
             old = self.decisions.get(change.feature, Choice())
-            if change.change == "select":
+            if change.change is ChangeKind.SELECT:
                 new = Choice(True, old.time, old.mode) if change.value else Choice(False)
-            elif change.change == "time":
+            elif change.change is ChangeKind.TIME:
                 new = Choice(True, Time(str(change.value)), old.mode)
-            elif change.change == "mode":
+            elif change.change is ChangeKind.MODE:
                 new = Choice(True, old.time, Mode(str(change.value)))
             else:
                 raise ValueError(f"not a change to a configuration: {change.change}")

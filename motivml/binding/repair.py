@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Collection, Iterable, Sequence
 
-from ..errors import Change, Repair
+from ..errors import Change, ChangeKind, Repair
 from ..language.model import Configuration, FeatureModel, Mode, Time
 from . import encoding as enc
 
@@ -98,15 +98,15 @@ def _config_change(model: FeatureModel, fact: enc.EncodedFact, literal: int) -> 
     """The change that turns a configuration fact (assumed as `literal`) over, in the user's words."""
     name = model.features[fact.a].id
     if fact.kind == enc.FactKind.CONFIG_SELECTED:
-        return Change(name, "select", False, f"deselect {name}")
+        return Change(name, ChangeKind.SELECT, False, f"deselect {name}")
     if fact.kind == enc.FactKind.CONFIG_DESELECTED:
-        return Change(name, "select", True, f"select {name}")
+        return Change(name, ChangeKind.SELECT, True, f"select {name}")
     # the configuration says one value (a positive literal: Early, Static); the repair, the other
     if fact.kind == enc.FactKind.CONFIG_TIME:
         time = Time.LATE if literal > 0 else Time.EARLY
-        return Change(name, "time", time.value, f"make {name} {time.value}")
+        return Change(name, ChangeKind.TIME, time.value, f"make {name} {time.value}")
     mode = Mode.DYNAMIC if literal > 0 else Mode.STATIC
-    return Change(name, "mode", mode.value, f"make {name} {mode.value}")
+    return Change(name, ChangeKind.MODE, mode.value, f"make {name} {mode.value}")
 
 
 def request_corrections(

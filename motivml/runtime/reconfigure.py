@@ -30,7 +30,7 @@ from ..binding import encoding as enc
 from ..binding.explain import Explainer
 from ..binding.repair import request_corrections
 from ..binding.resolve import Variant
-from ..errors import Change, Diagnostic, Location, MotivmlError, Repair, error
+from ..errors import Change, ChangeKind, Diagnostic, Location, MotivmlError, Repair, error
 from ..language.model import Configuration
 from . import requests
 from .requests import Request
@@ -227,15 +227,15 @@ class Reconfigurer:
                     continue
             if active:
                 change = (
-                    Change(f.id, "unload", False, f"do not unload {f.id}")
+                    Change(f.id, ChangeKind.UNLOAD, False, f"do not unload {f.id}")
                     if f.id in before
-                    else Change(f.id, "load", True, f"also load {f.id}")
+                    else Change(f.id, ChangeKind.LOAD, True, f"also load {f.id}")
                 )
             else:
                 change = (
-                    Change(f.id, "unload", True, f"also unload {f.id}")
+                    Change(f.id, ChangeKind.UNLOAD, True, f"also unload {f.id}")
                     if f.id in before
-                    else Change(f.id, "load", False, f"do not load {f.id}")
+                    else Change(f.id, ChangeKind.LOAD, False, f"do not load {f.id}")
                 )
             changes.append(change)
         return tuple(changes)
