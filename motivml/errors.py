@@ -8,8 +8,28 @@ turns them into text and exit codes.
 
 from __future__ import annotations
 
+import functools
+import json
+import re
 from dataclasses import dataclass, field
 from enum import StrEnum
+
+PathItem = str | int
+JSONPath = tuple[PathItem, ...]  # a place inside a JSON document: keys and indices, from its root
+
+
+def format_path(path: JSONPath) -> str:
+    """`$.sub[0].constraints` style path, as users see it in messages."""
+    return "$" + "".join(map(_path_part, path))
+
+
+@functools.lru_cache(maxsize=4096, typed=True)  # paths thousands of steps deep repeat their steps
+def _path_part(item: str | int) -> str:
+    if isinstance(item, int):
+        return f"[{item}]"
+    if re.fullmatch(r"[A-Za-z_$][A-Za-z0-9_$-]*", item):
+        return f".{item}"
+    return f"[{json.dumps(item)}]"
 
 
 class Severity(StrEnum):
@@ -19,12 +39,17 @@ class Severity(StrEnum):
 
 @dataclass(frozen=True)
 class Location:
-    """A place in a document: file, 1-based line and column, and the JSON path."""
+    """A place in a document: file, 1-based line and column, and the JSON path (`steps`,
+    kept as keys and indices; `path` is how users see it)."""
 
     file: str
     line: int | None = None
     column: int | None = None
-    path: str = "$"
+    steps: JSONPath = ()
+
+    @property
+    def path(self) -> str:
+        return format_path(self.steps)
 
     def __str__(self) -> str:
         if self.line is None:

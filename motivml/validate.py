@@ -229,13 +229,13 @@ def validate_coordination(
         )
     report.diagnostics += found
     if coordination is not None:
-        seen = {(d.location.path, d.message) for d in report.diagnostics}
+        seen = {(d.location.steps, d.message) for d in report.diagnostics}
         for config in configs:
             variant = resolve(model, config)
             bindings = VariantBindings(config.name, {d.feature.id: d.binding for d in variant.selected()})
             for d in read_coordination(doc, model, architecture, bindings)[1]:
-                if (d.location.path, d.message) not in seen:
-                    seen.add((d.location.path, d.message))
+                if (d.location.steps, d.message) not in seen:
+                    seen.add((d.location.steps, d.message))
                     report.diagnostics.append(d)
     return _sorted(report)
 

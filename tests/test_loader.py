@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from motivml.documents import loader
-from motivml.documents.loader import MAX_DEPTH, Document, _index, format_path, load_bytes, load_file, parse
-from motivml.errors import DocumentError, EnvironmentProblem, MotivmlError
+from motivml.documents.loader import MAX_DEPTH, Document, _index, load_bytes, load_file, parse
+from motivml.errors import DocumentError, EnvironmentProblem, MotivmlError, format_path
 
 
 def message(text: str) -> str:

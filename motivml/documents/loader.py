@@ -22,7 +22,6 @@ levels).
 from __future__ import annotations
 
 import bisect
-import functools
 import json
 import os
 import re
@@ -33,14 +32,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import DocumentError, EnvironmentProblem, Location, error
+from ..errors import DocumentError, EnvironmentProblem, JSONPath, Location, error
 from ..process import no_gc
 
 MAX_BYTES = 64 * 1024 * 1024
 MAX_DEPTH = 10_000
 
-PathItem = str | int
-JSONPath = tuple[PathItem, ...]
 
 _TOKEN = re.compile(
     r"""[ \t\n\r]*(?:
@@ -55,20 +52,6 @@ _TOKEN = re.compile(
 )
 _LITERALS: dict[str, Any] = {"true": True, "false": False, "null": None}
 _SURROGATE = re.compile(r"\\u[dD][89a-fA-F]")
-
-
-def format_path(path: JSONPath) -> str:
-    """`$.sub[0].constraints` style path, as users see it in messages."""
-    return "$" + "".join(map(_path_part, path))
-
-
-@functools.lru_cache(maxsize=4096, typed=True)  # paths thousands of steps deep repeat their steps
-def _path_part(item: str | int) -> str:
-    if isinstance(item, int):
-        return f"[{item}]"
-    if re.fullmatch(r"[A-Za-z_$][A-Za-z0-9_$-]*", item):
-        return f".{item}"
-    return f"[{json.dumps(item)}]"
 
 
 class Document:
@@ -253,7 +236,7 @@ class Document:
         message about a missing key points at the object that lacks it.
         """
         line, column = self.position(self._offset(path, key))
-        return Location(self.file, line, column, format_path(path))
+        return Location(self.file, line, column, tuple(path))
 
     def locate_in_string(self, path: JSONPath, index: int) -> Location:
         """Location of character `index` of the string value at `path` (its escapes counted as
@@ -273,7 +256,7 @@ class Document:
             else:
                 raw += 6
         line, column = self.position(raw)
-        return Location(self.file, line, column, format_path(path))
+        return Location(self.file, line, column, tuple(path))
 
 
 def _common_prefix(a: JSONPath, b: JSONPath) -> int:
@@ -373,7 +356,7 @@ class _Index:
 
 def _fail(text: str, file: str, offset: int, message: str, rule: str = "json") -> DocumentError:
     line, column = Document(file, None, text).position(offset)
-    return DocumentError(error(Location(file, line, column, "$"), message, rule))
+    return DocumentError(error(Location(file, line, column), message, rule))
 
 
 def _index(text: str, file: str = "<string>", max_depth: int = MAX_DEPTH) -> _Index:

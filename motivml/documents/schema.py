@@ -23,11 +23,11 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
-from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
+from ..errors import Diagnostic, EnvironmentProblem, JSONPath, Location, MotivmlError, error
 from ..process import no_gc
 from ..process.forked import Failed, InChild, can_fork
 from .fastschema import Check, Unsupported, compile_schema
-from .loader import Document, JSONPath, load_file
+from .loader import Document, load_file
 
 if TYPE_CHECKING:  # imported where a document is invalid: it takes ~60 ms to import
     from jsonschema import Draft202012Validator

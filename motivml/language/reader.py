@@ -10,7 +10,6 @@ deselected feature. Everything else about meaning is the SAT encoding's job.
 from __future__ import annotations
 
 import difflib
-import re
 from pathlib import Path
 from typing import Any
 
@@ -332,11 +331,8 @@ def read_configuration(
 
 def _entry_position(diagnostic: Diagnostic) -> int | None:
     """The position of the configuration entry a schema error is about, if it is about one."""
-    match = _ENTRY.match(diagnostic.location.path)
-    return int(match.group(1)) if match else None
-
-
-_ENTRY = re.compile(r"\$\.properties\[(\d+)\]")
+    steps = diagnostic.location.steps
+    return steps[1] if len(steps) >= 2 and steps[0] == "properties" and isinstance(steps[1], int) else None
 
 
 def _usable(diagnostics: list[Diagnostic]) -> bool:
