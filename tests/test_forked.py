@@ -93,9 +93,17 @@ def test_no_child_is_forked_beside_another_thread(monkeypatch: pytest.MonkeyPatc
     assert not forked.can_fork()
 
 
-def test_ending_a_child_that_has_no_process_kills_nothing() -> None:
-    forked.end(0)  # (os.kill(0, ...) would kill this process's whole group, this test run with it)
+def test_ending_a_child_that_has_no_process_kills_nothing(monkeypatch: pytest.MonkeyPatch) -> None:
+    """os.kill(0, ...) or os.kill(-1, ...) would kill this process's whole group (this test
+    run with it): no pid that names a group is ever signalled or waited for."""
+    calls: list[tuple[str, int]] = []
+    monkeypatch.setattr(os, "kill", lambda pid, sig: calls.append(("kill", pid)))
+    monkeypatch.setattr(os, "waitpid", lambda pid, options: calls.append(("waitpid", pid)) or (pid, 0))
+    forked.end(0)
     forked.end(-1)
+    assert calls == []
+    forked.end(12345)  # (the fakes above: nothing is signalled for real)
+    assert calls == [("kill", 12345), ("waitpid", 12345)]
 
 
 class _Libc:
