@@ -61,14 +61,9 @@ PRIORITY = ("fault", "change", "refused", "state", "status")  # which events get
 
 
 def label(event: RecordedEvent) -> str | None:
-    """The short text beside an event's line (None: a line only)."""
-    text = {
-        "change": event.text,
-        "refused": "refused " + event.text.split(": ", 1)[0],
-        "fault": "fault: " + event.text.split(" raised", 1)[0],  # who: a plugin, or its stop()
-        "state": event.text.removeprefix("entered ") if event.text.startswith("entered ") else None,
-        "status": event.text,
-    }.get(event.kind)
+    """The short text beside an event's line (None: a line only): the event's own label
+    (events.py), cut to LABEL_LENGTH."""
+    text = event.event.label
     if text is None:
         return None
     return text if len(text) <= LABEL_LENGTH else text[: LABEL_LENGTH - 1] + "…"

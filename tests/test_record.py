@@ -20,6 +20,7 @@ from paths import ROOT
 
 from motivml.cli import main
 from motivml.runtime import record
+from motivml.runtime.events import Refused
 from motivml.runtime.launch import launch
 from motivml.runtime.record import SEPARATOR, Recorder, columns, escape, read_record, split_events
 
@@ -457,7 +458,7 @@ def test_events_made_after_their_row_was_written_go_in_the_first_open_row(
         recorder.start(robot.runtime, [("ArmCommand", 3)], "a test", None, simulated=True)
         for _ in range(10):
             robot.runtime.tick()
-        recorder.event("refused", "load x: too late", tick=3)  # rows 1-7 are written already
+        recorder.event(Refused(3, "load x", "too late"))  # rows 1-7 are written already
         robot.runtime.missed = 2  # as the real clock counts after a tick that overran
         robot.runtime.tick()
         for _ in range(5):

@@ -44,6 +44,7 @@ from ..errors import describe_exception
 from ..plugins.api import FeatureUnavailable
 from ..plugins.registry import Activation
 from . import waiting
+from .events import Note
 
 
 @dataclass
@@ -406,7 +407,7 @@ class Runtime:
         self.plugins: dict[str, Running] = {}
         self.changes: list[AppliedReconfiguration] = []
         self.faults: list[Fault] = []
-        self.notes: list[tuple[float, int, str]] = []  # (control time, tick, text): the run's log
+        self.notes: list[Note] = []  # the run's log
         self.on_fault: Callable[[Fault], None] | None = None  # Dynamic plugin faults go here
         self.hooks: list[Callable[[], None]] = []  # after every tick, on the control thread
         self.failure: Fault | None = None  # a Static plugin's fault, which ends the run
@@ -587,7 +588,7 @@ class Runtime:
 
     def note(self, text: str) -> None:
         """A line in the run's log, stamped with the control time and tick."""
-        self.notes.append((self.time, self.ticks, text))
+        self.notes.append(Note(self.time, self.ticks, text))
 
     def send(self, space: str, value: list[float] | np.ndarray) -> None:
         """Write a space no running component writes (a goal, a sensor value)."""

@@ -64,6 +64,20 @@ from typing import IO, TYPE_CHECKING, Any
 import numpy as np
 
 from ..errors import DocumentError, EnvironmentProblem, Location, error
+from .events import (
+    KINDS,
+    Changed,
+    Ended,
+    Faulted,
+    Missed,
+    Refused,
+    RunEvent,
+    Started,
+    StateChanged,
+    StatusChanged,
+    kind_of,
+    parse,
+)
 
 if TYPE_CHECKING:
     from ..architecture.document import Architecture
@@ -71,7 +85,6 @@ if TYPE_CHECKING:
     from .coordinator import Coordinator
     from .loop import Runtime
 
-KINDS = ("run", "change", "refused", "status", "state", "fault", "missed", "end")
 SEPARATOR = " | "
 CHUNK = 1024  # rows per block handed to the writer: about a second at 1 kHz
 QUEUED = 16  # blocks the simulated clock lets the writer fall behind
@@ -177,8 +190,8 @@ class Recorder:
         self._lock = threading.Lock()  # the hook versus finish() from another thread
         self._closed = False  # the hook does nothing any more
         self._ended = False  # finished or discarded
-        self._outside: collections.deque[tuple[int, str, str]] = collections.deque()  # other threads' events
-        self._pending: list[tuple[int, str, str]] = []  # (tick, kind, text), not yet in a block
+        self._outside: collections.deque[RunEvent] = collections.deque()  # other threads' events
+        self._pending: list[RunEvent] = []  # not yet in a block
         self._problem: BaseException | None = None  # what stopped the writer
         self._thread: threading.Thread | None = None
         self._runtime: Runtime | None = None
@@ -214,7 +227,7 @@ class Recorder:
         self._first = runtime.ticks + 1  # the tick of the block's first row
         self._filled = 0
         self._new_block()
-        self._pending.append((self._first, "run", description))
+        self._pending.append(Started(self._first, description))
         self._queue: queue.Queue[_Block | None] = queue.Queue(QUEUED if simulated else 0)
         try:
             self._writer.writerow(header(spaces))
@@ -224,15 +237,15 @@ class Recorder:
         self._thread.start()
         runtime.after_each_tick(self._after_tick)
 
-    def event(self, kind: str, text: str, tick: int | None = None) -> None:
+    def event(self, event: RunEvent) -> None:
         """An event from any thread, at `tick` (default: the tick the loop is at)."""
         if self._runtime is not None:
-            self._outside.append((self._runtime.ticks if tick is None else tick, kind, text))
+            self._outside.append(event)
 
     def refused(self, outcome: Outcome) -> None:
         """A binder watcher: every refused request, with why."""
-        if not outcome.accepted:
-            self.event("refused", f"{outcome.request}: {outcome.reason}")
+        if not outcome.accepted and self._runtime is not None:
+            self.event(Refused(self._runtime.ticks, str(outcome.request), outcome.reason))
 
     def _new_block(self) -> None:
         self._values = np.empty((CHUNK, self._width))
@@ -264,24 +277,24 @@ class Recorder:
         seen, pending = self._seen, self._pending
         if len(runtime.changes) > seen[0]:
             for change in runtime.changes[seen[0] :]:
-                pending.append((change.tick, "change", change.request))
+                pending.append(Changed(change.tick, change.request))
             seen[0] = len(runtime.changes)
         if len(runtime.events) > seen[1]:
             for event in runtime.events[seen[1] :]:
-                pending.append((event.tick, "status", f"{event.component} {event.status}"))
+                pending.append(StatusChanged(event.tick, event.component, event.status))
             seen[1] = len(runtime.events)
         if len(runtime.faults) > seen[2]:
             for fault in runtime.faults[seen[2] :]:
-                pending.append((fault.tick, "fault", f"{fault.feature} raised in its step: {fault.error}"))
+                pending.append(Faulted(fault.tick, fault.feature, fault.error))
             seen[2] = len(runtime.faults)
         coordinator = self._coordinator
         if coordinator is not None and len(coordinator.history) > seen[3]:
             for _, tick, what, state in coordinator.history[seen[3] :]:
-                pending.append((tick, "state", f"{what} {state}"))
+                pending.append(StateChanged(tick, what == "entered", state))
             seen[3] = len(coordinator.history)
         if runtime.missed != self._missed:  # counted after the tick before this one overran
             skipped = runtime.missed - self._missed
-            pending.append((runtime.ticks - 1, "missed", f"{skipped} deadline{'s' * (skipped != 1)}"))
+            pending.append(Missed(runtime.ticks - 1, skipped))
             self._missed = runtime.missed
         while self._outside:
             pending.append(self._outside.popleft())
@@ -297,12 +310,13 @@ class Recorder:
         keep = []
         if sent:
             texts: dict[int, list[str]] = {}
-            for tick, kind, text in self._pending:
+            for event in self._pending:
+                tick = event.tick
                 if tick > upto and not final:
-                    keep.append((tick, kind, text))
+                    keep.append(event)
                     continue
                 at = min(max(tick, self._first), last)
-                said = f"{kind}: {text}" + (f" (at tick {tick})" if at != tick else "")
+                said = f"{kind_of(event)}: {event.text}" + (f" (at tick {tick})" if at != tick else "")
                 texts.setdefault(at, []).append(escape(said))
             block.events = {tick: SEPARATOR.join(said) for tick, said in texts.items()}
             self._queue.put(block)
@@ -344,8 +358,9 @@ class Recorder:
             yield [tick, tick / rate, *numbers, events.get(tick, "")]
 
     # ------------------------------------------------------------------ ending
-    def finish(self, end: str, extra: Sequence[tuple[str, str]] = ()) -> int:
-        """Write the rest, with `extra` events (kind, text) and the `end` event in the last row,
+    def finish(self, end: str, failed_stops: Sequence[str] = ()) -> int:
+        """Write the rest, with a fault of each plugin whose stop() raised (`failed_stops`)
+        and the `end` event in the last row,
         and rename the file into place; the rows written. EnvironmentProblem if it could not be
         written (the hidden file is then removed). Any thread; the loop should have ended."""
         with self._lock:
@@ -357,9 +372,8 @@ class Recorder:
                 self._remove()
                 return 0
             self._collect(runtime)
-            for kind, text in extra:
-                self._pending.append((runtime.ticks, kind, text))
-            self._pending.append((runtime.ticks, "end", end))
+            self._pending += [Faulted(runtime.ticks, feature, None) for feature in failed_stops]
+            self._pending.append(Ended(runtime.ticks, end))
             self._hand_off(final=True)
             self._queue.put(None)
         self._thread.join()
@@ -433,10 +447,13 @@ MAX_EVENTS = 10_000  # events kept for a picture; more are counted
 
 @dataclass(frozen=True)
 class RecordedEvent:
+    """An event as a record holds it: when, and what (typed, events.py)."""
+
     tick: int
     time: float
     kind: str
     text: str
+    event: RunEvent
 
 
 @dataclass
@@ -652,7 +669,8 @@ class _RecordReader:
                     f"event {said!r} is not 'kind: text' (kinds: {', '.join(KINDS)})",
                 )
             if len(self.events) < MAX_EVENTS:
-                self.events.append(RecordedEvent(tick, time, match.group(1), said[match.end() :]))
+                kind, text = match.group(1), said[match.end() :]
+                self.events.append(RecordedEvent(tick, time, kind, text, parse(tick, kind, text)))
             else:
                 self.more_events += 1
 

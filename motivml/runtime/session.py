@@ -39,6 +39,7 @@ from ..errors import MotivmlError
 from .binder import Outcome
 from .control import ControlServer
 from .coordinator import Coordinator
+from .events import Note
 from .launch import Robot
 from .loop import (
     AppliedReconfiguration,
@@ -279,17 +280,16 @@ class Session:
         record (`recorded`, or `record_problem`) with what their stop() said."""
         self.stop_watching()
         self.robot.close()
-        failed = [("fault", f"stop() of plugin {f} raised") for f in self.robot.binder.failed_stops]
-        self._finish_record(failed)
+        self._finish_record(self.robot.binder.failed_stops)
 
-    def _finish_record(self, extra: Sequence[tuple[str, str]] = (), end: str | None = None) -> None:
+    def _finish_record(self, failed_stops: Sequence[str] = (), end: str | None = None) -> None:
         if self.record is None:
             return
         if self._worker is None:  # the run never started: no record
             self.record.discard()
             return
         try:
-            self.recorded = self.record.finish(end or ending(self), extra)
+            self.recorded = self.record.finish(end or ending(self), failed_stops)
         except MotivmlError as exc:
             self.record_problem = exc
 
@@ -359,7 +359,7 @@ class Session:
         self._reported += len(changes)
         return changes
 
-    def new_notes(self) -> list[tuple[float, int, str]]:
+    def new_notes(self) -> list[Note]:
         """The log lines (plugins' log(), refusals, faults, coordination) since the last call."""
         notes = self.runtime.notes[self._noted :]
         self._noted += len(notes)

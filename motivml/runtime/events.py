@@ -1,0 +1,196 @@
+"""What happens in a run, typed: the vocabulary of its record and of the pictures drawn from it.
+
+Each event has the tick it happened at, a kind (the word a record writes before it: `run`,
+`change`, `refused`, `status`, `state`, `fault`, `missed`, `end`) and its text (what the
+record writes after it). `parse` reads an event back from its kind and text, so that what
+reads a record (`plot`) asks an event for its parts (`Refused.request`, `Faulted.feature`)
+and its label, instead of cutting them out of the text. The run's log is typed too: a
+`Note` is a line of it, stamped with the control time and the tick.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar, NamedTuple
+
+
+class Note(NamedTuple):
+    """A line of the run's log (`Runtime.note`): plugins' log(), refusals, faults, the coordination."""
+
+    time: float  # control time, s
+    tick: int
+    text: str
+
+
+@dataclass(frozen=True)
+class RunEvent:
+    """Something that happened at a tick of a run."""
+
+    tick: int
+    kind: ClassVar[str] = ""
+
+    @property
+    def text(self) -> str:
+        raise NotImplementedError
+
+    @property
+    def label(self) -> str | None:
+        """The words beside the event's line in a picture (None: a line only)."""
+        return None
+
+
+@dataclass(frozen=True)
+class Started(RunEvent):
+    description: str  # robot, variant, rate, clock and length
+    kind: ClassVar[str] = "run"
+
+    @property
+    def text(self) -> str:
+        return self.description
+
+
+@dataclass(frozen=True)
+class Changed(RunEvent):
+    request: str  # an accepted reconfiguration, as it was asked for
+    kind: ClassVar[str] = "change"
+
+    @property
+    def text(self) -> str:
+        return self.request
+
+    @property
+    def label(self) -> str:
+        return self.request
+
+
+@dataclass(frozen=True)
+class Refused(RunEvent):
+    request: str  # a refused reconfiguration
+    reason: str
+    kind: ClassVar[str] = "refused"
+
+    @property
+    def text(self) -> str:
+        return f"{self.request}: {self.reason}"
+
+    @property
+    def label(self) -> str:
+        return f"refused {self.request}"
+
+
+@dataclass(frozen=True)
+class Faulted(RunEvent):
+    feature: str
+    error: str | None  # what its step raised; None: its stop() raised, at the end of the run
+    kind: ClassVar[str] = "fault"
+
+    @property
+    def text(self) -> str:
+        if self.error is None:
+            return f"stop() of plugin {self.feature} raised"
+        return f"{self.feature} raised in its step: {self.error}"
+
+    @property
+    def label(self) -> str:
+        return f"fault: {self.feature}" if self.error is not None else f"fault: stop() of plugin {self.feature}"
+
+
+@dataclass(frozen=True)
+class StatusChanged(RunEvent):
+    component: str  # a component whose criterion changed its verdict
+    status: str
+    kind: ClassVar[str] = "status"
+
+    @property
+    def text(self) -> str:
+        return f"{self.component} {self.status}"
+
+    @property
+    def label(self) -> str:
+        return self.text
+
+
+@dataclass(frozen=True)
+class StateChanged(RunEvent):
+    entered: bool  # the coordination entered the state (False: exited it)
+    state: str
+    kind: ClassVar[str] = "state"
+
+    @property
+    def text(self) -> str:
+        return f"{'entered' if self.entered else 'exited'} {self.state}"
+
+    @property
+    def label(self) -> str | None:
+        return self.state if self.entered else None
+
+
+@dataclass(frozen=True)
+class Missed(RunEvent):
+    deadlines: int  # skipped by the real clock after the tick
+    kind: ClassVar[str] = "missed"
+
+    @property
+    def text(self) -> str:
+        return f"{self.deadlines} deadline{'s' * (self.deadlines != 1)}"
+
+
+@dataclass(frozen=True)
+class Ended(RunEvent):
+    why: str  # how the run ended, in a few words
+    kind: ClassVar[str] = "end"
+
+    @property
+    def text(self) -> str:
+        return self.why
+
+
+@dataclass(frozen=True)
+class Written(RunEvent):
+    """An event read from a record whose text is not one this version writes for its kind
+    (a record edited by hand, or written by another version): kept as it is."""
+
+    written_kind: str
+    written: str
+
+    @property
+    def text(self) -> str:
+        return self.written
+
+
+KINDS = ("run", "change", "refused", "status", "state", "fault", "missed", "end")
+
+
+def kind_of(event: RunEvent) -> str:
+    """The word a record writes before the event."""
+    return event.written_kind if isinstance(event, Written) else event.kind
+
+
+def parse(tick: int, kind: str, text: str) -> RunEvent:
+    """The event a record wrote as `kind: text` at `tick` (the inverse of `kind_of` and `text`)."""
+    if kind == "run":
+        return Started(tick, text)
+    if kind == "change":
+        return Changed(tick, text)
+    if kind == "end":
+        return Ended(tick, text)
+    if kind == "refused" and ": " in text:
+        request, reason = text.split(": ", 1)
+        return Refused(tick, request, reason)
+    if kind == "fault":
+        if text.startswith("stop() of plugin ") and text.endswith(" raised"):
+            return Faulted(tick, text.removeprefix("stop() of plugin ").removesuffix(" raised"), None)
+        feature, said, error = text.partition(" raised in its step: ")
+        if said:
+            return Faulted(tick, feature, error)
+    if kind == "status" and " " in text:
+        component, status = text.rsplit(" ", 1)
+        return StatusChanged(tick, component, status)
+    if kind == "state" and text.startswith(("entered ", "exited ")):
+        what, state = text.split(" ", 1)
+        return StateChanged(tick, what == "entered", state)
+    if kind == "missed":
+        count, _, rest = text.partition(" ")
+        if count.isdigit() and rest in ("deadline", "deadlines"):
+            return Missed(tick, int(count))
+    return Written(tick, kind, text)

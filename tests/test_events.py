@@ -1,0 +1,69 @@
+"""The run's typed vocabulary (runtime/events.py): every event reads back from what a record
+writes of it, and gives the label a picture shows."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from motivml.runtime.events import (
+    Changed,
+    Ended,
+    Faulted,
+    Missed,
+    Refused,
+    RunEvent,
+    Started,
+    StateChanged,
+    StatusChanged,
+    Written,
+    kind_of,
+    parse,
+)
+
+WORDS = st.text(st.characters(blacklist_categories=("Cs", "Cc")), min_size=1, max_size=30)
+NAME = st.from_regex(r"[A-Za-z_][A-Za-z0-9_]{0,12}", fullmatch=True)  # feature, component, state ids
+REQUEST = st.builds(lambda verb, names: f"{verb} {' '.join(names)}", st.sampled_from(["load", "unload", "swap"]), st.lists(NAME, min_size=1, max_size=3))
+TICK = st.integers(0, 10**9)
+
+EVENTS = st.one_of(
+    st.builds(Started, TICK, WORDS),
+    st.builds(Changed, TICK, REQUEST),
+    st.builds(Refused, TICK, REQUEST, WORDS),
+    st.builds(Faulted, TICK, NAME, st.one_of(st.none(), WORDS)),
+    st.builds(StatusChanged, TICK, NAME, st.sampled_from(["ongoing", "converged", "tracking", "running", "learning", "stopped"])),
+    st.builds(StateChanged, TICK, st.booleans(), NAME),
+    st.builds(Missed, TICK, st.integers(0, 10**6)),
+    st.builds(Ended, TICK, WORDS),
+)
+
+
+@given(EVENTS)
+def test_every_event_reads_back_from_its_kind_and_text(event: RunEvent) -> None:
+    assert parse(event.tick, kind_of(event), event.text) == event
+
+
+@pytest.mark.parametrize(
+    ("event", "text", "label"),
+    [
+        (Changed(3, "swap hectorslam kartoslam"), "swap hectorslam kartoslam", "swap hectorslam kartoslam"),
+        (Refused(4, "load x", "x is Static: no unload or load at run time"), "load x: x is Static: no unload or load at run time", "refused load x"),
+        (Faulted(5, "grip", "ValueError: bad (at grip.py:7)"), "grip raised in its step: ValueError: bad (at grip.py:7)", "fault: grip"),
+        (Faulted(6, "grip", None), "stop() of plugin grip raised", "fault: stop() of plugin grip"),
+        (StatusChanged(7, "reach", "converged"), "reach converged", "reach converged"),
+        (StateChanged(8, True, "Gripping"), "entered Gripping", "Gripping"),
+        (StateChanged(9, False, "Gripping"), "exited Gripping", None),
+        (Missed(10, 1), "1 deadline", None),
+        (Missed(10, 4), "4 deadlines", None),
+    ],
+)
+def test_each_event_says_what_the_record_and_the_picture_show(event: RunEvent, text: str, label: str | None) -> None:
+    assert (event.text, event.label) == (text, label)
+
+
+def test_a_text_this_version_does_not_write_is_kept_as_written() -> None:
+    """A record edited by hand (or written by another version): the event stays, unlabelled."""
+    for kind, text in [("refused", "no colon here"), ("fault", "grip fell over"), ("missed", "many"), ("state", "left X")]:
+        event = parse(2, kind, text)
+        assert event == Written(2, kind, text) and (kind_of(event), event.text, event.label) == (kind, text, None)
