@@ -64,6 +64,8 @@ def test_each_event_says_what_the_record_and_the_picture_show(event: RunEvent, t
 
 def test_a_text_this_version_does_not_write_is_kept_as_written() -> None:
     """A record edited by hand (or written by another version): the event stays, unlabelled."""
-    for kind, text in [("refused", "no colon here"), ("fault", "grip fell over"), ("missed", "many"), ("state", "left X")]:
+    odd = [("refused", "no colon here"), ("fault", "grip fell over"), ("missed", "many"), ("state", "left X")]
+    odd += [("missed", "\u00b2 deadlines"), ("missed", "9" * 5000 + " deadlines")]  # (isdigit, yet no int for int())
+    for kind, text in odd:
         event = parse(2, kind, text)
         assert event == Written(2, kind, text) and (kind_of(event), event.text, event.label) == (kind, text, None)

@@ -448,6 +448,47 @@ def test_writes_in_start_wait_for_the_commit(tmp_path: Path) -> None:
         robot.close()
 
 
+def test_the_start_state_holds_writes_back_while_its_plugins_activate(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Writes made while the start state's plugins activate (a ROS 2 node takes seconds)
+    wait with those made in start() and come after them, in order: a plugin that wrote 1
+    in start() and 2 while activating starts with 2 in its space, not 1 written over it."""
+    from motivml.plugins.python import PythonPlugins
+
+    class Activation:
+        def __init__(self, instance: Any) -> None:
+            self.instance = instance
+
+        def activate(self) -> None:
+            self.instance.context.write("Out", [2.0])
+
+        def deactivate(self) -> None:
+            pass
+
+    monkeypatch.setattr(PythonPlugins, "activation", lambda self, instance: Activation(instance))
+    folder = make_robot(tmp_path, {"a": {"start": "self.context.write('Out', [1.0])", "step": "return"}})
+    robot = launch(folder, "v")
+    try:
+        assert robot.runtime.assembly.values["Out"][0] == 2.0
+    finally:
+        robot.close()
+
+
+def test_a_plugins_status_runs_outside_the_runtimes_lock(tmp_path: Path) -> None:
+    """A plugin's status() (the live view asks four times a second, ctl status too) runs
+    after the runtime's lock is released: a slow one never holds up a commit or a tick."""
+    folder = make_robot(tmp_path, {"a": {}})
+    robot = launch(folder, "v")
+    try:
+        held: list[bool] = []
+        instance = robot.runtime.plugins["a"].instance
+        instance.status = lambda: held.append(robot.runtime._lock.locked()) or "fine"
+        assert dict(robot.runtime.status().plugins)["a"] == "fine" and held == [False]
+    finally:
+        robot.close()
+
+
 def test_a_fault_during_a_scripted_simulated_run_is_handled_between_ticks(tmp_path: Path) -> None:
     folder = make_robot(
         tmp_path, {"a": {"step": "if self.steps == 3: raise ValueError('lost track')"}, "d": {}}

@@ -191,6 +191,6 @@ def parse(tick: int, kind: str, text: str) -> RunEvent:
         return StateChanged(tick, what == "entered", state)
     if kind == "missed":
         count, _, rest = text.partition(" ")
-        if count.isdigit() and rest in ("deadline", "deadlines"):
+        if count.isascii() and count.isdigit() and len(count) < 20 and rest in ("deadline", "deadlines"):
             return Missed(tick, int(count))
     return Written(tick, kind, text)

@@ -619,7 +619,8 @@ class Runtime:
     def status(self) -> Snapshot:
         """The components, plugins and active set of one moment: never half of a commit."""
         with self._lock:  # the architecture, the plugins and the active set change together
-            return _snapshot(self, self.assembly, list(self.plugins.values()), self.active, self.ticks)
+            assembly, running, active, ticks = self.assembly, list(self.plugins.values()), self.active, self.ticks
+        return _snapshot(self, assembly, running, active, ticks)  # (plugins' status() runs outside the lock)
 
     def run(
         self,

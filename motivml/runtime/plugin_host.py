@@ -113,21 +113,24 @@ class PluginHost:
             ) from None
         return Running(feature, instance, self.static[feature], plugin.folder, activation=loader.activation(instance))
 
-    def start_instances(self, features: Sequence[str], preparing: Preparing, fresh: bool) -> dict[str, Running]:
+    def start_instances(
+        self, features: Sequence[str], preparing: Preparing, fresh: bool, staging: bool = False
+    ) -> dict[str, Running]:
         """Started instances of the plugins of `features` (those that have one), all or none:
-        if one fails, those already started are stopped. `preparing` sees them no more
-        afterwards (their writes wait in it for the commit)."""
+        if one fails, those already started are stopped. Their writes wait in `preparing` for
+        the commit; unless `staging` (the caller ends it), they are its last."""
         started: dict[str, Running] = {}
         try:
             for feature in features:
                 if feature in self.plugins:
                     started[feature] = self.start_instance(feature, preparing, fresh)
         except BaseException:
-            for running in started.values():
+            for running in started.values():  # (what they write in stop() stays staged: dropped)
                 self.stop(running)
             raise
         finally:
-            preparing.active = False
+            if not staging:
+                preparing.active = False
         return started
 
     def stop(self, running: Running) -> bool:
@@ -159,13 +162,16 @@ class PluginHost:
                 ]
             )
         preparing = Preparing(None)
-        started = list(self.start_instances(starting, preparing, fresh=False).values())
-        try:
-            self.switch([], started)
-        except BaseException:
-            for running in started:
-                self.stop(running)
-            raise
+        try:  # (writes are held back while the ROS 2 nodes activate too)
+            started = list(self.start_instances(starting, preparing, fresh=False, staging=True).values())
+            try:
+                self.switch([], started)
+            except BaseException:
+                for running in started:
+                    self.stop(running)
+                raise
+        finally:
+            preparing.active = False
         for space, value in preparing.writes:
             self.runtime.send(space, value)
         self.runtime.adopt(started)
