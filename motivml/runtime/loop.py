@@ -429,9 +429,7 @@ class Runtime:
     def time(self) -> float:
         return self.ticks / self.rate
 
-    # ------------------------------------------------- what others ask of the runtime
-    # (the runtime's state is its own: the binder, the plugin host, the fault policy, the
-    # coordinator and the recorder call these instead of writing its attributes)
+    # ---------------- what others ask of it (its state is its own: nobody writes its attributes)
     def after_each_tick(self, hook: Callable[[], None], first: bool = False) -> None:
         """Call `hook` after every tick, on the control thread (`first`: before the others)."""
         self.hooks.insert(0 if first else len(self.hooks), hook)
