@@ -11,6 +11,7 @@ from motivml.runtime.events import (
     Changed,
     Ended,
     Faulted,
+    Listeners,
     Missed,
     Refused,
     RunEvent,
@@ -69,3 +70,17 @@ def test_a_text_this_version_does_not_write_is_kept_as_written() -> None:
     for kind, text in odd:
         event = parse(2, kind, text)
         assert event == Written(2, kind, text) and (kind_of(event), event.text, event.label) == (kind, text, None)
+
+
+def test_every_listener_is_told_and_a_listeners_bug_is_said_not_raised() -> None:
+    said: list[str] = []
+    heard: list[RunEvent] = []
+    listeners = Listeners(said.append)
+
+    def broken(event: RunEvent) -> None:
+        raise KeyError("no such thing")
+
+    listeners.listen(broken)
+    listeners.listen(heard.append)
+    listeners.publish(Changed(1, "load a"))
+    assert heard == [Changed(1, "load a")] and said == ["a listener of the run raised KeyError: 'no such thing'"]

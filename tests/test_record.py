@@ -20,7 +20,7 @@ from paths import ROOT
 
 from motivml.cli import main
 from motivml.runtime import record
-from motivml.runtime.events import Refused
+from motivml.runtime.events import Missed, Refused
 from motivml.runtime.launch import launch
 from motivml.runtime.record import SEPARATOR, Recorder, columns, escape, read_record, split_events
 
@@ -455,11 +455,11 @@ def test_events_made_after_their_row_was_written_go_in_the_first_open_row(
     robot = launch(ARM, "dmp")
     recorder = Recorder.create(tmp_path / "r.csv")
     try:
-        recorder.start(robot.runtime, [("ArmCommand", 3)], "a test", None, simulated=True)
+        recorder.start(robot.runtime, [("ArmCommand", 3)], "a test", simulated=True)
         for _ in range(10):
             robot.runtime.tick()
         recorder.event(Refused(3, "load x", "too late"))  # rows 1-7 are written already
-        robot.runtime.missed = 2  # as the real clock counts after a tick that overran
+        robot.runtime.told.publish(Missed(robot.runtime.ticks, 2))  # as the real clock does after tick 10 overran
         robot.runtime.tick()
         for _ in range(5):
             robot.runtime.tick()

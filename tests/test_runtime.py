@@ -13,6 +13,7 @@ from click.testing import CliRunner
 
 from motivml.architecture.builder import BuildError, planar_arm
 from motivml.cli import main
+from motivml.runtime.events import Missed
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import Commit, RealClock, Runtime
 
@@ -417,9 +418,12 @@ def test_an_overrunning_tick_misses_the_deadlines_it_overran_and_the_loop_keeps_
         clock.t += next(work)
 
     robot.runtime.tick = timed_tick  # type: ignore[method-assign]
+    heard: list[Any] = []
+    robot.runtime.told.listen(heard.append)
     stats = robot.runtime.run(0.010, clock)
     # slot 1 ran 2.5 ms: deadlines 2 and 3 are missed, slot 4 starts on time
     assert (stats.ticks, stats.missed) == (8, 2)
+    assert [e for e in heard if isinstance(e, Missed)] == [Missed(2, 2)]  # (the record's row of tick 2)
     assert stats.elapsed == pytest.approx(0.010) and stats.achieved == pytest.approx(800.0)
     assert np.all(stats.jitter == 0.0) and len(stats.work) == 8
 

@@ -33,6 +33,7 @@ from ..binding.resolve import Variant
 from ..documents.robot_folder import Plugin
 from ..errors import Diagnostic, Location, MotivmlError, Severity, describe_exception, error
 from ..language.model import Configuration, FeatureModel
+from . import events
 from .faults import FaultPolicy
 from .loop import AppliedReconfiguration, Commit, Fault, Running, Runtime
 from .plugin_host import PluginHost, Preparing
@@ -245,6 +246,7 @@ class Binder:
         if getattr(self._trying, "now", False):
             return outcome
         self.runtime.note(f"refused {outcome.request}: {outcome.reason}")
+        self.runtime.told.publish(events.Refused(self.runtime.ticks, str(outcome.request), outcome.reason))
         return self._tell(outcome)
 
     def _tell(self, outcome: Outcome) -> Outcome:

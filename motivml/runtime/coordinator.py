@@ -24,6 +24,7 @@ from ..coordination.document import Coordination
 from ..errors import describe_exception
 from . import requests
 from .binder import Binder
+from .events import StateChanged
 from .loop import Runtime
 
 ROOT = "motivml.root"  # the hidden root state (no state id has a dot)
@@ -213,10 +214,12 @@ class Coordinator:
             for sid in step.exited_states:
                 if sid != ROOT:
                     self.history.append((runtime.time, runtime.ticks, "exited", sid))
+                    runtime.told.publish(StateChanged(runtime.ticks, False, sid))
             for sid in step.entered_states:
                 if sid == ROOT:
                     continue
                 self.history.append((runtime.time, runtime.ticks, "entered", sid))
+                runtime.told.publish(StateChanged(runtime.ticks, True, sid))
                 runtime.note(f"coordination: entered {sid}")
                 state = self.coordination.states[sid]
                 if state.get("final") and self.coordination.parent[sid] is None:

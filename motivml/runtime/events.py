@@ -10,6 +10,7 @@ and its label, instead of cutting them out of the text. The run's log is typed t
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
@@ -156,6 +157,27 @@ class Written(RunEvent):
     @property
     def text(self) -> str:
         return self.written
+
+
+class Listeners:
+    """Who is told of a run's events (the recorder, and whoever else listens): each event is
+    published on the thread it happened on, so a listener is quick and thread-safe (the
+    recorder queues it). A listener's bug is said through `said`, never raised."""
+
+    def __init__(self, said: Callable[[str], None]) -> None:
+        self._listeners: list[Callable[[RunEvent], None]] = []
+        self._said = said
+
+    def listen(self, listener: Callable[[RunEvent], None]) -> None:
+        """Tell `listener` of every event from now on."""
+        self._listeners.append(listener)
+
+    def publish(self, event: RunEvent) -> None:
+        for listener in self._listeners:
+            try:
+                listener(event)
+            except Exception as exc:
+                self._said(f"a listener of the run raised {type(exc).__name__}: {exc}")
 
 
 KINDS = ("run", "change", "refused", "status", "state", "fault", "missed", "end")

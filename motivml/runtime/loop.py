@@ -44,7 +44,7 @@ from ..errors import describe_exception
 from ..plugins.api import FeatureUnavailable
 from ..plugins.registry import Activation
 from . import waiting
-from .events import Note
+from .events import Changed, Faulted, Listeners, Missed, Note, StatusChanged
 
 
 @dataclass
@@ -410,6 +410,7 @@ class Runtime:
         self.notes: list[Note] = []  # the run's log
         self.on_fault: Callable[[Fault], None] | None = None  # Dynamic plugin faults go here
         self.hooks: list[Callable[[], None]] = []  # after every tick, on the control thread
+        self.told = Listeners(self.note)  # who is told of the run's events (events.py)
         self.failure: Fault | None = None  # a Static plugin's fault, which ends the run
         self.slowest: dict[str, tuple[float, int]] = {}  # feature -> its longest step (s) and its tick
         self.missed = 0  # deadlines missed so far in a real-clock run (RunStats has them at the end)
@@ -482,7 +483,7 @@ class Runtime:
                 took = time.perf_counter() - began
                 self._stepping = None
                 if took > running.slowest:
-                    self._slow_step(running, took)
+                    _slow_step(self, running, took)
                 if failure is not None:
                     self._fault(running, failure)
         for hook in self.hooks:
@@ -562,6 +563,7 @@ class Runtime:
                 if commit.active is not None:
                     self.active = commit.active
                 self.changes.append(commit.change)
+                self.told.publish(Changed(commit.change.tick, commit.request))
                 commit.done.set()
 
     def _fault(self, running: Running, exc: BaseException) -> None:
@@ -569,20 +571,13 @@ class Runtime:
         said = str(exc) if isinstance(exc, FeatureUnavailable) else describe_exception(exc, running.folder)
         fault = Fault(self.ticks, self.time, running.feature, said, running.static)
         self.faults.append(fault)
+        self.told.publish(Faulted(fault.tick, fault.feature, fault.error))
         self.note(f"{running.feature} raised in step: {fault.error}")
         if running.static:
             self.failure = fault
             self.stop()
         elif self.on_fault is not None:
             self.on_fault(fault)
-
-    def _slow_step(self, running: Running, took: float) -> None:
-        """A plugin's longest step so far: kept per feature (for the summary and `ctl status`)."""
-        running.slowest = took
-        if took > self.slowest.get(running.feature, (0.0, 0))[0]:
-            self.slowest[running.feature] = (took, self.ticks)
-        if took >= self.watchdog:
-            self.note(f"{running.feature}'s step returned after {took:.3f} s: the loop waited for it")
 
     def note(self, text: str) -> None:
         """A line in the run's log, stamped with the control time and tick."""
@@ -609,6 +604,7 @@ class Runtime:
         for component, old in zip(self.assembly.components, before, strict=True):
             if component.status != old:
                 self.events.append(Event(self.ticks, self.time, component.id, component.status))
+                self.told.publish(StatusChanged(self.ticks, component.id, component.status))
 
     def first(self, component: str, status: str) -> Event | None:
         """When a component first reached a status (e.g. its criterion fired)."""
@@ -743,6 +739,7 @@ class _Ticking:
                 if ended > start + slot * period:  # overran: skip to the first slot still ahead
                     ahead = math.ceil((ended - start) / period)
                     stats.missed += min(ahead, total) - slot
+                    rt.told.publish(Missed(rt.ticks, stats.missed - rt.missed))
                     rt.missed = stats.missed
                     slot = ahead
         finally:
@@ -782,3 +779,12 @@ def _snapshot(
         sorted(((f, took, tick) for f, (took, tick) in list(runtime.slowest.items())), key=lambda s: -s[1])
     )
     return Snapshot(ticks, ticks / runtime.rate, components, modules, plugins, slowest, active)
+
+
+def _slow_step(runtime: Runtime, running: Running, took: float) -> None:
+    """A plugin's longest step so far: kept per feature (for the summary and `ctl status`)."""
+    running.slowest = took
+    if took > runtime.slowest.get(running.feature, (0.0, 0))[0]:
+        runtime.slowest[running.feature] = (took, runtime.ticks)
+    if took >= runtime.watchdog:
+        runtime.note(f"{running.feature}'s step returned after {took:.3f} s: the loop waited for it")

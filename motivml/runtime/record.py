@@ -66,23 +66,16 @@ import numpy as np
 from ..errors import DocumentError, EnvironmentProblem, Location, error
 from .events import (
     KINDS,
-    Changed,
     Ended,
     Faulted,
-    Missed,
-    Refused,
     RunEvent,
     Started,
-    StateChanged,
-    StatusChanged,
     kind_of,
     parse,
 )
 
 if TYPE_CHECKING:
     from ..architecture.document import Architecture
-    from .binder import Outcome
-    from .coordinator import Coordinator
     from .loop import Runtime
 
 SEPARATOR = " | "
@@ -207,12 +200,11 @@ class Recorder:
         runtime: Runtime,
         spaces: Sequence[tuple[str, int]],
         description: str,
-        coordinator: Coordinator | None = None,
         simulated: bool = False,
     ) -> None:
-        """Write the header and record every tick from now on (call before the loop starts)."""
+        """Write the header and record every tick, and every event the runtime publishes,
+        from now on (call before the loop starts)."""
         self._runtime = runtime
-        self._coordinator = coordinator
         self._layout: list[tuple[str, int, int]] = []
         width = 0
         for name, size in spaces:
@@ -220,10 +212,6 @@ class Recorder:
             width += size
         self._width = width
         self._rate = runtime.rate
-        self._seen = [len(runtime.changes), len(runtime.events), len(runtime.faults), 0]
-        self._missed = runtime.missed
-        if coordinator is not None:
-            self._seen[3] = len(coordinator.history)
         self._first = runtime.ticks + 1  # the tick of the block's first row
         self._filled = 0
         self._new_block()
@@ -235,17 +223,14 @@ class Recorder:
             self._problem = exc
         self._thread = threading.Thread(target=self._write_blocks, daemon=True, name="motivml-record")
         self._thread.start()
+        runtime.told.listen(self.event)
         runtime.after_each_tick(self._after_tick)
 
     def event(self, event: RunEvent) -> None:
-        """An event from any thread, at `tick` (default: the tick the loop is at)."""
+        """An event, from any thread (a listener of the runtime: `Runtime.publish`); it goes
+        into the row of its tick, or the first row still open."""
         if self._runtime is not None:
             self._outside.append(event)
-
-    def refused(self, outcome: Outcome) -> None:
-        """A binder watcher: every refused request, with why."""
-        if not outcome.accepted and self._runtime is not None:
-            self.event(Refused(self._runtime.ticks, str(outcome.request), outcome.reason))
 
     def _new_block(self) -> None:
         self._values = np.empty((CHUNK, self._width))
@@ -273,31 +258,9 @@ class Recorder:
                 self._hand_off(final=False)
 
     def _collect(self, runtime: Runtime) -> None:
-        """New entries of the run's logs since the last tick, each at the tick it is stamped with."""
-        seen, pending = self._seen, self._pending
-        if len(runtime.changes) > seen[0]:
-            for change in runtime.changes[seen[0] :]:
-                pending.append(Changed(change.tick, change.request))
-            seen[0] = len(runtime.changes)
-        if len(runtime.events) > seen[1]:
-            for event in runtime.events[seen[1] :]:
-                pending.append(StatusChanged(event.tick, event.component, event.status))
-            seen[1] = len(runtime.events)
-        if len(runtime.faults) > seen[2]:
-            for fault in runtime.faults[seen[2] :]:
-                pending.append(Faulted(fault.tick, fault.feature, fault.error))
-            seen[2] = len(runtime.faults)
-        coordinator = self._coordinator
-        if coordinator is not None and len(coordinator.history) > seen[3]:
-            for _, tick, what, state in coordinator.history[seen[3] :]:
-                pending.append(StateChanged(tick, what == "entered", state))
-            seen[3] = len(coordinator.history)
-        if runtime.missed != self._missed:  # counted after the tick before this one overran
-            skipped = runtime.missed - self._missed
-            pending.append(Missed(runtime.ticks - 1, skipped))
-            self._missed = runtime.missed
+        """The events published since the last tick (each stamped with its own tick)."""
         while self._outside:
-            pending.append(self._outside.popleft())
+            self._pending.append(self._outside.popleft())
 
     def _hand_off(self, final: bool) -> None:
         """Send the block's rows to the writer. Before the end the last row stays: events

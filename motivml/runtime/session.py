@@ -241,10 +241,8 @@ class Session:
                 columns(robot.architecture, selected),
                 f"{robot.folder.name} variant {self.variant} at {self.runtime.rate:g} Hz "
                 f"on the {clock.name} clock {length}",
-                self.coordinator,
                 self.simulated,
             )
-            robot.binder.watchers.append(self.record.refused)
         self._began = time.perf_counter()
         self._worker.start()
 
