@@ -20,7 +20,7 @@ from motivml.binding.check import check_variant
 from motivml.binding.resolve import resolve, start_state
 from motivml.cli import main
 from motivml.documents.loader import parse as parse_json
-from motivml.language.formula import Binary, FormulaError, Not, Var, parse
+from motivml.language.formula import Binary, FormulaError, Not, Var, parse, without_outer_parentheses
 from motivml.language.reader import read_configuration, read_model
 from motivml.runtime.reconfigure import Reconfigurer, Refused
 from motivml.runtime.requests import Load
@@ -245,3 +245,19 @@ def test_at_most_one_sets_every_two_items_apart_exactly_once(n: int) -> None:
     items = [f"x{k}" for k in range(n)]
     apart = [(a, b) for left, right in at_most_one(items) for a in left for b in right]
     assert sorted(apart) == sorted((a, b) for k, a in enumerate(items) for b in items[k + 1 :])
+
+
+def test_only_parentheses_around_all_of_a_formula_are_taken_off() -> None:
+    """The importers and the UVL writer parenthesise every operator, then take off the pair
+    around the whole formula, and only that pair."""
+    cases = {
+        "(a | b)": "a | b",
+        "((a & b) | c)": "(a & b) | c",
+        "(a) | (b)": "(a) | (b)",
+        "!(a & b)": "!(a & b)",
+        "a": "a",
+        "((a))": "(a)",
+    }
+    for text, shown in cases.items():
+        assert without_outer_parentheses(text) == shown
+        assert parse(shown).holds(lambda _: True) == parse(text).holds(lambda _: True)

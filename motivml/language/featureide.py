@@ -30,7 +30,7 @@ from typing import Any
 from xml.parsers import expat
 
 from ..errors import DocumentError, Location, error
-from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold
+from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold, without_outer_parentheses
 from .model import Feature, FeatureModel, GroupKind, token
 from .uvl import Ids
 
@@ -246,16 +246,7 @@ class _FeatureIdeReader:
             else:
                 results.append("(" + _OPERATORS[element.tag].join(parts) + ")" if count > 1 else parts[0])
         text = results[0]
-        return text[1:-1] if text.startswith("(") and _closes_at_end(text) else text
-
-
-def _closes_at_end(text: str) -> bool:
-    depth = 0
-    for k, ch in enumerate(text):
-        depth += (ch == "(") - (ch == ")")
-        if depth == 0 and k < len(text) - 1:
-            return False
-    return True
+        return without_outer_parentheses(text)
 
 
 # ----------------------------------------------------------------------------- export

@@ -132,6 +132,20 @@ def fold(
     return results[0]
 
 
+def without_outer_parentheses(text: str) -> str:
+    """A formula's text without the parentheses around all of it, if a pair encloses all of
+    it ("(a | b)" -> "a | b"; "(a) | (b)" stays): how the importers and the UVL writer give a
+    formula whose operators they parenthesised one by one."""
+    if not text.startswith("("):
+        return text
+    depth = 0
+    for k, ch in enumerate(text):
+        depth += (ch == "(") - (ch == ")")
+        if depth == 0 and k < len(text) - 1:
+            return text
+    return text[1:-1]
+
+
 def at_most_one(items: Sequence[str]) -> list[tuple[list[str], list[str]]]:
     """"At most one of `items`" as pairs (A, B), each meaning "not (some of A and some of
     B)": the items halved, then each half halved again, so every two items are apart in

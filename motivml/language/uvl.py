@@ -27,7 +27,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import DocumentError, Location, error
-from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold
+from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold, without_outer_parentheses
 from .model import Feature, FeatureModel, token
 
 _GRAMMAR = r"""
@@ -344,17 +344,7 @@ class _UvlReader:
             else:
                 raise _Refusal(getattr(node, "meta", None), f"cannot read this constraint ({data})")
         text = results[0]
-        return text[1:-1] if text.startswith("(") and _balanced_inside(text) else text
-
-
-def _balanced_inside(text: str) -> bool:
-    depth = 0
-    for k, ch in enumerate(text):
-        depth += ch == "("
-        depth -= ch == ")"
-        if depth == 0 and k < len(text) - 1:
-            return False
-    return True
+        return without_outer_parentheses(text)
 
 
 def _name_text(node: Any) -> str:
@@ -437,7 +427,7 @@ def write_uvl(model: FeatureModel) -> str:
             lambda x: f"!{x}",
             {op: _joiner(op) for op in (AND, OR, IMPLIES, IFF)},
         )
-        constraints.append(text[1:-1] if text.startswith("(") and _balanced_inside(text) else text)
+        constraints.append(without_outer_parentheses(text))
     if constraints:
         lines += ["constraints", *("    " + c for c in constraints)]
     return "\n".join(lines) + "\n"
