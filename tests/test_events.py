@@ -83,4 +83,5 @@ def test_every_listener_is_told_and_a_listeners_bug_is_said_not_raised() -> None
     listeners.listen(broken)
     listeners.listen(heard.append)
     listeners.publish(Changed(1, "load a"))
-    assert heard == [Changed(1, "load a")] and said == ["a listener of the run raised KeyError: 'no such thing'"]
+    assert heard == [Changed(1, "load a")] and len(said) == 1
+    assert said[0].startswith("a listener of the run raised KeyError: 'no such thing' (at ")  # (where, as for a plugin)

@@ -9,9 +9,11 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from motivml.binding.impact import REBUILD, RESTART, RUN_TIME, classify
+from motivml.binding.impact import Impact, classify
 from motivml.cli import main
 from motivml.language.model import OFF, Binding, FeatureState
+
+REBUILD, RESTART, RUN_TIME = Impact.REBUILD, Impact.RESTART, Impact.RUN_TIME
 
 STATES: list[FeatureState] = [OFF, *Binding]
 

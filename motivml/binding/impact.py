@@ -25,7 +25,6 @@ class Impact(StrEnum):
     RUN_TIME = "run time"
 
 
-REBUILD, RESTART, RUN_TIME = Impact.REBUILD, Impact.RESTART, Impact.RUN_TIME
 ORDER = tuple(Impact)
 
 
@@ -48,19 +47,19 @@ def classify(before: FeatureState, after: FeatureState) -> tuple[Impact, str]:
     """(impact, reason) of one feature's change from `before` to `after`."""
     if (before == Binding.SE) != (after == Binding.SE):
         verb = "enters" if after == Binding.SE else "leaves"
-        return REBUILD, f"{verb} the Static Early features, which are compiled in"
+        return Impact.REBUILD, f"{verb} the Static Early features, which are compiled in"
     if before == Binding.SL and after != Binding.SL:
         what = "leaves the selection" if after == OFF else "changes its binding"
-        return RESTART, f"a Static Late feature {what}: once loaded it stays until the program ends"
+        return Impact.RESTART, f"a Static Late feature {what}: once loaded it stays until the program ends"
     if isinstance(before, Binding) and isinstance(after, Binding) and before.mode != after.mode:
-        return RESTART, "changes mode (Static / Dynamic): its loader is chosen when the program starts"
+        return Impact.RESTART, "changes mode (Static / Dynamic): its loader is chosen when the program starts"
     if after == Binding.SL:
-        return RUN_TIME, "a Static Late feature enters: it is loaded while the program runs"
+        return Impact.RUN_TIME, "a Static Late feature enters: it is loaded while the program runs"
     if before == OFF:
-        return RUN_TIME, "a Dynamic feature enters: it is loaded while the program runs"
+        return Impact.RUN_TIME, "a Dynamic feature enters: it is loaded while the program runs"
     if after == OFF:
-        return RUN_TIME, "a Dynamic feature leaves: it is unloaded while the program runs"
-    return RUN_TIME, "a Dynamic feature changes time: it is unloaded and loaded again while the program runs"
+        return Impact.RUN_TIME, "a Dynamic feature leaves: it is unloaded while the program runs"
+    return Impact.RUN_TIME, "a Dynamic feature changes time: it is unloaded and loaded again while the program runs"
 
 
 def diff(first: Variant, second: Variant) -> list[FeatureChange]:
@@ -76,4 +75,4 @@ def diff(first: Variant, second: Variant) -> list[FeatureChange]:
 
 def verdict(changes: list[FeatureChange]) -> Impact:
     """The worst impact of all changes ("run time" when there are none)."""
-    return min((c.impact for c in changes), key=ORDER.index, default=RUN_TIME)
+    return min((c.impact for c in changes), key=ORDER.index, default=Impact.RUN_TIME)

@@ -212,7 +212,7 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
                 {
                     "from": first,
                     "to": second,
-                    "swappable_at_run_time": worst == impact.RUN_TIME,
+                    "swappable_at_run_time": worst == impact.Impact.RUN_TIME,
                     "needs": worst,
                     "changes": [vars(c) for c in changes],
                 },
@@ -221,17 +221,17 @@ def diff_command(target: str, first: str, second: str, prefer: tuple[str, ...], 
         )
     else:
         for c in changes:
-            colour = {impact.REBUILD: "red", impact.RESTART: "yellow", impact.RUN_TIME: "green"}[c.impact]
+            colour = {impact.Impact.REBUILD: "red", impact.Impact.RESTART: "yellow", impact.Impact.RUN_TIME: "green"}[c.impact]
             out.print(
                 f"[{colour}]{c.impact:>8}[/]  {escape(c.feature)}: {c.before} -> {c.after}  [dim]{escape(c.reason)}[/]"
             )
         summary = {
-            impact.RUN_TIME: "can be swapped while the robot runs",
-            impact.RESTART: "needs a restart (no rebuild)",
-            impact.REBUILD: "needs a rebuild",
+            impact.Impact.RUN_TIME: "can be swapped while the robot runs",
+            impact.Impact.RESTART: "needs a restart (no rebuild)",
+            impact.Impact.REBUILD: "needs a rebuild",
         }[worst]
         out.print(f"{escape(first)} -> {escape(second)}: {plural(len(changes), 'change')}; {summary}")
-    sys.exit(0 if worst == impact.RUN_TIME else EXIT_NOT_AT_RUN_TIME)
+    sys.exit(0 if worst == impact.Impact.RUN_TIME else EXIT_NOT_AT_RUN_TIME)
 
 
 @click.command("show")

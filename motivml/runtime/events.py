@@ -14,6 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
+from ..errors import describe_exception
+
 
 class Note(NamedTuple):
     """A line of the run's log (`Runtime.note`): plugins' log(), refusals, faults, the coordination."""
@@ -177,7 +179,7 @@ class Listeners:
             try:
                 listener(event)
             except Exception as exc:
-                self._said(f"a listener of the run raised {type(exc).__name__}: {exc}")
+                self._said(f"a listener of the run raised {describe_exception(exc)}")
 
 
 KINDS = ("run", "change", "refused", "status", "state", "fault", "missed", "end")
