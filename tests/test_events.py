@@ -8,11 +8,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motivml.runtime.events import (
+    Answered,
     Changed,
     Ended,
     Faulted,
     Listeners,
+    Logged,
     Missed,
+    Note,
     Refused,
     RunEvent,
     Started,
@@ -85,3 +88,38 @@ def test_every_listener_is_told_and_a_listeners_bug_is_said_not_raised() -> None
     listeners.publish(Changed(1, "load a"))
     assert heard == [Changed(1, "load a")] and len(said) == 1
     assert said[0].startswith("a listener of the run raised KeyError: 'no such thing' (at ")  # (where, as for a plugin)
+
+
+def test_a_listener_that_fails_on_the_words_of_its_own_failure_is_said_once() -> None:
+    """The runtime's `said` is its log, and its log is told to the listeners: a listener that
+    raises on everything is said once per event, not again on the line that says it."""
+    said: list[str] = []
+    listeners = Listeners(lambda text: (said.append(text), listeners.publish(Started(0, text))))
+
+    def broken(event: RunEvent) -> None:
+        raise RuntimeError("always")
+
+    listeners.listen(broken)
+    listeners.publish(Changed(1, "load a"))
+    listeners.publish(Changed(2, "load b"))
+    assert len(said) == 2 and all("RuntimeError: always" in text for text in said)
+
+
+def test_a_forgotten_listener_hears_nothing_more() -> None:
+    heard: list[RunEvent] = []
+    listeners = Listeners(lambda text: None)
+    listeners.listen(heard.append)
+    listeners.publish(Changed(1, "load a"))
+    listeners.forget(heard.append)
+    listeners.forget(heard.append)  # (twice: nothing happens)
+    listeners.publish(Changed(2, "load b"))
+    assert heard == [Changed(1, "load a")]
+
+
+def test_the_log_and_the_binders_answers_are_told_but_not_recorded() -> None:
+    note = Note(0.5, 500, "hello")
+    answer = Answered(3, "load a", True, "", ("a",), (), frozenset({"a"}), (3, "load a"))
+    assert (Logged(500, note).text, Logged(500, note).recorded) == ("hello", False)
+    assert (answer.text, answer.recorded, Changed(3, "load a").recorded) == ("load a", False, True)
+    refused = Answered(3, "load b", False, "b is Static", (), (), frozenset(), None)
+    assert refused.text == "load b: b is Static"

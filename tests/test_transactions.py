@@ -23,6 +23,7 @@ from paths import ROOT
 from motivml.cli import main
 from motivml.errors import DocumentError
 from motivml.plugins.python import PluginError
+from motivml.runtime.events import Answered, Logged, RunEvent
 from motivml.runtime.launch import Robot, launch
 from motivml.runtime.loop import RealClock
 from motivml.runtime.requests import Load, Swap
@@ -1017,3 +1018,22 @@ def test_a_real_clock_summary_names_the_slowest_plugin_steps(tmp_path: Path) -> 
     [line] = [line for line in result.output.splitlines() if line.startswith("slowest plugin steps: ")]
     assert sorted(part.split()[0] for part in line.split(": ", 1)[1].split(", ")) == ["a", "a2"]
     assert "slowest plugin steps" not in simulated_run(folder).output  # wall-clock times: real clock only
+
+
+def test_every_answer_of_the_binder_and_every_log_line_is_told_to_the_listeners(simplebot: Robot) -> None:
+    """The ROS 2 door hears the binder's answers in order, with the active set after each;
+    the live view hears the log as it is written."""
+    heard: list[RunEvent] = []
+    simplebot.runtime.told.listen(heard.append)
+    assert ask(simplebot, "swap hectorslam kartoslam").accepted
+    assert not ask(simplebot, "load hectorslam").accepted
+    answers = [e for e in heard if isinstance(e, Answered)]
+    assert [(a.request, a.accepted, a.loads, a.unloads) for a in answers] == [
+        ("swap hectorslam kartoslam", True, ("kartoslam",), ("hectorslam",)),
+        ("load hectorslam", False, (), ()),
+    ]
+    assert answers[0].active == answers[1].active == simplebot.binder.active
+    assert "kartoslam" in answers[0].active and answers[0].change == (answers[0].tick, "swap hectorslam kartoslam")
+    assert answers[1].change is None and answers[1].reason.startswith("hectorslam and kartoslam are alternatives")
+    logged = [e.note for e in heard if isinstance(e, Logged)]
+    assert logged == simplebot.runtime.notes[-len(logged) :] and logged[-1].text.startswith("refused load hectorslam")

@@ -7,8 +7,9 @@ holds rclpy: see `motivml.plugins.bridge`). This side, in the run's process, hol
   active set), and starts the node;
 * it answers the node's `set` calls (one `set_parameters(_atomically)` call: the features
   wanted on and off) with one `Set` request to the binder, on the link's reading thread;
-* it tells the node every outcome of the binder (`Binder.watchers`: ctl's changes and a
-  fault's unloads too), and, once a second, the loop's health for `/diagnostics`.
+* it tells the node every answer of the binder (it listens to the run's events for
+  `Answered`: ctl's changes and a fault's unloads too), and, once a second, the loop's
+  health for `/diagnostics`.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from ..errors import EnvironmentProblem, Location, describe_exception, error
 from ..plugins import bridge as bridges
 from ..plugins.bridge import Bridge, LinkBroken
 from ..plugins.ros2 import ros2_missing
-from ..runtime.binder import Outcome
+from ..runtime.events import Answered, RunEvent
 from ..runtime.launch import Robot
 from ..runtime.requests import Set
 
@@ -78,7 +79,7 @@ class Door:
         # call's answer carries both, so that the node never takes an older outcome still
         # on its way for newer than its answer.
         self._told: tuple[int, list[str]] = (0, self._ordered(self.binder.active))
-        self.binder.watchers.append(self._heard)
+        self.runtime.told.listen(self._heard)
         self._ticks = (self.runtime.ticks, time.perf_counter())
         self._missed = self.runtime.missed
         self._health = threading.Thread(target=self._report, daemon=True, name="motivml-ros2-health")
@@ -112,24 +113,24 @@ class Door:
         return {"accepted": True, "active": now, "told": told}
 
     # ---------------------------------------------------------- the binder's news
-    def _heard(self, outcome: Outcome) -> None:
-        """On the requesting thread, with the binder held: tell the node (one small message)."""
-        if self._closed.is_set():
+    def _heard(self, event: RunEvent) -> None:
+        """An answer of the binder (on the requesting thread, with the binder held): tell the
+        node (one small message). The run's other events are not the node's."""
+        if not isinstance(event, Answered) or self._closed.is_set():
             return
-        plan, change = outcome.plan, outcome.change
         told = self._told[0] + 1
-        after = self._ordered(plan.after if outcome.accepted and plan is not None else self.binder.active)
+        after = self._ordered(event.active)
         news = {
             "event": "outcome",
             "told": told,
-            "accepted": outcome.accepted,
-            "request": str(outcome.request),
-            "reason": outcome.reason,
-            "loads": list(plan.loads) if plan is not None else [],
-            "unloads": list(plan.unloads) if plan is not None else [],
+            "accepted": event.accepted,
+            "request": event.request,
+            "reason": event.reason,
+            "loads": list(event.loads),
+            "unloads": list(event.unloads),
             "active": after,
-            "tick": change.tick if change is not None else self.runtime.ticks,
-            "change": change.request if change is not None else None,
+            "tick": event.tick,
+            "change": event.change[1] if event.change is not None else None,
         }
         self._told = (told, after)
         try:
@@ -202,8 +203,7 @@ class Door:
         if self._closed.is_set():
             return
         self._closed.set()
-        if self._heard in self.binder.watchers:
-            self.binder.watchers.remove(self._heard)
+        self.runtime.told.forget(self._heard)
         if self.bridge.gone is None:
             try:
                 self.bridge.call("door_close", bridges.END_TIMEOUT)

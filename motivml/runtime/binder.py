@@ -31,7 +31,7 @@ from ..architecture.builder import build
 from ..architecture.document import Architecture
 from ..binding.resolve import Variant
 from ..documents.robot_folder import Plugin
-from ..errors import Diagnostic, Location, MotivmlError, Severity, describe_exception, error
+from ..errors import Diagnostic, Location, MotivmlError, Severity, error
 from ..language.model import Configuration, FeatureModel
 from . import events
 from .faults import FaultPolicy
@@ -54,6 +54,21 @@ class Outcome:
     @property
     def reason(self) -> str:
         return "; ".join(d.message for d in self.diagnostics)
+
+
+def _answered(outcome: Outcome, tick: int, active: frozenset[str]) -> events.Answered:
+    """The event that tells an outcome (`tick`, `active`: now, for one that changed nothing)."""
+    plan, change = outcome.plan, outcome.change
+    return events.Answered(
+        change.tick if change is not None else tick,
+        str(outcome.request),
+        outcome.accepted,
+        outcome.reason,
+        plan.loads if plan is not None else (),
+        plan.unloads if plan is not None else (),
+        plan.after if outcome.accepted and plan is not None else active,
+        (change.tick, change.request) if change is not None else None,
+    )
 
 
 class _Inbox:
@@ -118,9 +133,6 @@ class Binder:
         self.closing = threading.Event()  # the run has ended: no tick will take a commit any more
         self._in_flight: Commit | None = None  # the commit a request waits for
         self.failed_stops: list[str] = []  # plugins whose stop() raised at the end of the run
-        # Told of every outcome, accepted or refused, on the requesting thread with the binder
-        # held: a front door (the ROS 2 node) queues it and returns at once.
-        self.watchers: list[Callable[[Outcome], None]] = []
         self._trying = threading.local()  # .now: this thread is trying a fault's unloads
         self.faults = FaultPolicy(self, runtime)
         runtime.send_faults_to(self.faults.on_fault)
@@ -250,11 +262,10 @@ class Binder:
         return self._tell(outcome)
 
     def _tell(self, outcome: Outcome) -> Outcome:
-        for watcher in self.watchers:
-            try:
-                watcher(outcome)
-            except Exception as exc:  # a front door's bug never undoes a commit
-                self.runtime.note(f"a watcher of the binder raised {describe_exception(exc)}")
+        """Every answer is told to the run's listeners (a front door tells its node), on the
+        requesting thread with the binder held, so that they hear the answers in order; a
+        listener's bug never undoes a commit (the listeners say it in the log)."""
+        self.runtime.told.publish(_answered(outcome, self.runtime.ticks, self.active))
         return outcome
 
     def _committed(self, plan: Plan, commit: Commit, began: float) -> Outcome:
@@ -300,7 +311,7 @@ class Binder:
     # ----------------------------------------------------------------- faults
     def quietly(self, request: Request) -> Outcome:
         """A request of the fault policy (faults.py): checked and committed like any other,
-        without repairs, and a refusal is neither noted nor told to the watchers."""
+        without repairs, and a refusal is neither noted nor told to the listeners."""
         self._trying.now = True
         try:
             return self.request_between_ticks(request) if self.between_ticks else self.request(request)

@@ -1,4 +1,5 @@
-"""What happens in a run, typed: the vocabulary of its record and of the pictures drawn from it.
+"""What happens in a run, typed: the vocabulary of its record, its log, its front doors and
+the pictures drawn from it.
 
 Each event has the tick it happened at, a kind (the word a record writes before it: `run`,
 `change`, `refused`, `status`, `state`, `fault`, `missed`, `end`) and its text (what the
@@ -6,10 +7,17 @@ record writes after it). `parse` reads an event back from its kind and text, so 
 reads a record (`plot`) asks an event for its parts (`Refused.request`, `Faulted.feature`)
 and its label, instead of cutting them out of the text. The run's log is typed too: a
 `Note` is a line of it, stamped with the control time and the tick.
+
+The runtime publishes every event to one list of `Listeners`, on the thread where it
+happened: the recorder writes the recorded kinds; the live view prints the log (`Logged`)
+and the changes; the ROS 2 door tells its node every answer of the binder (`Answered`).
+`Logged` and `Answered` are not written to a record (`recorded` is False): the record keeps
+what happened to the robot, not the run's words about it or the binder's replies.
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
@@ -31,6 +39,7 @@ class RunEvent:
 
     tick: int
     kind: ClassVar[str] = ""
+    recorded: ClassVar[bool] = True  # a record writes it (its kind is one of KINDS)
 
     @property
     def text(self) -> str:
@@ -161,6 +170,40 @@ class Written(RunEvent):
         return self.written
 
 
+@dataclass(frozen=True)
+class Logged(RunEvent):
+    """A line written to the run's log (`Runtime.note`), as it is written."""
+
+    note: Note
+    kind: ClassVar[str] = "log"
+    recorded: ClassVar[bool] = False
+
+    @property
+    def text(self) -> str:
+        return self.note.text
+
+
+@dataclass(frozen=True)
+class Answered(RunEvent):
+    """The binder's answer to a request (ctl's, a front door's, a scheduled one, a fault's
+    unloads), accepted or refused, told on the requesting thread with the binder held: the
+    answers reach a listener in the order the binder gave them."""
+
+    request: str
+    accepted: bool
+    reason: str  # its diagnostics in words: why it was refused (when accepted: its warnings)
+    loads: tuple[str, ...]  # what the plan loads and unloads (empty when it never got a plan)
+    unloads: tuple[str, ...]
+    active: frozenset[str]  # the active set after the answer
+    change: tuple[int, str] | None  # the tick and request of the change it made, if any
+    kind: ClassVar[str] = "answer"
+    recorded: ClassVar[bool] = False
+
+    @property
+    def text(self) -> str:
+        return self.request if self.accepted else f"{self.request}: {self.reason}"
+
+
 class Listeners:
     """Who is told of a run's events (the recorder, and whoever else listens): each event is
     published on the thread it happened on, so a listener is quick and thread-safe (the
@@ -169,17 +212,29 @@ class Listeners:
     def __init__(self, said: Callable[[str], None]) -> None:
         self._listeners: list[Callable[[RunEvent], None]] = []
         self._said = said
+        self._saying = threading.local()  # .now: this thread is saying a listener's bug
 
     def listen(self, listener: Callable[[RunEvent], None]) -> None:
         """Tell `listener` of every event from now on."""
         self._listeners.append(listener)
 
+    def forget(self, listener: Callable[[RunEvent], None]) -> None:
+        """Tell `listener` nothing more (nothing happens if it was not listening)."""
+        if listener in self._listeners:
+            self._listeners.remove(listener)
+
     def publish(self, event: RunEvent) -> None:
-        for listener in self._listeners:
+        for listener in list(self._listeners):  # (a copy: one may come or go meanwhile)
             try:
                 listener(event)
             except Exception as exc:
-                self._said(f"a listener of the run raised {describe_exception(exc)}")
+                if getattr(self._saying, "now", False):
+                    continue  # it failed again on the words of a failure: said once is enough
+                self._saying.now = True
+                try:
+                    self._said(f"a listener of the run raised {describe_exception(exc)}")
+                finally:
+                    self._saying.now = False
 
 
 KINDS = ("run", "change", "refused", "status", "state", "fault", "missed", "end")

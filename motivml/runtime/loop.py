@@ -44,7 +44,7 @@ from ..errors import describe_exception
 from ..plugins.api import FeatureUnavailable
 from ..plugins.registry import Activation
 from . import waiting
-from .events import Changed, Faulted, Listeners, Missed, Note, StatusChanged
+from .events import Changed, Faulted, Listeners, Logged, Missed, Note, StatusChanged
 
 
 @dataclass
@@ -580,8 +580,10 @@ class Runtime:
             self.on_fault(fault)
 
     def note(self, text: str) -> None:
-        """A line in the run's log, stamped with the control time and tick."""
-        self.notes.append(Note(self.time, self.ticks, text))
+        """A line in the run's log, stamped with the control time and tick (and told)."""
+        note = Note(self.time, self.ticks, text)
+        self.notes.append(note)
+        self.told.publish(Logged(note.tick, note))
 
     def send(self, space: str, value: list[float] | np.ndarray) -> None:
         """Write a space no running component writes (a goal, a sensor value)."""

@@ -228,8 +228,8 @@ class Recorder:
 
     def event(self, event: RunEvent) -> None:
         """An event, from any thread (a listener of the runtime: `Runtime.publish`); it goes
-        into the row of its tick, or the first row still open."""
-        if self._runtime is not None:
+        into the row of its tick, or the first row still open (the kinds a record keeps)."""
+        if self._runtime is not None and event.recorded:
             self._outside.append(event)
 
     def _new_block(self) -> None:

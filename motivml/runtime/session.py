@@ -24,6 +24,7 @@ the exit code from the session's verdict. Everything with threads or signals is 
 
 from __future__ import annotations
 
+import collections
 import enum
 import os
 import signal
@@ -34,15 +35,15 @@ from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
 from types import FrameType
+from typing import NamedTuple, TypeVar
 
 from ..errors import MotivmlError
 from .binder import Outcome
 from .control import ControlServer
 from .coordinator import Coordinator
-from .events import Note
+from .events import Changed, Logged, Note, RunEvent
 from .launch import Robot
 from .loop import (
-    AppliedReconfiguration,
     RealClock,
     RealtimeRefused,
     RunStats,
@@ -129,6 +130,25 @@ def _exit_now(signum: int) -> None:
     os._exit(128 + signum)  # (130 for Ctrl-C, 143 for SIGTERM: what a shell says of them)
 
 
+class Heard(NamedTuple):
+    """A committed change, as the live view heard of it."""
+
+    wall: float  # wall-clock time it was heard, s since the epoch (at its commit, in its tick)
+    tick: int
+    request: str
+
+
+T = TypeVar("T")
+
+
+def _drain(heard: collections.deque[T]) -> list[T]:
+    """What is in `heard` now, taken out in order (others may append meanwhile)."""
+    taken: list[T] = []
+    while heard:
+        taken.append(heard.popleft())
+    return taken
+
+
 @dataclass(frozen=True)
 class Feed:
     """What a live view shows of a running session, read at one moment."""
@@ -183,8 +203,11 @@ class Session:
         self.interrupted = threading.Event()  # by SIGINT or SIGTERM
         self.stopped_by: int | None = None  # the first signal that ended the run
         self._answers: list[tuple[float, int, Request, Outcome | Future[Outcome]]] = []
-        self._reported = 0
-        self._noted = 0
+        # What the live view has not printed yet, as the run's listener heard it (on any
+        # thread): the changes, and the log from its first line (launch's lines too).
+        self._changes: collections.deque[Heard] = collections.deque()
+        self._notes: collections.deque[Note] = collections.deque(self.runtime.notes)
+        self.runtime.told.listen(self._hear)
         self._began = 0.0
         self._previous: dict[
             int, signal.Handlers | Callable[[int, FrameType | None], object] | int | None
@@ -351,17 +374,20 @@ class Session:
                 self._answers.append((rt.time, rt.ticks, request, self.robot.binder.submit(request)))
         return self.coordinator is not None and self.coordinator.finished is not None
 
-    def new_changes(self) -> list[AppliedReconfiguration]:
+    def _hear(self, event: RunEvent) -> None:
+        """A listener of the run (on the thread where the event happened): quick, no lock."""
+        if isinstance(event, Changed):
+            self._changes.append(Heard(time.time(), event.tick, event.request))
+        elif isinstance(event, Logged):
+            self._notes.append(event.note)
+
+    def new_changes(self) -> list[Heard]:
         """The changes committed since the last call, in order."""
-        changes = self.runtime.changes[self._reported :]
-        self._reported += len(changes)
-        return changes
+        return _drain(self._changes)
 
     def new_notes(self) -> list[Note]:
         """The log lines (plugins' log(), refusals, faults, coordination) since the last call."""
-        notes = self.runtime.notes[self._noted :]
-        self._noted += len(notes)
-        return notes
+        return _drain(self._notes)
 
     def feed(self) -> Feed:
         snapshot = self.runtime.status()
