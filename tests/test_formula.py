@@ -15,12 +15,15 @@ from typing import Any
 import pytest
 from click.testing import CliRunner
 from helpers import config, feature
+from hypothesis import given
+from hypothesis import strategies as st
 
 from motivml.binding.check import check_variant
 from motivml.binding.resolve import resolve, start_state
 from motivml.cli import main
 from motivml.documents.loader import parse as parse_json
-from motivml.language.formula import Binary, FormulaError, Not, Var, parse, without_outer_parentheses
+from motivml.language.formula import Binary, FormulaError, Node, Not, Var, parse, without_outer_parentheses
+from motivml.language.formula import write as write_tree
 from motivml.language.reader import read_configuration, read_model
 from motivml.runtime.reconfigure import Reconfigurer, Refused
 from motivml.runtime.requests import Load
@@ -261,3 +264,46 @@ def test_only_parentheses_around_all_of_a_formula_are_taken_off() -> None:
     for text, shown in cases.items():
         assert without_outer_parentheses(text) == shown
         assert parse(shown).holds(lambda _: True) == parse(text).holds(lambda _: True)
+
+
+TREES = st.recursive(
+    st.sampled_from(["a", "b", "c", "d"]).map(lambda name: Var(name, 0)),
+    lambda inner: st.one_of(
+        inner.map(Not),
+        st.builds(Binary, st.sampled_from(["&", "|", "=>", "<=>"]), inner, inner),
+    ),
+    max_leaves=12,
+)
+
+
+@given(TREES)
+def test_a_written_tree_reads_back_as_the_same_tree(tree: Node) -> None:
+    """`write` (the importers' one writer) puts in every pair of parentheses the reading
+    needs, and no more than it takes off for a left chain of one `&` or `|`."""
+    text = write_tree(tree)
+    assert shape(parse(text).tree) == shape(tree)
+    assert not text.startswith("(") or without_outer_parentheses(text) == text  # no pair around all of it
+
+
+@pytest.mark.parametrize(
+    ("text", "written"),
+    [
+        ("a & b & c", "a & b & c"),
+        ("a | (b | c)", "a | (b | c)"),
+        ("!(a => b) <=> c | d & a", "!(a => b) <=> (c | (d & a))"),
+        ("a => b => c", "a => (b => c)"),
+        ("(a => b) => c", "(a => b) => c"),
+        ("!!a", "!!a"),
+    ],
+)
+def test_write_parenthesises_every_operator_under_another(text: str, written: str) -> None:
+    assert write_tree(parse(text).tree) == written
+
+
+def test_deep_and_long_trees_are_written_without_recursion() -> None:
+    deep = parse("!" * 50_000 + "a").tree
+    assert write_tree(deep) == "!" * 50_000 + "a"
+    chain = parse(" => ".join(f"x{i}" for i in range(20_000))).tree  # (grouped to the right)
+    text = write_tree(chain)
+    assert text.startswith("x0 => (x1 => (x2 => ") and text.endswith("(x19998 => x19999" + ")" * 19_998)
+    assert len(text) == sum(len(f"x{i}") for i in range(20_000)) + 4 * 19_999 + 2 * 19_998

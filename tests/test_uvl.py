@@ -227,6 +227,11 @@ def test_shipped_models_read_back_the_same(robot: str) -> None:
         ),
         ("features\n    R\n        optional\n            A\n            A\n", (5, 13), "a second feature named 'A'"),
         ('features\n    R\n        optional\n            ""\n', (4, 13), 'a feature named "": every feature needs a name'),
+        (
+            "features\n    R\n        optional\n            A {excludes ['B', 'Z']}\n            B\n",
+            (4, 16),
+            "A excludes 'Z', which is not a feature of the model",
+        ),
     ],
     ids=[
         "group cardinality",
@@ -240,6 +245,7 @@ def test_shipped_models_read_back_the_same(robot: str) -> None:
         "binding token",
         "name twice",
         "empty name",
+        "unknown relation",  # (at the attribute that names it)
     ],
 )
 def test_refusals_are_located(text: str, where: tuple[int, int], message: str) -> None:
@@ -409,3 +415,16 @@ def test_import_writes_only_what_validate_accepts(tmp_path: Path, monkeypatch: p
     assert refused.exit_code == 1, refused.output
     assert "unknown key 'colour'" in refused.output and "nothing imported" in refused.output
     assert not (tmp_path / "bad" / "model.json").exists()
+
+
+def test_constraints_are_written_once_from_their_trees() -> None:
+    """The importers build a constraint's tree and write it once (formula.write): a deep one
+    is read in time linear in its size, and the only parentheses dropped are those around a
+    left operand of the same `&` or `|`."""
+    names = [f"F{k}" for k in range(3000)]
+    deep = " => (".join(names[:-1]) + f" => {names[-1]}" + ")" * (len(names) - 2)  # F0 => (F1 => (... => F2999))
+    children = "".join(f"            {name}\n" for name in names)
+    text = f"features\n    R\n        optional\n{children}constraints\n    {deep}\n    (F0 & F1) & F2\n    F0 | (F1 | F2)\n"
+    formulas = read_uvl(text, "m.uvl")["formulas"]
+    assert formulas[0] == deep
+    assert formulas[1:] == ["F0 & F1 & F2", "F0 | (F1 | F2)"]

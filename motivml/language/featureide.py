@@ -30,12 +30,12 @@ from typing import Any
 from xml.parsers import expat
 
 from ..errors import DocumentError, Location, error
-from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold, without_outer_parentheses
+from .formula import AND, IFF, IMPLIES, OR, Node, at_most_one, fold
+from .importer import ImportReader, Refusal
 from .model import Feature, FeatureModel, GroupKind, token
-from .uvl import Ids
 
 _GROUPS = {"and": "", "or": "OR", "alt": "XOR", "feature": ""}
-_OPERATORS = {"conj": " & ", "disj": " | ", "imp": " => ", "eq": " <=> "}
+_OPERATORS = {"conj": AND, "disj": OR, "imp": IMPLIES, "eq": IFF}
 
 
 @dataclass
@@ -47,13 +47,6 @@ class _Element:
     children: list[_Element] = field(default_factory=list)
     text: str = ""
     pieces: list[str] = field(default_factory=list)  # the text as expat gives it, joined at the end tag
-
-
-class _Refusal(Exception):
-    def __init__(self, element: _Element | None, message: str) -> None:
-        super().__init__(message)
-        self.element = element
-        self.message = message
 
 
 def _tree(data: bytes, file: str) -> _Element:
@@ -118,31 +111,23 @@ def read_featureide(data: bytes, file: str) -> dict[str, Any]:
     top = _tree(data, file)
     try:
         return _FeatureIdeReader().document(top)
-    except _Refusal as refusal:
-        element = refusal.element
-        where = Location(file, element.line, element.column) if element else Location(file)
-        raise DocumentError(error(where, refusal.message + " (section 8)", "featureide")) from None
+    except Refusal as refusal:
+        raise refusal.located(file, "featureide") from None
 
 
-class _FeatureIdeReader:
+class _FeatureIdeReader(ImportReader):
     def __init__(self) -> None:
-        self.ids = Ids()
-        self.relations: list[tuple[dict[str, Any], str, list[str], _Element]] = []
+        super().__init__()
         self.grouped = False  # a `group` attribute was read (export's mark on a group written as rules)
 
     def document(self, top: _Element) -> dict[str, Any]:
         if top.tag not in ("featureModel", "extendedFeatureModel"):
-            raise _Refusal(top, f"<{top.tag}> is not a FeatureIDE model (<featureModel>)")
+            raise Refusal(top, f"<{top.tag}> is not a FeatureIDE model (<featureModel>)")
         struct = next((c for c in top.children if c.tag == "struct"), None)
         if struct is None or len(struct.children) != 1:
-            raise _Refusal(struct or top, "a FeatureIDE model has one root feature in <struct>")
+            raise Refusal(struct or top, "a FeatureIDE model has one root feature in <struct>")
         root = self._features(struct.children[0])
-        for document, key, names, element in self.relations:
-            unknown = [name for name in names if name not in self.ids]
-            if unknown:
-                raise _Refusal(element, f"{document['id']} {key} {unknown[0]!r}, which is not a feature of the model")
-            relation = "featuresIncluded" if key == "includes" else "featuresExcluded"
-            document.setdefault("constraints", {})[relation] = [self.ids[name] for name in names]
+        self.resolve_relations()  # (the rules that say them again are found below, as export wrote them)
         constraints = next((c for c in top.children if c.tag == "constraints"), None)
         formulas = [self._formula(rule) for rule in constraints.children] if constraints else []
         if self.relations or self.grouped:
@@ -165,12 +150,12 @@ class _FeatureIdeReader:
         while work:
             element, parent, group = work.pop()
             if element.tag not in _GROUPS:
-                raise _Refusal(element, f"<{element.tag}> is not a feature (and, or, alt, feature)")
+                raise Refusal(element, f"<{element.tag}> is not a feature (and, or, alt, feature)")
             name = element.attributes.get("name", "")
             if not name:
-                raise _Refusal(element, "a feature without a name")
+                raise Refusal(element, "a feature without a name")
             if name in self.ids:
-                raise _Refusal(element, f"a second feature named {name!r}: names are unique in FeatureIDE")
+                raise Refusal(element, f"a second feature named {name!r}: names are unique in FeatureIDE")
             document: dict[str, Any] = {"id": self.ids.of(name), "name": name}
             if group:
                 document["group"] = group
@@ -187,7 +172,7 @@ class _FeatureIdeReader:
                 elif child.tag == "description":
                     document.setdefault("x-featureide", {})["description"] = child.text.strip()
                 elif child.tag not in ("graphics", "property"):
-                    raise _Refusal(child, f"<{child.tag}> in a feature cannot be kept")
+                    raise Refusal(child, f"<{child.tag}> in a feature cannot be kept")
             if parent is not None:
                 parent.setdefault("sub", []).append(document)
             root = root or document
@@ -202,38 +187,30 @@ class _FeatureIdeReader:
     def _attribute(self, element: _Element, document: dict[str, Any]) -> None:
         key, value = element.attributes.get("name", ""), element.attributes.get("value", "")
         if key in ("includes", "excludes"):  # (motivml's own, written by export; resolved at the end)
-            self.relations.append((document, key, value.split(), element))
+            self.relation(document, key, value.split(), element)
         elif key == "group" and value in ("OR", "XOR"):
             document["group"] = value
             document.pop("isMandatory", None)
             self.grouped = True
-        elif key in ("bindingTime", "bindingMode"):
-            allowed = ("Early", "Late", "Any") if key == "bindingTime" else ("Static", "Dynamic", "Any")
-            if value not in allowed:
-                raise _Refusal(element, f"{key} is one of {', '.join(allowed)}, not {value!r}")
-            constraint = "bindingTimeAllowed" if key == "bindingTime" else "bindingModeAllowed"
-            document.setdefault("constraints", {})[constraint] = value
-        else:
+        elif not self.binding(key, value, document, element):
             document.setdefault("x-featureide", {})[key] = value
 
     def _formula(self, rule: _Element) -> str:
+        """A rule as rule 2.4 writes it (ids renamed): its tree, built bottom-up."""
         if rule.tag != "rule" or len(rule.children) != 1:
-            raise _Refusal(rule, "a constraint is one <rule> holding one expression")
-        results: list[str] = []
+            raise Refusal(rule, "a constraint is one <rule> holding one expression")
+        results: list[Node] = []
         work: list[tuple[_Element, bool]] = [(rule.children[0], False)]
         while work:
             element, done = work.pop()
             if element.tag == "var":
-                name = element.text.strip()
-                if name not in self.ids:
-                    raise _Refusal(element, f"the constraint names {name!r}, which is not a feature of the model")
-                results.append(self.ids[name])
+                results.append(self.reference(element.text.strip(), element))
                 continue
             arity = {"not": 1, "imp": 2, "eq": 2}.get(element.tag)
             if element.tag not in ("not", *_OPERATORS):
-                raise _Refusal(element, f"<{element.tag}> in a constraint cannot be kept: only var, not, conj, disj, imp, eq")
+                raise Refusal(element, f"<{element.tag}> in a constraint cannot be kept: only var, not, conj, disj, imp, eq")
             if (arity and len(element.children) != arity) or not element.children:
-                raise _Refusal(element, f"<{element.tag}> with {len(element.children)} operands")
+                raise Refusal(element, f"<{element.tag}> with {len(element.children)} operands")
             if not done:
                 work.append((element, True))
                 work.extend((child, False) for child in reversed(element.children))
@@ -241,12 +218,8 @@ class _FeatureIdeReader:
             count = len(element.children)
             parts = results[len(results) - count :]
             del results[len(results) - count :]
-            if element.tag == "not":
-                results.append(f"!{parts[0]}")
-            else:
-                results.append("(" + _OPERATORS[element.tag].join(parts) + ")" if count > 1 else parts[0])
-        text = results[0]
-        return without_outer_parentheses(text)
+            results.append(self.negate(parts[0]) if element.tag == "not" else self.combine(_OPERATORS[element.tag], parts))
+        return self.text(results[0])
 
 
 # ----------------------------------------------------------------------------- export

@@ -132,6 +132,34 @@ def fold(
     return results[0]
 
 
+def write(tree: Node) -> str:
+    """The text of a tree, every operator under another in parentheses but for a left
+    operand of the same `&` or `|` ("a & b & c"), the whole without: "!(a => b) <=> (c | d)".
+    Iterative, and linear in the size of the text."""
+    pieces: list[str] = []
+    work: list[Node | str] = [tree]  # a node to write, or a piece of text to put down as it is
+    wrapped: list[bool] = [False]  # (beside work: whether that node is written in parentheses)
+    while work:
+        item, wrap = work.pop(), wrapped.pop()
+        if isinstance(item, str):
+            pieces.append(item)
+        elif isinstance(item, Var):
+            pieces.append(item.id)
+        elif isinstance(item, Not):
+            pieces.append(NOT)
+            work.append(item.operand)
+            wrapped.append(True)
+        else:
+            chained = isinstance(item.left, Binary) and item.left.op == item.op and item.op in (AND, OR)
+            if wrap:
+                pieces.append("(")
+                work.append(")")
+                wrapped.append(False)
+            work += [item.right, f" {item.op} ", item.left]
+            wrapped += [True, False, not chained]
+    return "".join(pieces)
+
+
 def without_outer_parentheses(text: str) -> str:
     """A formula's text without the parentheses around all of it, if a pair encloses all of
     it ("(a | b)" -> "a | b"; "(a) | (b)" stays): how the importers and the UVL writer give a

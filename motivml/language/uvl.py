@@ -27,7 +27,8 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import DocumentError, Location, error
-from .formula import AND, IFF, IMPLIES, OR, at_most_one, fold, without_outer_parentheses
+from .formula import AND, IFF, IMPLIES, OR, Node, at_most_one, fold, without_outer_parentheses
+from .importer import ImportReader, Refusal
 from .model import Feature, FeatureModel, token
 
 _GRAMMAR = r"""
@@ -92,7 +93,6 @@ COMMENT: /\/\/[^\n]*/ | /\/\*([^*]|\*(?!\/))*\*\//
 %declare _INDENT _DEDENT
 """
 
-_ID = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _UVL_KEYWORDS = frozenset(
     "mandatory optional or alternative features constraints constraint cardinality namespace include "
     "imports as true false Boolean Integer Real String".split()
@@ -119,14 +119,6 @@ def _parser() -> Any:
     return _PARSER
 
 
-class _Refusal(Exception):
-    def __init__(self, meta: Any, message: str) -> None:
-        super().__init__(message)
-        self.line = getattr(meta, "line", None)
-        self.column = getattr(meta, "column", None)
-        self.message = message
-
-
 def read_uvl(text: str, file: str) -> dict[str, Any]:
     """The feature model document of a UVL text; DocumentError (located) if it cannot be kept."""
     from lark.exceptions import LarkError, UnexpectedInput
@@ -134,10 +126,8 @@ def read_uvl(text: str, file: str) -> dict[str, Any]:
     try:
         tree = _parser().parse(text if text.endswith("\n") else text + "\n")
         return _UvlReader().document(tree)
-    except _Refusal as refusal:
-        raise DocumentError(
-            error(Location(file, refusal.line, refusal.column), refusal.message + " (section 8)", "uvl")
-        ) from None
+    except Refusal as refusal:
+        raise refusal.located(file, "uvl") from None
     except UnexpectedInput as problem:
         where = Location(file, getattr(problem, "line", None), getattr(problem, "column", None))
         found = getattr(problem, "token", None) or getattr(problem, "char", None)
@@ -147,33 +137,9 @@ def read_uvl(text: str, file: str) -> dict[str, Any]:
         raise DocumentError(error(Location(file), f"not UVL: {problem}", "uvl")) from None
 
 
-class Ids(dict[str, str]):
-    """Names of another tool's features -> ids, made deterministically (in the order asked):
-    a name that is an id and free is kept; otherwise its other characters become `_` (a
-    leading digit gets one before it) and a clash, also one of case only, gets `_2`, ..."""
-
+class _UvlReader(ImportReader):
     def __init__(self) -> None:
         super().__init__()
-        self.folded: set[str] = set()
-
-    def of(self, name: str) -> str:
-        if name in self:
-            return self[name]
-        base = name if _ID.match(name) else re.sub(r"[^A-Za-z0-9_]", "_", name) or "_"
-        if base[0].isdigit():
-            base = "_" + base
-        candidate, k = base, 1
-        while candidate.casefold() in self.folded:
-            k += 1
-            candidate = f"{base}_{k}"
-        self.folded.add(candidate.casefold())
-        self[name] = candidate
-        return candidate
-
-
-class _UvlReader:
-    def __init__(self) -> None:
-        self.ids = Ids()  # UVL name -> id
         self.declared: set[str] = set()  # names of the features read so far
 
     def _id(self, name: str) -> str:
@@ -182,14 +148,14 @@ class _UvlReader:
     def document(self, tree: Any) -> dict[str, Any]:
         sections = {child.data: child for child in tree.children if hasattr(child, "data")}
         if "imports" in sections:
-            raise _Refusal(sections["imports"].meta, "imports of other UVL models cannot be kept: merge them first")
+            raise Refusal(sections["imports"].meta, "imports of other UVL models cannot be kept: merge them first")
         if "include" in sections:
             for level in sections["include"].children:
                 words = [str(t) for t in level.children]
                 if words[0] != "Boolean":
-                    raise _Refusal(level.meta, f"the language level {'.'.join(words)} cannot be kept: only Boolean")
+                    raise Refusal(level.meta, f"the language level {'.'.join(words)} cannot be kept: only Boolean")
         if "features" not in sections:
-            raise _Refusal(tree.meta, "the model has no features")
+            raise Refusal(tree.meta, "the model has no features")
         root, formulas, kept = self._features(sections["features"].children[0])
         if "constraints" in sections:
             for expression in sections["constraints"].children:
@@ -206,12 +172,10 @@ class _UvlReader:
         that its includes and excludes already say (not to be read again as formulas)."""
         documents: list[dict[str, Any]] = []
         extra_formulas: list[str] = []
-        kept: set[str] = set()  # constraints that are includes and excludes, kept as such
-        relations: list[tuple[dict[str, Any], str, list[str]]] = []
         work: list[tuple[Any, dict[str, Any] | None, str]] = [(top, None, "")]
         while work:
             node, parent, kind = work.pop()
-            document = self._feature(node, kind, relations)
+            document = self._feature(node, kind)
             documents.append(document)
             if parent is not None:
                 parent.setdefault("sub", []).append(document)
@@ -219,7 +183,7 @@ class _UvlReader:
             pending: list[tuple[Any, dict[str, Any], str]] = []
             for group in (child for child in node.children if getattr(child, "data", None) in ("group", "cardinality_group")):
                 if group.data == "cardinality_group":
-                    raise _Refusal(group.meta, "group cardinalities cannot be kept: only mandatory, optional, or, alternative")
+                    raise Refusal(group.meta, "group cardinalities cannot be kept: only mandatory, optional, or, alternative")
                 label = str(group.children[0])
                 members = group.children[1:]
                 if label in ("or", "alternative"):
@@ -240,33 +204,22 @@ class _UvlReader:
                 sub.sort(key=lambda child: child.get(_POSITION, len(sub)))
         for document in documents:  # (the root's too: it has no siblings to be sorted among)
             document.pop(_POSITION, None)
-        root = documents[0]
-        for document, key, targets in relations:
-            unknown = [t for t in targets if t not in self.ids]
-            if unknown:
-                verb = "includes" if key == "featuresIncluded" else "excludes"
-                raise _Refusal(top.meta, f"{document['id']} {verb} {unknown[0]!r}, which is not a feature of the model")
-            ids = [self.ids[t] for t in targets]
-            document.setdefault("constraints", {})[key] = ids
-            if key == "featuresIncluded":
-                kept |= {f"{document['id']} => {y}" for y in ids}
-            else:
-                kept |= {f"!({document['id']} & {y})" for y in ids}
-        return root, extra_formulas, kept
+        kept = set(self.resolve_relations())
+        return documents[0], extra_formulas, kept
 
     def _name(self, node: Any) -> str:
         name = next(child for child in node.children if getattr(child, "data", None) == "name")
         return _name_text(name)
 
-    def _feature(self, node: Any, kind: str, relations: list[tuple[dict[str, Any], str, list[str]]]) -> dict[str, Any]:
+    def _feature(self, node: Any, kind: str) -> dict[str, Any]:
         children = node.children
         if children and not hasattr(children[0], "data") and children[0].type == "TYPE" and str(children[0]) != "Boolean":
-            raise _Refusal(children[0], f"a feature of type {children[0]} cannot be kept: only Boolean features")
+            raise Refusal(children[0], f"a feature of type {children[0]} cannot be kept: only Boolean features")
         name = self._name(node)
         if not name:
-            raise _Refusal(node.meta, "a feature named \"\": every feature needs a name")
+            raise Refusal(node.meta, "a feature named \"\": every feature needs a name")
         if name in self.declared:
-            raise _Refusal(node.meta, f"a second feature named {name!r}: names are unique in UVL")
+            raise Refusal(node.meta, f"a second feature named {name!r}: names are unique in UVL")
         self.declared.add(name)
         document: dict[str, Any] = {"id": self._id(name), "name": name}
         if kind == "or":
@@ -278,73 +231,65 @@ class _UvlReader:
         for child in children:
             data = getattr(child, "data", None)
             if data == "feature_cardinality":
-                raise _Refusal(child.meta, f"the feature cardinality of {name} cannot be kept")
+                raise Refusal(child.meta, f"the feature cardinality of {name} cannot be kept")
             if data == "attributes":
-                self._attributes(child, document, relations)
+                self._attributes(child, document)
         return document
 
-    def _attributes(self, node: Any, document: dict[str, Any], relations: list[tuple[dict[str, Any], str, list[str]]]) -> None:
+    def _attributes(self, node: Any, document: dict[str, Any]) -> None:
         others: dict[str, Any] = {}
         for attribute in node.children:
             key = _name_text(attribute.children[0])
             value = _value(attribute.children[1]) if len(attribute.children) > 1 else True
             if key == "abstract":
                 if not isinstance(value, bool):
-                    raise _Refusal(attribute.meta, "abstract is true or false")
+                    raise Refusal(attribute.meta, "abstract is true or false")
                 if value:
                     document["abstract"] = True
-            elif key in ("bindingTime", "bindingMode"):
-                allowed = ("Early", "Late", "Any") if key == "bindingTime" else ("Static", "Dynamic", "Any")
-                if value not in allowed:
-                    raise _Refusal(attribute.meta, f"{key} is one of {', '.join(allowed)}, not {value!r}")
-                constraint = "bindingTimeAllowed" if key == "bindingTime" else "bindingModeAllowed"
-                document.setdefault("constraints", {})[constraint] = value
+            elif self.binding(key, value, document, attribute.meta):
+                pass
             elif key == "name" and isinstance(value, str) and value:
                 document["name"] = value
             elif key == "position" and isinstance(value, int):
                 document[_POSITION] = value
             elif key in ("includes", "excludes") and isinstance(value, list) and all(isinstance(v, str) for v in value):
-                relations.append((document, "featuresIncluded" if key == "includes" else "featuresExcluded", value))
+                self.relation(document, key, value, attribute.meta)
             elif key == "isMandatory" or key == "group":
-                raise _Refusal(attribute.meta, f"the attribute {key} is motivml's own word: write the group instead")
+                raise Refusal(attribute.meta, f"the attribute {key} is motivml's own word: write the group instead")
             else:
                 others[key] = value
         if others:
             document["x-uvl"] = others
 
     def _formula(self, expression: Any) -> str:
-        """A constraint as rule 2.4 writes it (ids renamed, every operator parenthesised)."""
-        results: list[str] = []
+        """A constraint as rule 2.4 writes it (ids renamed): its tree, built bottom-up."""
+        results: list[Node] = []
         work: list[tuple[Any, bool]] = [(expression, False)]
         while work:
             node, done = work.pop()
             data = getattr(node, "data", None)
             if data == "reference":
-                name = _name_text(node.children[0])
-                if name not in self.ids:
-                    raise _Refusal(node.meta, f"the constraint names {name!r}, which is not a feature of the model")
-                results.append(self.ids[name])
+                results.append(self.reference(_name_text(node.children[0]), node.meta))
             elif data == "arithmetic":
-                raise _Refusal(node.meta, "arithmetic and type-level constraints cannot be kept: only Boolean ones")
-            elif data in ("negation", "disjunction", "conjunction", "iff", "implies"):
+                raise Refusal(node.meta, "arithmetic and type-level constraints cannot be kept: only Boolean ones")
+            elif data in _OPERATORS:
                 operands = [c for c in node.children if hasattr(c, "data")]
                 if not done:
                     if data in ("iff", "implies") and len(operands) > 2:
-                        raise _Refusal(node.meta, "a chain of => or <=> without parentheses is read differently by different tools: add them")
+                        raise Refusal(node.meta, "a chain of => or <=> without parentheses is read differently by different tools: add them")
                     work.append((node, True))
                     work.extend((c, False) for c in reversed(operands))
                     continue
                 parts = results[len(results) - len(operands) :]
                 del results[len(results) - len(operands) :]
-                if data == "negation":
-                    results.append(f"!{parts[0]}")
-                else:
-                    op = {"disjunction": " | ", "conjunction": " & ", "iff": " <=> ", "implies": " => "}[data]
-                    results.append("(" + op.join(parts) + ")")
+                op = _OPERATORS[data]
+                results.append(self.negate(parts[0]) if op is None else self.combine(op, parts))
             else:
-                raise _Refusal(getattr(node, "meta", None), f"cannot read this constraint ({data})")
-        text = results[0]
-        return without_outer_parentheses(text)
+                raise Refusal(getattr(node, "meta", None), f"cannot read this constraint ({data})")
+        return self.text(results[0])
+
+
+_OPERATORS = {"negation": None, "disjunction": OR, "conjunction": AND, "iff": IFF, "implies": IMPLIES}
 
 
 def _name_text(node: Any) -> str:
@@ -369,7 +314,7 @@ def _value(node: Any) -> Any:
         return [_value(child) for child in node.children]
     if data == "attributes":
         return {_name_text(a.children[0]): _value(a.children[1]) if len(a.children) > 1 else True for a in node.children}
-    raise _Refusal(node.meta, "attribute constraints cannot be kept")
+    raise Refusal(node.meta, "attribute constraints cannot be kept")
 
 
 # ----------------------------------------------------------------------------- export
