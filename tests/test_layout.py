@@ -131,3 +131,86 @@ def test_classes_and_functions_of_the_runtime_and_the_cli_stay_short() -> None:
             if limit is not None and node.end_lineno is not None and node.end_lineno - node.lineno + 1 > limit:
                 too_long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name}: {node.end_lineno - node.lineno + 1} lines")
     assert too_long == []
+
+
+# ----------------------------------------------------------- the flow down the floors
+def _floors() -> dict[str, int]:
+    """Each package or module of the floors contract, by its floor (0 is the top: the CLI)."""
+    import tomllib
+
+    contracts = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["importlinter"]["contracts"]
+    (layers,) = [c["layers"] for c in contracts if c["type"] == "layers"]
+    return {name.strip(): floor for floor, entry in enumerate(layers) for name in entry.split("|")}
+
+
+def _returns_up(args: list[str]) -> dict[tuple[str, str], int]:
+    """The calls that go back up to a floor the flow had left, followed through one command
+    (every thread it starts): a function of a lower floor calling one of a higher floor, as
+    a callback does. Caller and callee are the nearest frames in motivml (the standard
+    library's and other packages' frames between them are skipped). Each place counts
+    once, however often it is called: (caller, callee) -> calls."""
+    import threading
+    from types import FrameType
+
+    from click.testing import CliRunner
+
+    from motivml.cli import main
+
+    floors = _floors()
+
+    def floor(frame: FrameType) -> int | None:
+        parts = str(frame.f_globals.get("__name__", "")).split(".")
+        for n in range(len(parts), 1, -1):
+            found = floors.get(".".join(parts[:n]))
+            if found is not None:
+                return found
+        return None
+
+    def where(frame: FrameType) -> str:
+        return f"{frame.f_globals['__name__']}.{frame.f_code.co_qualname}"
+
+    up: dict[tuple[str, str], int] = {}
+
+    def profile(frame: FrameType, event: str, _: object) -> None:
+        if event != "call" or (callee := floor(frame)) is None:
+            return
+        caller = frame.f_back
+        while caller is not None and floor(caller) is None:
+            caller = caller.f_back
+        if caller is not None and callee < (floor(caller) or 0):
+            key = (where(caller), where(frame))
+            up[key] = up.get(key, 0) + 1
+
+    threading.setprofile(profile)
+    sys.setprofile(profile)
+    try:
+        result = CliRunner().invoke(main, args)
+    finally:
+        sys.setprofile(None)
+        threading.setprofile(None)
+    assert result.exit_code == 0, result.output
+    return up
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["validate", "feature_models/simplebot/model.json", "--config", "feature_models/simplebot/variants/field.json"],
+        ["validate", "feature_models/simplebot/model.json"],
+        [
+            "run", "feature_models/simplebot", "--variant", "field", "--duration", "0.01", "--clock", "simulated",
+            "--no-control", "--no-live", "--at", "0.005", "swap hectorslam kartoslam",
+        ],
+    ],
+    ids=["validate a variant", "validate a model", "a hot swap"],
+)
+def test_a_model_and_a_request_go_down_the_floors_with_at_most_five_returns(
+    args: list[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """How issue 34 tells the layers are kept: a model in `validate` and a request in a hot
+    swap go down the floors, going back up to a floor already left at most five times
+    (the schema check calling its reader back, a plugin reading and writing its spaces)."""
+    monkeypatch.chdir(ROOT)
+    up = _returns_up(args)
+    assert len(up) <= 5, "\n".join(f"{caller} -> {callee} ({calls} calls)" for (caller, callee), calls in up.items())
+    assert all(caller.startswith("motivml.") and callee.startswith("motivml.") for caller, callee in up)
