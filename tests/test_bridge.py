@@ -20,6 +20,7 @@ from typing import Any
 
 import pytest
 from helpers import until
+from paths import SIMPLEBOT
 
 from motivml.errors import EnvironmentProblem
 from motivml.plugins import bridge as bridges
@@ -31,7 +32,6 @@ from motivml.runtime.session import Session
 
 ROS = importlib.util.find_spec("rclpy") is not None
 TESTS = Path(__file__).resolve().parent
-SIMPLEBOT = TESTS.parent / "feature_models" / "simplebot"
 
 
 # ---------------------------------------------------------------------- Link

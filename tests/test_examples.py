@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
+from paths import FEATURE_MODELS
 
 from motivml.documents.robot_folder import RobotFolder
 from motivml.validate import validate
 
-ROOT = Path(__file__).resolve().parent.parent / "feature_models"
-ROBOTS = sorted(p.name for p in ROOT.iterdir() if (p / "model.json").is_file())
+ROBOTS = sorted(p.name for p in FEATURE_MODELS.iterdir() if (p / "model.json").is_file())
 
 EXPECTED_ERRORS = {
     ("simplebot", "broken_gridmap_dynamic"): [
@@ -72,21 +70,21 @@ def test_eight_robots_ship() -> None:
     ]
 
 
-@pytest.mark.parametrize("robot", [r for r in ROBOTS if (ROOT / r / "architecture.json").is_file()])
+@pytest.mark.parametrize("robot", [r for r in ROBOTS if (FEATURE_MODELS / r / "architecture.json").is_file()])
 def test_architecture_is_valid(robot: str) -> None:
-    result = validate(ROOT / robot / "model.json", architecture_path=ROOT / robot / "architecture.json")
+    result = validate(FEATURE_MODELS / robot / "model.json", architecture_path=FEATURE_MODELS / robot / "architecture.json")
     assert result.architecture is not None and [d.message for r in result.reports for d in r.diagnostics] == []
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_model_is_valid(robot: str) -> None:
-    result = validate(ROOT / robot / "model.json")
+    result = validate(FEATURE_MODELS / robot / "model.json")
     assert result.reports == [result.model] and result.model.errors == [] and result.model.analysed
 
 
 @pytest.mark.parametrize("robot", ROBOTS)
 def test_variants(robot: str) -> None:
-    folder = RobotFolder.open(ROOT / robot)
+    folder = RobotFolder.open(FEATURE_MODELS / robot)
     names = folder.variant_names()
     valid = [n for n in names if not n.startswith("broken")]
     invalid = [n for n in names if n.startswith("broken")]
