@@ -25,90 +25,22 @@ fetching nothing, building the element tree by hand to keep each element's place
 from __future__ import annotations
 
 import collections
-from dataclasses import dataclass, field
 from typing import Any
-from xml.parsers import expat
 
 from ..errors import DocumentError, Location, error
 from .formula import AND, IFF, IMPLIES, OR, Node, at_most_one, fold
 from .importer import ImportReader, Refusal
 from .model import Feature, FeatureModel, GroupKind, token
+from .xmltree import Element, parse_xml
 
 _GROUPS = {"and": "", "or": "OR", "alt": "XOR", "feature": ""}
 _OPERATORS = {"conj": AND, "disj": OR, "imp": IMPLIES, "eq": IFF}
 
 
-@dataclass
-class _Element:
-    tag: str
-    attributes: dict[str, str]
-    line: int
-    column: int
-    children: list[_Element] = field(default_factory=list)
-    text: str = ""
-    pieces: list[str] = field(default_factory=list)  # the text as expat gives it, joined at the end tag
-
-
-def _tree(data: bytes, file: str) -> _Element:
-    """The element tree of an XML text, in time linear in its size.
-
-    As defusedxml does, no entity is declared or expanded: a FeatureIDE model has no DTD
-    of its own, and ten nested entities of ten references each (a 1 KB "billion laughs")
-    expand to a billion. Text is kept in pieces and joined once per element (a description
-    of 200,000 lines, appended piece by piece, took 14 s)."""
-    parser = expat.ParserCreate()
-    parser.buffer_text = True  # (adjacent text in one call, not one per line or reference)
-    parser.SetParamEntityParsing(expat.XML_PARAM_ENTITY_PARSING_NEVER)
-    root: list[_Element] = []
-    stack: list[_Element] = []
-
-    def start(tag: str, attributes: dict[str, str]) -> None:
-        element = _Element(tag, attributes, parser.CurrentLineNumber, parser.CurrentColumnNumber + 1)
-        (stack[-1].children if stack else root).append(element)
-        stack.append(element)
-
-    def end(tag: str) -> None:
-        element = stack.pop()
-        element.text, element.pieces = "".join(element.pieces), []
-
-    def text(content: str) -> None:
-        if stack:
-            stack[-1].pieces.append(content)
-
-    def entity(name: str, *_: object) -> None:
-        raise _Entity(parser.CurrentLineNumber, parser.CurrentColumnNumber + 1, name)
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = end
-    parser.CharacterDataHandler = text
-    parser.EntityDeclHandler = entity
-
-    def external(context: str, base: str | None, system: str | None, public: str | None) -> int:
-        raise _Entity(parser.CurrentLineNumber, parser.CurrentColumnNumber + 1, system or context)
-
-    parser.ExternalEntityRefHandler = external
-    try:
-        parser.Parse(data, True)
-    except expat.ExpatError as problem:
-        where = Location(file, problem.lineno, problem.offset + 1)
-        raise DocumentError(error(where, f"not XML: {expat.ErrorString(problem.code)}", "featureide")) from None
-    except _Entity as declared:
-        where = Location(file, declared.line, declared.column)
-        message = f"the entity {declared.name!r} is declared: a FeatureIDE model declares no entities (refused, as defusedxml does)"
-        raise DocumentError(error(where, message, "featureide")) from None
-    return root[0]
-
-
-class _Entity(Exception):
-    def __init__(self, line: int, column: int, name: str) -> None:
-        super().__init__(name)
-        self.line, self.column, self.name = line, column, name
-
-
 def read_featureide(data: bytes, file: str) -> dict[str, Any]:
     """The feature model document of a FeatureIDE XML text; DocumentError (located) if it
     cannot be kept."""
-    top = _tree(data, file)
+    top = parse_xml(data, file, "featureide", "a FeatureIDE model")
     try:
         return _FeatureIdeReader().document(top)
     except Refusal as refusal:
@@ -120,7 +52,7 @@ class _FeatureIdeReader(ImportReader):
         super().__init__()
         self.grouped = False  # a `group` attribute was read (export's mark on a group written as rules)
 
-    def document(self, top: _Element) -> dict[str, Any]:
+    def document(self, top: Element) -> dict[str, Any]:
         if top.tag not in ("featureModel", "extendedFeatureModel"):
             raise Refusal(top, f"<{top.tag}> is not a FeatureIDE model (<featureModel>)")
         struct = next((c for c in top.children if c.tag == "struct"), None)
@@ -132,7 +64,7 @@ class _FeatureIdeReader(ImportReader):
         formulas = [self._formula(rule) for rule in constraints.children] if constraints else []
         if self.relations or self.grouped:
             # the rules that say the relations above again, as export wrote them: each once
-            said = collections.Counter(self._formula(_tree(f"<rule>{rule}</rule>".encode(), "")) for rule in _relation_rules(root))
+            said = collections.Counter(self._formula(parse_xml(f"<rule>{rule}</rule>".encode(), "", "featureide", "")) for rule in _relation_rules(root))
             kept = []
             for formula in formulas:
                 if said[formula] > 0:
@@ -144,9 +76,9 @@ class _FeatureIdeReader(ImportReader):
             root["formulas"] = formulas
         return root
 
-    def _features(self, top: _Element) -> dict[str, Any]:
+    def _features(self, top: Element) -> dict[str, Any]:
         root: dict[str, Any] | None = None
-        work: list[tuple[_Element, dict[str, Any] | None, str]] = [(top, None, "")]
+        work: list[tuple[Element, dict[str, Any] | None, str]] = [(top, None, "")]
         while work:
             element, parent, group = work.pop()
             if element.tag not in _GROUPS:
@@ -163,7 +95,7 @@ class _FeatureIdeReader(ImportReader):
                 document["isMandatory"] = False
             if element.attributes.get("abstract") == "true":
                 document["abstract"] = True
-            children: list[_Element] = []
+            children: list[Element] = []
             for child in element.children:
                 if child.tag in _GROUPS:
                     children.append(child)
@@ -184,7 +116,7 @@ class _FeatureIdeReader(ImportReader):
         assert root is not None  # (the work list began with the root)
         return root
 
-    def _attribute(self, element: _Element, document: dict[str, Any]) -> None:
+    def _attribute(self, element: Element, document: dict[str, Any]) -> None:
         key, value = element.attributes.get("name", ""), element.attributes.get("value", "")
         if key in ("includes", "excludes"):  # (motivml's own, written by export; resolved at the end)
             self.relation(document, key, value.split(), element)
@@ -195,12 +127,12 @@ class _FeatureIdeReader(ImportReader):
         elif not self.binding(key, value, document, element):
             document.setdefault("x-featureide", {})[key] = value
 
-    def _formula(self, rule: _Element) -> str:
+    def _formula(self, rule: Element) -> str:
         """A rule as rule 2.4 writes it (ids renamed): its tree, built bottom-up."""
         if rule.tag != "rule" or len(rule.children) != 1:
             raise Refusal(rule, "a constraint is one <rule> holding one expression")
         results: list[Node] = []
-        work: list[tuple[_Element, bool]] = [(rule.children[0], False)]
+        work: list[tuple[Element, bool]] = [(rule.children[0], False)]
         while work:
             element, done = work.pop()
             if element.tag == "var":
