@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from paths import FEATURE_MODELS as ROOT
 
 from motivml.cli import main
 from motivml.runtime.launch import launch
-from tests.test_examples import ROOT
 
 LAUNDRY = ROOT / "laundry_gripping"
 STATES = [
