@@ -237,6 +237,30 @@ class Listeners:
                     self._saying.now = False
 
 
+class Log:
+    """The run's log: its lines (`Runtime.note`), each told to the listeners as a `Logged`
+    event as it is written, in the log's order (one lock: lines of two threads are told
+    in the order they were written; reentrant, since a listener's bug is logged too)."""
+
+    def __init__(self, told: Listeners) -> None:
+        self.lines: list[Note] = []
+        self._told = told
+        self._lock = threading.RLock()
+
+    def write(self, note: Note) -> None:
+        with self._lock:
+            self.lines.append(note)
+            self._told.publish(Logged(note.tick, note))
+
+    def listen_from_the_first_line(self, listener: Callable[[RunEvent], None]) -> None:
+        """Tell `listener` the log so far, then every event from now on: each line once, in
+        the log's order (a live view that starts after the launch has logged)."""
+        with self._lock:
+            for note in self.lines:
+                listener(Logged(note.tick, note))
+            self._told.listen(listener)
+
+
 KINDS = ("run", "change", "refused", "status", "state", "fault", "missed", "end")
 
 

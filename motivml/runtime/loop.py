@@ -44,7 +44,7 @@ from ..errors import describe_exception
 from ..plugins.api import FeatureUnavailable
 from ..plugins.registry import Activation
 from . import waiting
-from .events import Changed, Faulted, Listeners, Logged, Missed, Note, StatusChanged
+from .events import Changed, Faulted, Listeners, Log, Missed, Note, StatusChanged
 
 
 @dataclass
@@ -407,10 +407,11 @@ class Runtime:
         self.plugins: dict[str, Running] = {}
         self.changes: list[AppliedReconfiguration] = []
         self.faults: list[Fault] = []
-        self.notes: list[Note] = []  # the run's log
         self.on_fault: Callable[[Fault], None] | None = None  # Dynamic plugin faults go here
         self.hooks: list[Callable[[], None]] = []  # after every tick, on the control thread
         self.told = Listeners(self.note)  # who is told of the run's events (events.py)
+        self.log = Log(self.told)  # the run's log (`notes`: its lines)
+        self.notes = self.log.lines
         self.failure: Fault | None = None  # a Static plugin's fault, which ends the run
         self.slowest: dict[str, tuple[float, int]] = {}  # feature -> its longest step (s) and its tick
         self.missed = 0  # deadlines missed so far in a real-clock run (RunStats has them at the end)
@@ -580,10 +581,9 @@ class Runtime:
             self.on_fault(fault)
 
     def note(self, text: str) -> None:
-        """A line in the run's log, stamped with the control time and tick (and told)."""
-        note = Note(self.time, self.ticks, text)
-        self.notes.append(note)
-        self.told.publish(Logged(note.tick, note))
+        """A line in the run's log, stamped with the control time and tick, and told (in the
+        order of the log: lines of two threads are told as they were written)."""
+        self.log.write(Note(self.time, self.ticks, text))
 
     def send(self, space: str, value: list[float] | np.ndarray) -> None:
         """Write a space no running component writes (a goal, a sensor value)."""

@@ -206,8 +206,8 @@ class Session:
         # What the live view has not printed yet, as the run's listener heard it (on any
         # thread): the changes, and the log from its first line (launch's lines too).
         self._changes: collections.deque[Heard] = collections.deque()
-        self._notes: collections.deque[Note] = collections.deque(self.runtime.notes)
-        self.runtime.told.listen(self._hear)
+        self._notes: collections.deque[Note] = collections.deque()
+        self.runtime.log.listen_from_the_first_line(self._hear)
         self._began = 0.0
         self._previous: dict[
             int, signal.Handlers | Callable[[int, FrameType | None], object] | int | None
