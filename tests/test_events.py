@@ -123,3 +123,28 @@ def test_the_log_and_the_binders_answers_are_told_but_not_recorded() -> None:
     assert (answer.text, answer.recorded, Changed(3, "load a").recorded) == ("load a", False, True)
     refused = Answered(3, "load b", False, "b is Static", (), (), frozenset(), None)
     assert refused.text == "load b: b is Static"
+
+
+def test_the_log_tells_its_lines_in_its_own_order_and_a_late_listener_hears_each_once() -> None:
+    import threading
+
+    from motivml.runtime.events import Log
+
+    log = Log(Listeners(lambda text: None))
+    log.write(Note(0.0, 0, "launched"))
+    heard: list[str] = []
+    late: list[str] = []
+
+    def writer(name: str) -> None:
+        for k in range(2000):
+            log.write(Note(0.0, k, f"{name} {k}"))
+            if name == "a" and k == 1000:
+                log.listen_from_the_first_line(lambda e: late.append(e.text) if isinstance(e, Logged) else None)
+
+    log.listen_from_the_first_line(lambda e: heard.append(e.text) if isinstance(e, Logged) else None)
+    threads = [threading.Thread(target=writer, args=(name,)) for name in "ab"]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert heard == [note.text for note in log.lines] == late  # (each once, in the log's order)
