@@ -6,13 +6,16 @@ from __future__ import annotations
 import shutil
 import sys
 from pathlib import Path
-from typing import NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import click
 from rich.markup import escape
 
 from ..documents.robot_folder import ARCHITECTURE_FILE
-from ..errors import MotivmlError
+from ..errors import Diagnostic, MotivmlError
+
+if TYPE_CHECKING:
+    from ..language.model import FeatureModel
 from .common import fail, one_variant, out, plural, print_diagnostics, shown
 
 
@@ -134,13 +137,13 @@ def plot_command(record: str, output: str | None, spaces: tuple[str, ...]) -> No
 
 
 @click.command("export")
-@click.argument("what", type=click.Choice(["scxml", "dimacs", "uvl", "featureide"]))
+@click.argument("what", type=click.Choice(["scxml", "dimacs", "uvl", "featureide", "sxfm"]))
 @click.argument("target", default=".", type=click.Path(readable=False))
 @click.option(
     "-o",
     "--output",
     type=click.Path(dir_okay=False, readable=False),
-    help="Output file (default build/<robot>/coordination.scxml, or model.dimacs, model.uvl, model.xml there).",
+    help="Output file (default build/<robot>/coordination.scxml, or model.dimacs, model.uvl, model.xml, model-sxfm.xml there).",
 )
 @click.option(
     "--bindings",
@@ -158,12 +161,13 @@ def export_command(what: str, target: str, output: str | None, bindings: bool) -
     feature tree by id, bindings, names, includes and excludes as attributes, and every
     cross-tree rule as a constraint; `motivml import uvl` reads it back to the same model.
     featureide: FeatureIDE's <featureModel> XML, a parent's mixed groups as rules, bindings
-    as attributes. TARGET is a robot folder (or, for a model format, a model.json). The file
+    as attributes. sxfm: S.P.L.O.T.'s <feature_model>, groups as [1,*] and [1,1], every
+    cross-tree rule as clauses; SXFM holds no bindings (said when the model has some). TARGET is a robot folder (or, for a model format, a model.json). The file
     is rewritten only when it changes.
     """
     if bindings and what != "dimacs":
         raise click.UsageError("--bindings is for dimacs")
-    if what in ("dimacs", "uvl", "featureide"):
+    if what in ("dimacs", "uvl", "featureide", "sxfm"):
         _export_model(what, target, output, bindings)
         return
     from ..coordination.scxml import to_scxml
@@ -189,6 +193,7 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
     from ..binding.dimacs import selection_dimacs, variant_dimacs
     from ..documents.writing import write_if_changed
     from ..language.featureide import write_featureide
+    from ..language.sxfm import write_sxfm
     from ..language.uvl import write_uvl
     from ..validate import validate
     from .common import targets
@@ -201,7 +206,7 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
             print_diagnostics(checked.errors)
             out.print(f"[bold red]nothing exported[/]: {escape(str(model_path))} has errors")
             sys.exit(1)
-        names = {"uvl": "model.uvl", "featureide": "model.xml"}
+        names = {"uvl": "model.uvl", "featureide": "model.xml", "sxfm": "model-sxfm.xml"}
         name = names.get(what) or ("model-variants.dimacs" if bindings else "model.dimacs")
         robot = model_path.parent.name if model_path.name == "model.json" else model_path.stem
         path = Path(output) if output else Path("build") / robot / name
@@ -209,71 +214,150 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
             text = write_uvl(model)
         elif what == "featureide":
             text = write_featureide(model)
+        elif what == "sxfm":
+            text = write_sxfm(model)
         else:
             text = variant_dimacs(model) if bindings else selection_dimacs(model)
         written = write_if_changed(path.parent, {path.name: text})
     except MotivmlError as exc:
         _nothing(exc, "exported", target)
     out.print(f"  {'wrote' if written[path.name] else 'unchanged'} {escape(str(path))}")
+    bound = [f.id for f in model.features if _binding_written(model, f.index)]
+    if what == "sxfm" and bound:
+        out.print(
+            f"  [yellow]not written[/]: the allowed binding times and modes of {plural(len(bound), 'feature')} "
+            f"({escape(_few(bound))}): SXFM has no place for them (export uvl or featureide keeps them)"
+        )
+
+
+def _binding_written(model: FeatureModel, index: int) -> bool:
+    """Whether the model's document says the feature's allowed binding time or mode."""
+    from ..language.importer import attributes
+
+    said = attributes(model, index, "constraints")
+    return "bindingTimeAllowed" in said or "bindingModeAllowed" in said
+
+
+def _few(ids: list[str]) -> str:
+    return ", ".join(ids[:3]) + (f" and {len(ids) - 3} more" if len(ids) > 3 else "")
 
 
 @click.command("import")
-@click.argument("what", type=click.Choice(["uvl", "featureide"]))
-@click.argument("source", type=click.Path(dir_okay=False, readable=False))
-@click.option("-o", "--output", required=True, type=click.Path(file_okay=False, readable=False), help="The robot folder to create.")
-def import_command(what: str, source: str, output: str) -> None:
-    """Read a UVL or FeatureIDE XML model into a new robot folder: OUTPUT/model.json and an
-    empty variants/.
+@click.argument("words", nargs=-1, required=True, metavar="[uvl|featureide|sxfm] SOURCE")
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(file_okay=False, readable=False),
+    help="The robot folder to create (default build/<SOURCE's name without its suffix>).",
+)
+def import_command(words: tuple[str, ...], output: str | None) -> None:
+    """Read a UVL, FeatureIDE XML or SXFM model into a new robot folder: OUTPUT/model.json
+    and an empty variants/. Without a format word, the format is told from the text (and
+    said).
 
     UVL's Boolean level is kept whole: mandatory, optional, or and alternative children,
     abstract features, constraints (as formulas) and the attributes bindingTime and
     bindingMode; names that are not ids become ids, the name kept. What cannot be kept
     (group or feature cardinalities, typed features, arithmetic constraints, imports) is
     refused, located, and nothing is written. FeatureIDE's <featureModel> keeps the same:
-    and/or/alt/feature, mandatory, abstract, and its <constraints> rules. An existing
-    model.json is not overwritten.
+    and/or/alt/feature, mandatory, abstract, and its <constraints> rules. S.P.L.O.T.'s
+    <feature_model> (SXFM) keeps its tree, its groups [1,1], [1,*], [0,1] and [0,*], and
+    its clauses. What a published file writes otherwise than its format's definition, and
+    is read anyway, is said as a warning. An existing model.json is not overwritten.
     """
-    from ..documents.loader import load_bytes, read_bytes
-    from ..documents.schema import check_feature_model
-    from ..documents.writing import indented_json, write_if_changed
-    from ..errors import DocumentError, EnvironmentProblem, Location, error
-    from ..language.featureide import read_featureide
-    from ..language.reader import read_model
-    from ..language.uvl import read_uvl
-    from ..process import no_gc
+    from ..documents.writing import write_if_changed
+    from ..errors import EnvironmentProblem, Location, error
+    from ..language.importer import FORMATS
 
-    folder = Path(output)
+    if len(words) > 2 or (len(words) == 2 and words[0] not in FORMATS):
+        raise click.UsageError(f"import takes [uvl|featureide|sxfm] SOURCE, not {' '.join(words)!r}")
+    what, source = (words[0], words[1]) if len(words) == 2 else (None, words[0])
+    folder = Path(output) if output else Path("build") / Path(source).stem
     model_path = folder / "model.json"
     try:
         if model_path.exists():
             raise EnvironmentProblem(
                 error(Location(str(model_path)), "exists already: import into a new folder, or remove it", "io")
             )
-        # (a regular file within the size limit of every document: not a FIFO, not /dev/zero)
-        data = read_bytes(source, what="a model file")
-        if what == "featureide":
-            document = read_featureide(data, source)
-        else:
-            try:
-                text = data.decode("utf-8")
-            except UnicodeDecodeError as exc:
-                raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
-            document = read_uvl(text, source)
-        written = indented_json(document, ascii=False) + "\n"  # (iterative: models nest deep)
-        # what `validate` checks of the model written: the schema, then the model's reading
-        loaded = load_bytes(written.encode("utf-8"), str(model_path))
-        problems = check_feature_model(loaded)
-        if not problems:
-            with no_gc():
-                _, problems = read_model(loaded)
-        errors = [d for d in problems if d.severity.value == "error"]
-        if errors:  # (a model the importer made that motivml refuses: said, not written)
-            raise DocumentError(errors)
+        document, warnings = _imported(what, source)
+        written = _checked_model(document, model_path)
         write_if_changed(folder, {"model.json": written})
         (folder / "variants").mkdir(exist_ok=True)
     except MotivmlError as exc:
         _nothing(exc, "imported", source)
+    print_diagnostics(warnings)
     out.print(f"  wrote {escape(str(model_path))} ({_count(document)} features)")
+
+
+def _imported(what: str | None, source: str) -> tuple[dict[str, Any], list[Diagnostic]]:
+    """The document read from `source` in the format `what` (None: told from its text),
+    and the warnings of what was read though written otherwise than the format says."""
+    from ..documents.loader import read_bytes
+    from ..errors import DocumentError, Location, error
+    from ..language.importer import FORMATS, guess
+
+    # (a regular file within the size limit of every document: not a FIFO, not /dev/zero)
+    data = read_bytes(source, what="a model file")
+    seen, why = guess(data)
+    if what is None:
+        if seen is None:
+            raise DocumentError(
+                error(
+                    Location(source),
+                    f"cannot tell which model format this is: {why}. motivml imports UVL, FeatureIDE XML "
+                    "and SXFM; name the format (motivml import uvl|featureide|sxfm SOURCE) to read it as one",
+                    "import",
+                )
+            )
+        out.print(f"  reading {escape(source)} as {FORMATS[seen]} ({escape(why)})")
+        what = seen
+    elif seen is not None and seen != what:
+        raise DocumentError(
+            error(
+                Location(source),
+                f"this is {FORMATS[seen]}, not {FORMATS[what]} ({why}): "
+                f"motivml import {seen} {source} reads it",
+                what,
+            )
+        )
+    warnings: list[Diagnostic] = []
+    if what == "featureide":
+        from ..language.featureide import read_featureide
+
+        return read_featureide(data, source), warnings
+    if what == "sxfm":
+        from ..language.sxfm import read_sxfm
+
+        return read_sxfm(data, source, warnings), warnings
+    from ..language.uvl import read_uvl
+
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
+    return read_uvl(text, source), warnings
+
+
+def _checked_model(document: dict[str, Any], model_path: Path) -> str:
+    """The model's text, checked as `validate` checks it (the schema, then the model's
+    reading): a model the importer made that motivml refuses is said, not written."""
+    from ..documents.loader import load_bytes
+    from ..documents.schema import check_feature_model
+    from ..documents.writing import indented_json
+    from ..errors import DocumentError
+    from ..language.reader import read_model
+    from ..process import no_gc
+
+    written = indented_json(document, ascii=False) + "\n"  # (iterative: models nest deep)
+    loaded = load_bytes(written.encode("utf-8"), str(model_path))
+    problems = check_feature_model(loaded)
+    if not problems:
+        with no_gc():
+            _, problems = read_model(loaded)
+    errors = [d for d in problems if d.severity.value == "error"]
+    if errors:
+        raise DocumentError(errors)
+    return written
 
 
 def _count(document: dict[str, object]) -> int:

@@ -70,6 +70,8 @@ FAMILIES = {
     "ros2": "ROS 2",
     "uvl": "UVL",
     "featureide": "FeatureIDE XML",
+    "sxfm": "S.P.L.O.T.'s SXFM",
+    "import": "Importing another tool's model",
     "graphviz": "Drawing with Graphviz",
 }
 CONFLICT = "conflict"  # the rule of an explanation whose facts no single rule joins

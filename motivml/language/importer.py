@@ -18,8 +18,9 @@ import re
 from functools import reduce
 from typing import Any
 
-from ..errors import DocumentError, Location, error
-from .formula import AND, IMPLIES, Binary, Node, Not, Var, write
+from ..errors import Diagnostic, DocumentError, Location, error, warning
+from .formula import AND, IMPLIES, Binary, Node, Not, Var, at_most_one, write
+from .model import FeatureModel
 
 _ID = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _ALLOWED = {"bindingTime": ("Early", "Late", "Any"), "bindingMode": ("Static", "Dynamic", "Any")}
@@ -51,8 +52,13 @@ class Ids(dict[str, str]):
         self.folded: set[str] = set()
 
     def of(self, name: str) -> str:
-        if name in self:
-            return self[name]
+        """The id of `name` (made the first time it is asked)."""
+        if name not in self:
+            self[name] = self.fresh(name)
+        return self[name]
+
+    def fresh(self, name: str) -> str:
+        """A new id made from `name`, not kept for it (a feature another tool names twice)."""
         base = name if _ID.match(name) else re.sub(r"[^A-Za-z0-9_]", "_", name) or "_"
         if base[0].isdigit():
             base = "_" + base
@@ -61,7 +67,6 @@ class Ids(dict[str, str]):
             k += 1
             candidate = f"{base}_{k}"
         self.folded.add(candidate.casefold())
-        self[name] = candidate
         return candidate
 
 
@@ -72,6 +77,22 @@ class ImportReader:
         self.ids = Ids()  # the tool's name -> id
         # includes and excludes as the tool names them: (document, "includes" or "excludes", names, where)
         self.relations: list[tuple[dict[str, Any], str, list[str], Any]] = []
+        self._tolerated: dict[str, list[Any]] = {}  # what is read though not as specified: where
+
+    def tolerate(self, where: Any, what: str) -> None:
+        """Read something a published dialect writes otherwise than the format's own
+        definition; said once per kind, at its first place, with how often (`said`)."""
+        self._tolerated.setdefault(what, []).append(where)
+
+    def said(self, file: str, rule: str) -> list[Diagnostic]:
+        """The warnings of what was tolerated."""
+        found = []
+        for what, places in self._tolerated.items():
+            first = places[0]
+            times = f" ({len(places)} places, the first here)" if len(places) > 1 else ""
+            at = Location(file, getattr(first, "line", None), getattr(first, "column", None))
+            found.append(warning(at, f"{what}{times}", rule))
+        return found
 
     # -- constraints, as trees over ids
     def reference(self, name: str, where: Any) -> Var:
@@ -92,6 +113,16 @@ class ImportReader:
     @staticmethod
     def text(tree: Node) -> str:
         return write(tree)
+
+    @staticmethod
+    def group_as_formulas(parent: str, members: list[str], some: bool, one: bool) -> list[str]:
+        """A group MoTiVML cannot hold as a group (a parent's second OR or XOR group, a group
+        of "at most one"), its members made optional: `parent` needs some of them (`some`),
+        no two together (`one`, in n log n names: formula.at_most_one)."""
+        formulas = [f"{parent} => {' | '.join(members)}"] if some else []
+        if one:
+            formulas += [f"!({_some(a)} & {_some(b)})" for a, b in at_most_one(members)]
+        return formulas
 
     # -- attributes every importer reads
     @staticmethod
@@ -126,3 +157,44 @@ class ImportReader:
                     said.append(write(Not(Binary(AND, me, Var(other, 0)))))
         return said
 
+
+
+def _some(ids: list[str]) -> str:
+    """"Some of `ids`", as a formula's operand."""
+    return ids[0] if len(ids) == 1 else f"({' | '.join(ids)})"
+
+
+def attributes(model: FeatureModel, index: int, key: str) -> dict[str, Any]:
+    """A feature's `x-` key as its document holds it (the attributes an importer kept,
+    for the exporter to write back): {} if it has none or the model has no document."""
+    node: Any = getattr(model.source, "root", None)
+    for step in model.path(index) if node is not None else ():
+        if isinstance(node, dict) and isinstance(step, str):
+            node = node.get(step)
+        elif isinstance(node, list) and isinstance(step, int) and step < len(node):
+            node = node[step]
+        else:
+            return {}
+    value = node.get(key) if isinstance(node, dict) else None
+    return value if isinstance(value, dict) else {}
+
+
+FORMATS = {"uvl": "UVL", "featureide": "FeatureIDE XML", "sxfm": "S.P.L.O.T.'s SXFM"}
+_ROOTS = {"featureModel": "featureide", "extendedFeatureModel": "featureide", "feature_model": "sxfm"}
+_PROLOGUE = re.compile(rb"\s*(?:<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^>]*>|\s)*<([A-Za-z_][\w:.-]*)", re.S)
+
+
+def guess(data: bytes) -> tuple[str | None, str]:
+    """The format a model file's text is in (a key of FORMATS, or None: none motivml
+    imports), and why, in words: "its root element is <feature_model>"."""
+    head = data[:65536].removeprefix(b"\xef\xbb\xbf")
+    if head.lstrip().startswith(b"<"):
+        found = _PROLOGUE.match(head)
+        tag = found.group(1).decode("ascii", "replace") if found else "?"
+        return _ROOTS.get(tag), f"its root element is <{tag}>"
+    text = head.decode("utf-8", "replace")
+    if re.search(r"^\s*p\s+cnf\b", text, re.M):
+        return None, "it is DIMACS CNF (`p cnf`): a formula without a feature tree"
+    if re.search(r"^(features|namespace|include|imports)\b", text, re.M):
+        return "uvl", "it has UVL's `features` section"
+    return None, "it is neither XML nor UVL"

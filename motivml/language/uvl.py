@@ -27,7 +27,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..errors import DocumentError, Location, error
-from .formula import AND, IFF, IMPLIES, OR, Node, at_most_one, fold, without_outer_parentheses
+from .formula import AND, IFF, IMPLIES, OR, Node, fold, without_outer_parentheses
 from .importer import ImportReader, Refusal
 from .model import Feature, FeatureModel, token
 
@@ -192,9 +192,7 @@ class _UvlReader(ImportReader):
                         label = "mandatory"  # one member: selected with its parent, as a group would
                     elif groups_seen[label] > 1:  # a second group of a kind: its meaning as formulas
                         names = [self._id(self._name(m)) for m in members]
-                        extra_formulas.append(f"{document['id']} => {' | '.join(names)}")
-                        if label == "alternative":
-                            extra_formulas += [f"!({_any(a)} & {_any(b)})" for a, b in at_most_one(names)]
+                        extra_formulas += self.group_as_formulas(document["id"], names, True, label == "alternative")
                         label = "optional"
                 pending += [(member, document, label) for member in members]
             work.extend(reversed(pending))
@@ -387,11 +385,6 @@ def _uvl_name(feature_id: str) -> str:
 
 
 _KIND = {"OR": "or", "XOR": "alternative"}
-
-
-def _any(names: list[str]) -> str:
-    """"Some of `names`", as a formula's operand."""
-    return names[0] if len(names) == 1 else f"({' | '.join(names)})"
 
 
 def _uvl_attributes(feature: Feature, position: int | None = None) -> str:
