@@ -329,3 +329,21 @@ def test_relations_read_back_over_names_that_are_not_the_ids() -> None:
     assert ids[1] == "lidar_2" and "formulas" not in document
     assert document["sub"][1]["constraints"]["featuresExcluded"] == ["Lidar"]
     assert document["sub"][2]["constraints"]["featuresIncluded"] == ["lidar_2"]
+
+
+def test_an_extended_models_attributes_are_kept_and_written_back() -> None:
+    """FeatureIDE's extendedFeatureModel gives features attributes: kept under
+    x-featureide, written back by export, and read again the same."""
+    text = (
+        "<extendedFeatureModel><struct><and name='Robot'>"
+        "<attribute name='cost' type='long' unit='' value='10'/>"
+        "<feature name='Lidar'><attribute name='vendor' type='string' value='Sick &amp; co'/>"
+        "<description>A laser scanner</description></feature>"
+        "</and></struct></extendedFeatureModel>"
+    )
+    document = read_featureide(text.encode(), "m.xml")
+    assert document["x-featureide"] == {"cost": "10"}
+    assert document["sub"][0]["x-featureide"] == {"vendor": "Sick & co", "description": "A laser scanner"}
+    back = read_featureide(write_featureide(read(document)).encode(), "back.xml")
+    assert back["x-featureide"] == {"cost": "10"}
+    assert back["sub"][0]["x-featureide"] == {"vendor": "Sick & co", "description": "A laser scanner"}

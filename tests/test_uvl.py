@@ -24,7 +24,7 @@ from test_property_sat import models
 
 from motivml.binding.analysis import count_selections
 from motivml.cli import main
-from motivml.errors import DocumentError
+from motivml.errors import Diagnostic, DocumentError
 from motivml.language.uvl import read_uvl, write_uvl
 
 
@@ -410,7 +410,7 @@ def test_import_writes_only_what_validate_accepts(tmp_path: Path, monkeypatch: p
 
     import motivml.language.uvl as uvl
 
-    monkeypatch.setattr(uvl, "read_uvl", lambda text, file: {"id": "R", "name": "R", "colour": "red"})
+    monkeypatch.setattr(uvl, "read_uvl", lambda text, file, warnings=None: {"id": "R", "name": "R", "colour": "red"})
     refused = CliRunner().invoke(main, ["import", "uvl", str(source), "-o", str(tmp_path / "bad")])
     assert refused.exit_code == 1, refused.output
     assert "unknown key 'colour'" in refused.output and "nothing imported" in refused.output
@@ -419,8 +419,9 @@ def test_import_writes_only_what_validate_accepts(tmp_path: Path, monkeypatch: p
 
 def test_constraints_are_written_once_from_their_trees() -> None:
     """The importers build a constraint's tree and write it once (formula.write): a deep one
-    is read in time linear in its size, and the only parentheses dropped are those around a
-    left operand of the same `&` or `|`."""
+    reads back as written, and the only parentheses dropped are those around a left operand
+    of the same `&` or `|`. (That the writing is linear in the text is formula.write's own
+    test's business: test_formula.py writes 50,000 levels.)"""
     names = [f"F{k}" for k in range(3000)]
     deep = " => (".join(names[:-1]) + f" => {names[-1]}" + ")" * (len(names) - 2)  # F0 => (F1 => (... => F2999))
     children = "".join(f"            {name}\n" for name in names)
@@ -428,3 +429,54 @@ def test_constraints_are_written_once_from_their_trees() -> None:
     formulas = read_uvl(text, "m.uvl")["formulas"]
     assert formulas[0] == deep
     assert formulas[1:] == ["F0 & F1 & F2", "F0 | (F1 | F2)"]
+
+
+# ------------------------------------------------------------------ published dialects
+UVL_DATA = ROOT / "tests" / "data" / "uvl"
+
+
+def test_a_type_word_as_a_feature_name_is_read_with_a_warning() -> None:
+    """frscs.uvl names a feature `Integer`, unquoted, in the tree and in a constraint; it
+    counts as the benchmark's DIMACS and SXFM of the same model count."""
+    warnings: list[Diagnostic] = []
+    document = read_uvl((UVL_DATA / "frscs.uvl").read_text(), "frscs.uvl", warnings)
+    assert [(d.severity.value, d.location.line, d.message.split(",")[0]) for d in warnings] == [
+        ("warning", 60, "a feature named Integer"),
+        ("warning", 321, "Integer"),
+    ]
+    assert count_selections(read(document), 60) == 117_228_783_306_240
+
+
+def test_double_quoted_attribute_values_are_read_kept_and_written_back() -> None:
+    """FeatureIDE's UVL: `{featureDescription__ "..."}`. The values are kept under x-uvl,
+    written back by export (in UVL's own single quotes), and the count is the benchmark's."""
+    import lzma
+
+    warnings: list[Diagnostic] = []
+    text = lzma.open(UVL_DATA / "financial-services-2017-05-22.uvl.xz").read().decode()
+    document = read_uvl(text, "fs.uvl", warnings)
+    (said,) = warnings
+    assert said.location.line == 4 and said.message.startswith(
+        "attribute values in double quotes are read as strings (UVL quotes a string with single quotes; "
+        "FeatureIDE's exports use double quotes) ("
+    )
+    assert document["x-uvl"] == {"featureDescription__": "D_XXEYWH5510S43DAAPCE5VG55OXTKAKAA"}
+    model = read(document)
+    assert count_selections(model, 60) == 430
+    written = write_uvl(model)
+    assert "featureDescription__ 'D_XXEYWH5510S43DAAPCE5VG55OXTKAKAA'" in written
+    again: list[Diagnostic] = []
+    assert read_uvl(written, "back.uvl", again)["x-uvl"] == document["x-uvl"] and again == []
+
+
+def test_kept_attributes_of_every_kind_are_written_back() -> None:
+    text = (
+        "features\n    R {color 'red', weight 3, ratio 0.5, flag, off false, tags ['a', 'b'], nested {x 'y'}}\n"
+        "        optional\n            A {note \"quoted\"}\n"
+    )
+    document = read_uvl(text, "m.uvl")
+    back = read_uvl(write_uvl(read(document)), "back.uvl")
+    assert back["x-uvl"] == document["x-uvl"] == {
+        "color": "red", "weight": 3, "ratio": 0.5, "flag": True, "off": False, "tags": ["a", "b"], "nested": {"x": "y"},
+    }
+    assert back["sub"][0]["x-uvl"] == {"note": "quoted"}

@@ -335,7 +335,7 @@ def _imported(what: str | None, source: str) -> tuple[dict[str, Any], list[Diagn
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
-    return read_uvl(text, source), warnings
+    return read_uvl(text, source, warnings), warnings
 
 
 def _checked_model(document: dict[str, Any], model_path: Path) -> str:

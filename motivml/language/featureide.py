@@ -30,11 +30,13 @@ from typing import Any
 from ..errors import DocumentError, Location, error
 from .formula import AND, IFF, IMPLIES, OR, Node, at_most_one, fold
 from .importer import ImportReader, Refusal
+from .importer import attributes as kept_attributes
 from .model import Feature, FeatureModel, GroupKind, token
 from .xmltree import Element, parse_xml
 
 _GROUPS = {"and": "", "or": "OR", "alt": "XOR", "feature": ""}
 _OPERATORS = {"conj": AND, "disj": OR, "imp": IMPLIES, "eq": IFF}
+_OWN = frozenset({"description", "bindingTime", "bindingMode", "includes", "excludes", "group"})  # written by export itself
 
 
 def read_featureide(data: bytes, file: str) -> dict[str, Any]:
@@ -212,8 +214,14 @@ def write_featureide(model: FeatureModel) -> str:
                 inner.append(f'<attribute name="{key}" type="string" value={value}/>')
         if feature.group and parent is not None and _tag(model, parent) == "and":
             inner.append(f'<attribute name="group" type="string" value="{feature.group}"/>')
+        kept = kept_attributes(model, feature.index, "x-featureide")  # (what an import kept)
+        for key, value in kept.items():
+            if key not in _OWN and isinstance(value, str):
+                inner.append(f'<attribute name={quoteattr(key)} type="string" value={quoteattr(value)}/>')
         if feature.name != feature.id:
             inner.insert(0, f"<description>{_escape(feature.name)}</description>")
+        elif isinstance(kept.get("description"), str):
+            inner.insert(0, f"<description>{_escape(kept['description'])}</description>")
         lines.append(f"{pad}<{tag} {attributes}>")
         lines += [pad + "    " + line for line in inner]
         work.append((f"</{tag}>", depth))

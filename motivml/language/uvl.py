@@ -26,9 +26,9 @@ import re
 from collections.abc import Callable
 from typing import Any
 
-from ..errors import DocumentError, Location, error
+from ..errors import Diagnostic, DocumentError, Location, error
 from .formula import AND, IFF, IMPLIES, OR, Node, fold, without_outer_parentheses
-from .importer import ImportReader, Refusal
+from .importer import ImportReader, Refusal, attributes
 from .model import Feature, FeatureModel, token
 
 _GRAMMAR = r"""
@@ -42,6 +42,7 @@ imports: "imports" _NL _INDENT (name ("as" name)? _NL)+ _DEDENT
 
 features: "features" _NL _INDENT feature _DEDENT
 feature: TYPE? name feature_cardinality? attributes? _NL (_INDENT group+ _DEDENT)?
+       | TYPE feature_cardinality? attributes? _NL (_INDENT group+ _DEDENT)? -> type_named
 feature_cardinality: "cardinality" cardinality
 group: GROUP _NL _INDENT feature+ _DEDENT
      | cardinality _NL _INDENT feature+ _DEDENT -> cardinality_group
@@ -50,6 +51,7 @@ cardinality: "[" INT (".." (INT | STAR))? "]"
 attributes: "{" [attribute ("," attribute)*] "}"
 attribute: name value?
 value: STRING -> string
+     | QUOTED -> quoted_string
      | SIGNED_NUMBER -> number
      | "true" -> true
      | "false" -> false
@@ -68,6 +70,7 @@ constraints: "constraints" _NL (_INDENT (expression _NL)+ _DEDENT)?
 ?negation: "!" negation -> negation
          | atom
 ?atom: name -> reference
+     | TYPE -> type_reference
      | "(" expression ")"
      | SIGNED_NUMBER -> arithmetic
      | STRING -> arithmetic
@@ -119,13 +122,19 @@ def _parser() -> Any:
     return _PARSER
 
 
-def read_uvl(text: str, file: str) -> dict[str, Any]:
-    """The feature model document of a UVL text; DocumentError (located) if it cannot be kept."""
+def read_uvl(text: str, file: str, warnings: list[Diagnostic] | None = None) -> dict[str, Any]:
+    """The feature model document of a UVL text; DocumentError (located) if it cannot be
+    kept. What published files write otherwise than UVL's grammar, and is read anyway (the
+    dialects of FeatureIDE's and other tools' exports), is said in `warnings` (when given)."""
     from lark.exceptions import LarkError, UnexpectedInput
 
+    reader = _UvlReader()
     try:
         tree = _parser().parse(text if text.endswith("\n") else text + "\n")
-        return _UvlReader().document(tree)
+        document = reader.document(tree)
+        if warnings is not None:
+            warnings += reader.said(file, "uvl")
+        return document
     except Refusal as refusal:
         raise refusal.located(file, "uvl") from None
     except UnexpectedInput as problem:
@@ -206,12 +215,20 @@ class _UvlReader(ImportReader):
         return documents[0], extra_formulas, kept
 
     def _name(self, node: Any) -> str:
+        if node.data == "type_named":  # (a feature named as a type: `Integer` alone on its line)
+            return str(node.children[0])
         name = next(child for child in node.children if getattr(child, "data", None) == "name")
         return _name_text(name)
 
     def _feature(self, node: Any, kind: str) -> dict[str, Any]:
         children = node.children
-        if children and not hasattr(children[0], "data") and children[0].type == "TYPE" and str(children[0]) != "Boolean":
+        if node.data == "type_named":
+            self.tolerate(
+                children[0],
+                f"a feature named {children[0]}, a word of UVL's types, is read as a name "
+                "(UVL quotes it: \"Integer\"; FeatureIDE's exports do not)",
+            )
+        elif children and not hasattr(children[0], "data") and children[0].type == "TYPE" and str(children[0]) != "Boolean":
             raise Refusal(children[0], f"a feature of type {children[0]} cannot be kept: only Boolean features")
         name = self._name(node)
         if not name:
@@ -238,7 +255,7 @@ class _UvlReader(ImportReader):
         others: dict[str, Any] = {}
         for attribute in node.children:
             key = _name_text(attribute.children[0])
-            value = _value(attribute.children[1]) if len(attribute.children) > 1 else True
+            value = self._value(attribute.children[1]) if len(attribute.children) > 1 else True
             if key == "abstract":
                 if not isinstance(value, bool):
                     raise Refusal(attribute.meta, "abstract is true or false")
@@ -259,6 +276,33 @@ class _UvlReader(ImportReader):
         if others:
             document["x-uvl"] = others
 
+    def _value(self, node: Any) -> Any:
+        while node.data == "value":  # (an attribute list as a value)
+            node = node.children[0]
+        data = node.data
+        if data == "string":
+            return str(node.children[0])[1:-1]
+        if data == "quoted_string":
+            self.tolerate(
+                node.children[0],
+                "attribute values in double quotes are read as strings "
+                "(UVL quotes a string with single quotes; FeatureIDE's exports use double quotes)",
+            )
+            return str(node.children[0])[1:-1]
+        if data == "number":
+            text = str(node.children[0])
+            return int(text) if re.fullmatch(r"[+-]?\d+", text) else float(text)
+        if data in ("true", "false"):
+            return data == "true"
+        if data == "vector":
+            return [self._value(child) for child in node.children]
+        if data == "attributes":
+            return {
+                _name_text(a.children[0]): self._value(a.children[1]) if len(a.children) > 1 else True
+                for a in node.children
+            }
+        raise Refusal(node.meta, "attribute constraints cannot be kept")
+
     def _formula(self, expression: Any) -> str:
         """A constraint as rule 2.4 writes it (ids renamed): its tree, built bottom-up."""
         results: list[Node] = []
@@ -268,6 +312,12 @@ class _UvlReader(ImportReader):
             data = getattr(node, "data", None)
             if data == "reference":
                 results.append(self.reference(_name_text(node.children[0]), node.meta))
+            elif data == "type_reference":  # (a feature named as a type, unquoted)
+                self.tolerate(
+                    node.children[0],
+                    f"{node.children[0]}, a word of UVL's types, is read as a feature's name in a constraint",
+                )
+                results.append(self.reference(str(node.children[0]), node.children[0]))
             elif data == "arithmetic":
                 raise Refusal(node.meta, "arithmetic and type-level constraints cannot be kept: only Boolean ones")
             elif data in _OPERATORS:
@@ -297,24 +347,6 @@ def _name_text(node: Any) -> str:
     return ".".join(parts)
 
 
-def _value(node: Any) -> Any:
-    while node.data == "value":  # (an attribute list as a value)
-        node = node.children[0]
-    data = node.data
-    if data == "string":
-        return str(node.children[0])[1:-1]
-    if data == "number":
-        text = str(node.children[0])
-        return int(text) if re.fullmatch(r"[+-]?\d+", text) else float(text)
-    if data in ("true", "false"):
-        return data == "true"
-    if data == "vector":
-        return [_value(child) for child in node.children]
-    if data == "attributes":
-        return {_name_text(a.children[0]): _value(a.children[1]) if len(a.children) > 1 else True for a in node.children}
-    raise Refusal(node.meta, "attribute constraints cannot be kept")
-
-
 # ----------------------------------------------------------------------------- export
 def write_uvl(model: FeatureModel) -> str:
     """The model in UVL: features by id, bindings, names, includes and excludes as attributes,
@@ -335,7 +367,8 @@ def write_uvl(model: FeatureModel) -> str:
             lines.append("    " * level + item)
             continue
         feature = features[item]
-        lines.append("    " * level + _uvl_name(feature.id) + _uvl_attributes(feature, positions.get(item)))
+        kept = attributes(model, feature.index, "x-uvl")  # (the attributes an import kept)
+        lines.append("    " * level + _uvl_name(feature.id) + _uvl_attributes(feature, positions.get(item), kept))
         # children in their order, one keyword per run of a kind; a group's members together
         # where its first one stands (UVL has one place per group): if that moves a child,
         # each child says its position, so that the order comes back on import
@@ -387,7 +420,7 @@ def _uvl_name(feature_id: str) -> str:
 _KIND = {"OR": "or", "XOR": "alternative"}
 
 
-def _uvl_attributes(feature: Feature, position: int | None = None) -> str:
+def _uvl_attributes(feature: Feature, position: int | None = None, kept: dict[str, Any] | None = None) -> str:
     parts: list[str] = []
     if position is not None:
         parts.append(f"position {position}")
@@ -401,7 +434,39 @@ def _uvl_attributes(feature: Feature, position: int | None = None) -> str:
         parts.append("includes [" + ", ".join(f"'{i}'" for i in dict.fromkeys(feature.includes)) + "]")
     if feature.excludes:
         parts.append("excludes [" + ", ".join(f"'{i}'" for i in dict.fromkeys(feature.excludes)) + "]")
+    for key, value in (kept or {}).items():
+        written = _uvl_value(value)
+        if written is not None and key not in _OWN_ATTRIBUTES:
+            parts.append(_uvl_attribute_name(key) + ("" if written == "true" else f" {written}"))
     return " {" + ", ".join(parts) + "}"
+
+
+_OWN_ATTRIBUTES = frozenset({"abstract", "name", "position", "bindingTime", "bindingMode", "includes", "excludes"})
+
+
+def _uvl_attribute_name(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", key) and key not in _UVL_KEYWORDS else f'"{key}"'
+
+
+def _uvl_value(value: Any, depth: int = 0) -> str | None:
+    """An attribute's value as UVL writes it; None for one it cannot hold (a string with a
+    quote or a line break, a value nested deeper than 20 levels, or holding either), which
+    is left out."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return f"'{value}'" if "'" not in value and "\n" not in value else None
+    if depth >= 20 or not isinstance(value, (list, dict)):
+        return None
+    pairs = list(value.items()) if isinstance(value, dict) else [("", v) for v in value]
+    written = [(k, _uvl_value(v, depth + 1)) for k, v in pairs]
+    if any(v is None for _, v in written):
+        return None
+    if isinstance(value, list):
+        return "[" + ", ".join(str(v) for _, v in written) + "]"
+    return "{" + ", ".join(_uvl_attribute_name(k) + ("" if v == "true" else f" {v}") for k, v in written) + "}"
 
 
 def _uvl_string(text: str) -> str:
