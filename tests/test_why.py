@@ -184,3 +184,39 @@ def test_forced_impossible_and_open_agree_with_brute_force(data: st.DataObject) 
                 assert len(values) == 1, (aspect, f.id, values)
             elif reasons[aspect].how == "open":
                 assert len(values) == 2, (aspect, f.id, values)
+
+
+# ------------------------------------------------------- a model that says no bindings
+IMPORTED = {  # as an import of another tool's model makes it: no feature says a binding
+    "id": "gripper",
+    "name": "Gripper",
+    "sub": [
+        {"id": "force", "name": "Force sensing", "isMandatory": False},
+        {"id": "suction", "name": "suction", "isMandatory": False, "constraints": {"featuresExcluded": ["force"]}},
+    ],
+}
+
+
+def test_a_model_without_bindings_is_shown_and_explained_by_selection_alone(tmp_path: Path) -> None:
+    """Issue 33: on a model no feature of which says a binding, show and --why spoke of
+    bindings nobody chose ("force is always Early ... cannot be Late") and printed a name
+    equal to its id twice ("suction (suction)")."""
+    (tmp_path / "model.json").write_text(json.dumps(IMPORTED))
+    shown = CliRunner().invoke(main, ["show", str(tmp_path / "model.json")])
+    assert shown.exit_code == 0, shown.output
+    lines = shown.output.splitlines()
+    assert lines[:3] == [
+        "gripper (Gripper)  solver on",
+        "├── ? force (Force sensing)  solver off,on",
+        "└── ? suction  solver off,on",
+    ]
+    assert "no feature says a binding, so every one is Static Early" in " ".join(shown.output.split())
+    explained = CliRunner().invoke(main, ["show", str(tmp_path / "model.json"), "--why", "force"])
+    assert explained.output.splitlines() == [
+        "force is left open: the model does not decide it, and valid variants exist with it and without it"
+    ]
+    one_says = json.loads(json.dumps(IMPORTED))
+    one_says["sub"][0]["constraints"] = {"bindingTimeAllowed": "Any"}  # one says a binding: all are spoken of
+    (tmp_path / "model.json").write_text(json.dumps(one_says))
+    bound = CliRunner().invoke(main, ["show", str(tmp_path / "model.json"), "--why", "suction"])
+    assert "suction is always Early when selected" in bound.output

@@ -154,6 +154,8 @@ def why(
             ),
         ]
         for aspect, said, values, literal in aspects:
+            if said is None and not model.bindings_declared:
+                continue  # (no feature says a binding: every one is the default, nothing to explain)
             if said is not None:
                 reasons.append(configured(aspect, f"{f.id} is {said}", "props", aspect))
             elif len(values) == 1:
@@ -179,7 +181,7 @@ def why(
                 )
 
     # --- the start state of the resolved variant
-    if chosen is not None and active_at_start is not None and chosen[0]:
+    if chosen is not None and active_at_start is not None and chosen[0] and model.bindings_declared:
         binding = chosen[1]
         if binding.early:
             reasons.append(

@@ -323,8 +323,19 @@ def show_command(
         out.file.write(_tree_text(model, labels, not out.encoding.lower().startswith("utf")))
     for formula in model.formulas:  # (rule 2.4: they hold beside the tree)
         out.print(f"formula {formula.position + 1}: {escape(formula.text)}")
+    out.print(_legend(model.bindings_declared, resolved is not None))
+
+
+def _legend(bound: bool, resolved: bool) -> str:
+    """The line under `show`'s tree that says what its marks mean."""
     start = "; start = active at start in the variant configure resolves" if resolved else ""
-    out.print(
+    if not bound:
+        return (
+            "[dim]marks: ! mandatory, ? optional, [OR]/[XOR] group member; set = what the configuration says; "
+            "solver = whether valid variants select it (one value: forced); no feature says a binding, "
+            f"so every one is Static Early{start}[/]"
+        )
+    return (
         "[dim]marks: ! mandatory, ? optional, [OR]/[XOR] group member; allowed = mode/time a feature allows; "
         f"set = what the configuration says; solver = what valid variants leave (one value: forced){start}[/]"
     )
@@ -403,7 +414,8 @@ def _labels(
             parts += [(f"[{f.group}]", "magenta"), (" ", "")]
         else:
             parts += [("!", "bold"), (" ", "")] if f.mandatory else [("? ", "")]
-        allowed = f"allowed {_short(f.mode_allowed)}{_short(f.time_allowed)}"
+        bound = model.bindings_declared  # (False: every feature takes the defaults; say selection only)
+        allowed = f"  allowed {_short(f.mode_allowed)}{_short(f.time_allowed)}" if bound else ""
         configured = ""
         if config is not None:
             entry = config.entries.get(f.id)
@@ -412,14 +424,15 @@ def _labels(
             elif not entry.selected:
                 configured = " set off"
             else:
-                configured = f" set {_short(entry.mode)}{_short(entry.time)}"
+                configured = f" set {_short(entry.mode)}{_short(entry.time)}" if bound or entry.mode or entry.time else " set on"
         possible = states[f.index]
-        solver = ",".join(s for s in order if s in possible) or "none"
+        words = [s for s in order if s in possible]
+        solver = ",".join(words if bound else ["on" if s != OFF else s for s in words]) or "none"
+        parts += [(f.id, "bold")]
+        if f.name != f.id:
+            parts += [(" ", ""), (f"({printable(f.name)})", "dim")]
         parts += [
-            (f.id, "bold"),
-            (" ", ""),
-            (f"({printable(f.name)})", "dim"),
-            (f"  {allowed}{configured}  solver ", ""),
+            (f"{allowed}{configured}  solver ", ""),
             (solver, "green" if len(possible) == 1 else "cyan"),
         ]
         if active is not None and f.id in active:

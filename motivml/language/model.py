@@ -140,6 +140,9 @@ class FeatureModel:
     name: str = ""
     source: Any = None  # the loader's Document, to locate messages
     formulas: list[Formula] = field(default_factory=list)  # the root's cross-tree formulas (2.4)
+    # some feature says its allowed binding time or mode (False: an imported model, whose
+    # features all take the defaults: its bindings are not worth speaking of)
+    bindings_declared: bool = True
     _paths: dict[int, tuple[PathItem, ...]] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     @property

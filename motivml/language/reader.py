@@ -60,10 +60,13 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
     stack: list[tuple[dict[str, Any], int | None, int]] = [(doc.root, None, 0)]
     model = FeatureModel(features, index, [], str(doc.root.get("name", "")), doc)
 
+    declared = False  # (some feature says its allowed binding)
     while stack:
         node, parent, position = stack.pop()
         i = len(features)
         constraints = node.get("constraints", {})
+        if constraints and not declared:
+            declared = "bindingTimeAllowed" in constraints or "bindingModeAllowed" in constraints
         feature = Feature(  # (by position: keywords cost a tenth of the reading at 100,000 features)
             i,  # index
             node["id"],
@@ -112,6 +115,7 @@ def read_model(doc: Document) -> tuple[FeatureModel, list[Diagnostic]]:
         for position_ in range(len(node.get("sub", ())) - 1, -1, -1):
             stack.append((node["sub"][position_], i, position_))
 
+    model.bindings_declared = declared
     root, root_node = features[0], nodes[0]
     if root_node.get("isSelected") is False:
         diagnostics.append(
