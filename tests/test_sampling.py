@@ -11,6 +11,7 @@ from itertools import combinations
 from pathlib import Path
 from typing import Any
 
+import pytest
 import reference_semantics as ref
 from click.testing import CliRunner
 from hypothesis import HealthCheck, given, settings
@@ -132,3 +133,12 @@ def test_a_model_with_only_its_root_has_an_empty_sample(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert result.output.splitlines()[-1] == "  wrote no file: no 2-wise combination, the model has 0 features besides its root"
     assert not list((tmp_path / "out").glob("sample-*.json"))
+
+
+def test_sample_writes_under_build_by_default(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Issue 33: sample needed -o where export and configure default to build/<robot>/."""
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(main, ["sample", str(ROOT / "feature_models" / "simplebot")])
+    assert result.exit_code == 0, result.output
+    assert "wrote build/simplebot/sample/sample-001.json" in result.output
+    assert (tmp_path / "build" / "simplebot" / "sample" / "sample-001.json").is_file()

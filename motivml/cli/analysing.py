@@ -177,12 +177,18 @@ class _Bar:
 @click.argument("target", default=".", type=click.Path(readable=False))
 @click.option("--t", "t", type=click.IntRange(1, 3), default=2, show_default=True, help="Cover every combination of t feature values.")
 @click.option("--bindings", is_flag=True, help="A selected feature's values are also Early, Late, Static and Dynamic.")
-@click.option("-o", "--output", required=True, type=click.Path(file_okay=False, readable=False), help="Folder for the sample's decisions files.")
-def sample_command(target: str, t: int, bindings: bool, output: str) -> None:
+@click.option(
+    "-o",
+    "--output",
+    type=click.Path(file_okay=False, readable=False),
+    help="Folder for the sample's decisions files (default build/<robot>/sample).",
+)
+def sample_command(target: str, t: int, bindings: bool, output: str | None) -> None:
     """Write a t-wise sample: a few valid variants such that every valid combination of t
     feature values (selected or not; with --bindings, also each time and mode) is in one.
 
-    Each variant is a decisions file OUTPUT/sample-NNN.json ("partial": true) that
+    Each variant is a decisions file OUTPUT/sample-NNN.json ("partial": true; OUTPUT is
+    build/<robot>/sample unless given) that
     `validate` accepts and `configure` completes; without --bindings it leaves the bindings
     to `configure`. TARGET is a model.json or a robot folder. Exit 1 when the model has
     errors or no valid variant, 2 when t-wise is too large for the model.
@@ -193,6 +199,9 @@ def sample_command(target: str, t: int, bindings: bool, output: str) -> None:
 
     try:
         model_path, _, _ = targets(target, None, None)
+        if output is None:  # (as export and configure: under build/, by the robot's name)
+            robot = model_path.parent.name if model_path.name == "model.json" else model_path.stem
+            output = str(Path("build") / robot / "sample")
         checked = validate(model_path, [], partial=True, analyse=False).model
         model = checked.model
         if model is None:
