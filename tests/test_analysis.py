@@ -608,11 +608,11 @@ def test_the_progress_bar_shows_on_a_terminal_only_once_started(monkeypatch: pyt
 
     from rich.console import Console
 
-    from motivml.cli import analysing
+    from motivml.cli import progress as analysing
 
     screen = io.StringIO()
     monkeypatch.setattr(analysing, "err", Console(file=screen, force_terminal=True, width=80))
-    with analysing._Bar(3) as bar:
+    with analysing.ProgressBar(3) as bar:
         bar.step("first")
         bar._show()
         bar.step("second")
@@ -620,13 +620,13 @@ def test_the_progress_bar_shows_on_a_terminal_only_once_started(monkeypatch: pyt
         (task,) = bar.progress.tasks
         assert (task.completed, task.description, task.total) == (1, "second", 3)
     assert bar.closed and bar.progress.finished is False  # stopped, not completed
-    counted = analysing._Bar(1)
+    counted = analysing.ProgressBar(1)
     counted._show()
     counted.reached(40, 400)
     (task,) = counted.progress.tasks  # type: ignore[union-attr]
     assert (task.completed, task.total, task.description) == (40, 400, "combinations settled")
     counted.__exit__(None, None, None)
-    late = analysing._Bar(3)
+    late = analysing.ProgressBar(3)
     late.__exit__(None, None, None)
     late._show()
     assert late.progress is None
@@ -818,3 +818,21 @@ def read_simplebot() -> Any:
 
     model, _ = load_model(str(ROOT / "feature_models" / "simplebot" / "model.json"))
     return model
+
+
+@pytest.mark.parametrize(("terminal", "shown", "started"), [(True, True, True), (False, True, False), (True, False, False)])
+def test_the_progress_bar_waits_on_a_terminal_only_and_never_for_json(
+    monkeypatch: pytest.MonkeyPatch, terminal: bool, shown: bool, started: bool
+) -> None:
+    """Issue 33: a bar on a terminal's stderr, nothing on a pipe or with --format json (analyse
+    passes shown=False then); import, export, configure and sample use the same bar."""
+    import io
+
+    from rich.console import Console
+
+    from motivml.cli import progress
+
+    monkeypatch.setattr(progress, "err", Console(file=io.StringIO(), force_terminal=terminal, width=80))
+    with progress.ProgressBar(2, shown=shown) as bar:
+        assert bar.timer.is_alive() == started or (started and bar.timer.finished.is_set())
+    assert not bar.timer.is_alive() or bar.timer.finished.is_set()

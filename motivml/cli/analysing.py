@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import math
 import sys
-import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
@@ -13,15 +12,13 @@ import click
 from rich.markup import escape
 
 from ..errors import Diagnostic, EnvironmentProblem, Location, MotivmlError, error
-from .common import Number, err, fail, out, plural, print_diagnostics, targets
+from .common import Number, fail, out, plural, print_diagnostics, targets
+from .progress import ProgressBar
 
 if TYPE_CHECKING:
-    from rich.progress import Progress
-
     from ..language.model import Binding, FeatureModel
 
 SHOWN = 20  # ids listed per line of the text output; --format json lists them all
-PROGRESS_AFTER = 1.0  # seconds: a quicker analysis shows no progress bar
 
 
 MAX_COUNT_SECONDS = 1e6  # the longest wait for a count that the system's poll takes is 24 days
@@ -56,11 +53,12 @@ def analyse_command(target: str, fmt: str, no_counts: bool, count_timeout: float
 
     try:
         model_path, _, _ = targets(target, None, None)
-        checked = validate(model_path, [], partial=True, analyse=False).model
-        model = checked.model
-        if model is None:
-            _refuse(checked.errors, fmt, "the model has errors")
-        with _Bar(len(STEPS)) as bar:
+        with ProgressBar(len(STEPS) + 1, shown=fmt != "json") as bar:
+            bar.step("reading the model")
+            checked = validate(model_path, [], partial=True, analyse=False).model
+            model = checked.model
+            if model is None:
+                _refuse(checked.errors, fmt, "the model has errors")
             try:
                 limit = None if math.isinf(count_timeout) else count_timeout  # (inf: no limit)
                 analysis = analyse(model, not no_counts, bar.step, limit)
@@ -119,60 +117,6 @@ def _refuse(found: list[Diagnostic], fmt: str, why: str, void: bool = False) -> 
     sys.exit(1)
 
 
-class _Bar:
-    """A progress bar on stderr, shown once an analysis has taken PROGRESS_AFTER seconds (and
-    only on a terminal); it names the step under way."""
-
-    def __init__(self, total: int) -> None:
-        self.total = total
-        self.done = -1
-        self.name = ""
-        self.lock = threading.Lock()
-        self.progress: Progress | None = None
-        self.closed = False
-        self.timer = threading.Timer(PROGRESS_AFTER, self._show)
-        self.timer.daemon = True
-
-    def __enter__(self) -> _Bar:
-        if err.is_terminal:
-            self.timer.start()
-        return self
-
-    def step(self, name: str) -> None:
-        with self.lock:
-            self.done += 1
-            self.name = name
-            if self.progress is not None:
-                self.progress.update(self.task, completed=self.done, description=name)
-
-    def reached(self, done: int, total: int) -> None:
-        """Progress as a count (`sample`: the combinations settled of all)."""
-        with self.lock:
-            self.done, self.total, self.name = done, total, "combinations settled"
-            if self.progress is not None:
-                self.progress.update(self.task, completed=done, total=total, description=self.name)
-
-    def _show(self) -> None:
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
-
-        with self.lock:
-            if self.closed:
-                return
-            progress = Progress(
-                TextColumn("{task.description}"), BarColumn(), TimeElapsedColumn(), console=err, transient=True
-            )
-            self.task = progress.add_task(self.name, total=self.total, completed=max(self.done, 0))
-            progress.start()
-            self.progress = progress
-
-    def __exit__(self, *exc: object) -> None:
-        self.timer.cancel()
-        with self.lock:
-            self.closed = True
-            if self.progress is not None:
-                self.progress.stop()
-
-
 @click.command("sample")
 @click.argument("target", default=".", type=click.Path(readable=False))
 @click.option("--t", "t", type=click.IntRange(1, 3), default=2, show_default=True, help="Cover every combination of t feature values.")
@@ -202,12 +146,13 @@ def sample_command(target: str, t: int, bindings: bool, output: str | None) -> N
         if output is None:  # (as export and configure: under build/, by the robot's name)
             robot = model_path.parent.name if model_path.name == "model.json" else model_path.stem
             output = str(Path("build") / robot / "sample")
-        checked = validate(model_path, [], partial=True, analyse=False).model
-        model = checked.model
-        if model is None:
-            _refuse(checked.errors, "text", "the model has errors")
         try:
-            with _Bar(1) as bar:
+            with ProgressBar(1) as bar:
+                bar.step("reading the model")
+                checked = validate(model_path, [], partial=True, analyse=False).model
+                model = checked.model
+                if model is None:
+                    _refuse(checked.errors, "text", "the model has errors")
                 found = sample(model, t, bindings, bar.reached)
         except TooMany as exc:
             raise click.UsageError(f"{exc}: use a smaller t") from None

@@ -17,6 +17,7 @@ from ..documents.robot_folder import RobotFolder, optional_document
 from ..errors import MotivmlError
 from ..language.model import OFF, Binding, FeatureState, Mode, Time, token
 from .common import environment_problem, fail, one_variant, out, plural, print_diagnostics, printable, targets
+from .progress import ProgressBar
 from .reports import FORMATS, checked, unchecked
 
 EXIT_NOT_AT_RUN_TIME = 4  # diff: valid variants, but the move needs a rebuild or a restart
@@ -144,7 +145,9 @@ def configure_command(
         (config_path,) = targets(target, config, variant)[1]
         folder = Path(output) if output else Path("build") / robot.name / name
         decisions = Path(save_decisions) if save_decisions is not None else None
-        done = configure(robot, Path(config_path), folder, prefer, prefix, decisions)
+        with ProgressBar(1) as bar:
+            bar.step(f"configuring {robot.name}'s variant {name}")
+            done = configure(robot, Path(config_path), folder, prefer, prefix, decisions)
     except NotConfigured as invalid:
         print_diagnostics(invalid.diagnostics)
         out.print(f"[bold red]invalid[/]: {escape(invalid.what)}: nothing written")

@@ -17,6 +17,7 @@ from ..errors import Diagnostic, MotivmlError
 if TYPE_CHECKING:
     from ..language.model import FeatureModel
 from .common import fail, one_variant, out, plural, print_diagnostics, shown
+from .progress import ProgressBar
 
 
 @click.command("graph")
@@ -200,25 +201,22 @@ def _export_model(what: str, target: str, output: str | None, bindings: bool) ->
 
     try:
         model_path, _, _ = targets(target, None, None)
-        checked = validate(model_path, [], partial=True, analyse=False).model
-        model = checked.model
-        if model is None:
-            print_diagnostics(checked.errors)
-            out.print(f"[bold red]nothing exported[/]: {escape(str(model_path))} has errors")
-            sys.exit(1)
-        names = {"uvl": "model.uvl", "featureide": "model.xml", "sxfm": "model-sxfm.xml"}
-        name = names.get(what) or ("model-variants.dimacs" if bindings else "model.dimacs")
-        robot = model_path.parent.name if model_path.name == "model.json" else model_path.stem
-        path = Path(output) if output else Path("build") / robot / name
-        if what == "uvl":
-            text = write_uvl(model)
-        elif what == "featureide":
-            text = write_featureide(model)
-        elif what == "sxfm":
-            text = write_sxfm(model)
-        else:
-            text = variant_dimacs(model) if bindings else selection_dimacs(model)
-        written = write_if_changed(path.parent, {path.name: text})
+        with ProgressBar(2) as bar:
+            bar.step("reading the model")
+            checked = validate(model_path, [], partial=True, analyse=False).model
+            model = checked.model
+            if model is None:
+                print_diagnostics(checked.errors)
+                out.print(f"[bold red]nothing exported[/]: {escape(str(model_path))} has errors")
+                sys.exit(1)
+            bar.step(f"writing {what}")
+            names = {"uvl": "model.uvl", "featureide": "model.xml", "sxfm": "model-sxfm.xml"}
+            name = names.get(what) or ("model-variants.dimacs" if bindings else "model.dimacs")
+            robot = model_path.parent.name if model_path.name == "model.json" else model_path.stem
+            path = Path(output) if output else Path("build") / robot / name
+            writers = {"uvl": write_uvl, "featureide": write_featureide, "sxfm": write_sxfm}
+            writer = writers.get(what) or (variant_dimacs if bindings else selection_dimacs)
+            written = write_if_changed(path.parent, {path.name: writer(model)})
     except MotivmlError as exc:
         _nothing(exc, "exported", target)
     out.print(f"  {'wrote' if written[path.name] else 'unchanged'} {escape(str(path))}")
@@ -279,9 +277,13 @@ def import_command(words: tuple[str, ...], output: str | None) -> None:
             raise EnvironmentProblem(
                 error(Location(str(model_path)), "exists already: import into a new folder, or remove it", "io")
             )
-        document, warnings = _imported(what, source)
-        written = _checked_model(document, model_path)
-        write_if_changed(folder, {"model.json": written})
+        with ProgressBar(3) as bar:
+            bar.step(f"reading {source}")
+            document, warnings = _imported(what, source)
+            bar.step("checking the model as validate does")
+            written = _checked_model(document, model_path)
+            bar.step(f"writing {model_path}")
+            write_if_changed(folder, {"model.json": written})
         (folder / "variants").mkdir(exist_ok=True)
     except MotivmlError as exc:
         _nothing(exc, "imported", source)
