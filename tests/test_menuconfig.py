@@ -288,3 +288,35 @@ def test_the_command_says_interrupted_and_exits_with_the_applications_code(
         monkeypatch.setattr(menuconfig, "MenuConfig", lambda session, path, code=code: Ended(code))
         result = CliRunner().invoke(main, ["menuconfig", str(robot), "--variant", "warehouse"])
         assert result.exit_code == code and said in result.output, result.output
+
+
+def test_slash_searches_ids_and_names_and_jumps_to_the_next_match(robot: Path) -> None:
+    """Issue 33: menuconfig had no search (Kconfig's `/`). Typing lists the features whose
+    id or name holds the text; Enter jumps to the next match after the cursor, opening the
+    tree down to it, and the keys act on it at once; Escape closes the search."""
+    session, path = open_session(str(robot), "sketch", None)
+    seen: dict[str, Any] = {}
+
+    async def steps(app: Any, pilot: Any) -> None:
+        tree = app.query_one("#features")
+        await pilot.press("slash", *"SLAM")  # (any case: slam, hectorslam, kartoslam, orbslam)
+        seen["listed"] = detail(app)
+        await pilot.press("enter")
+        seen["first"] = tree.cursor_node.data
+        await pilot.press("slash", "enter")
+        seen["second"] = tree.cursor_node.data
+        await pilot.press("y")  # the keys are the tree's again
+        seen["selected"] = label(app, seen["second"])
+        await pilot.press("slash", "ctrl+a", "ctrl+k", *"nothing like it")
+        seen["none"] = detail(app)
+        await pilot.press("escape")
+        seen["closed"] = app.query_one("#search").display
+        await pilot.press("q", "q")
+
+    drive(session, path, steps)
+    assert seen["listed"].startswith("4 matches (Enter jumps to the next one)\nslam (SLAM) in root_feature > localization\n")
+    assert "hectorslam (HectorSLAM) in root_feature > localization > slam" in seen["listed"]
+    assert (seen["first"], seen["second"]) == ("slam", "hectorslam")
+    assert seen["selected"] == "[x] [XOR] hectorslam  **"
+    assert seen["none"] == "no feature's id or name holds 'nothing like it'"
+    assert seen["closed"] is False

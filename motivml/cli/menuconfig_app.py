@@ -11,11 +11,11 @@ from rich.text import Text
 from textual.app import App, ComposeResult
 from textual.binding import Binding
 from textual.containers import VerticalScroll
-from textual.widgets import Footer, Header, Static, Tree
+from textual.widgets import Footer, Header, Input, Static, Tree
 
 from ..binding.configurator import Configurator
 from ..errors import MotivmlError, repair_text
-from ..language.model import OFF, Mode, Time
+from ..language.model import OFF, FeatureModel, Mode, Time
 from ..language.model import Binding as FeatureBinding
 from .common import plural
 from .menuconfig import EXIT_INTERRUPTED, HINT
@@ -25,6 +25,71 @@ class FeatureTree(Tree[str]):
     """The feature tree: space cycles the feature under the cursor (as `y`, `n`, `u`)."""
 
     BINDINGS: ClassVar[list[Any]] = [Binding("space", "app.cycle", "select", show=False)]
+
+
+class Search(Input):
+    """`/`, as in Kconfig's menuconfig: ids and names that hold the text typed (any case),
+    listed as it is typed; Enter jumps to the next match after the cursor and gives the keys
+    back to the tree (`/` then Enter goes on to the next), Escape closes."""
+
+    BINDINGS: ClassVar[list[Any]] = [Binding("escape", "close", "close", show=False)]
+    SHOWN = 6  # matches listed in the detail panel
+
+    def __init__(self, model: FeatureModel) -> None:
+        super().__init__(placeholder="search ids and names (Enter: next match, Escape: close)", id="search")
+        self.model = model
+        self.display = False
+
+    def matches(self) -> list[int]:
+        text = self.value.strip().casefold()
+        if not text:
+            return []
+        return [f.index for f in self.model.features if text in f.id.casefold() or text in f.name.casefold()]
+
+    def on_input_changed(self, event: Input.Changed) -> None:
+        found = self.matches()
+        listed = Text()
+        if not self.value.strip():
+            listed.append("type part of an id or a name", "dim")
+        elif not found:
+            listed.append(f"no feature's id or name holds {self.value.strip()!r}", "yellow")
+        else:
+            listed.append(f"{len(found)} {'match' if len(found) == 1 else 'matches'}", "bold")
+            listed.append(" (Enter jumps to the next one)\n")
+            for i in found[: self.SHOWN]:
+                listed.append(self._where(i) + "\n")
+            if len(found) > self.SHOWN:
+                listed.append(f"... and {len(found) - self.SHOWN} more\n", "dim")
+        self.app.query_one("#text", Static).update(listed)
+
+    def _where(self, i: int) -> str:
+        """A feature with the path down to it: "kartoslam (KartoSLAM) in root > slam"."""
+        f = self.model.features[i]
+        path: list[str] = []
+        parent = f.parent
+        while parent is not None and len(path) < 4:
+            path.append(self.model.features[parent].id)
+            parent = self.model.features[parent].parent
+        name = f" ({f.name})" if f.name != f.id else ""
+        return f"{f.id}{name} in {' > '.join(reversed(path))}" if path else f"{f.id}{name}"
+
+    def on_input_submitted(self, event: Input.Submitted) -> None:
+        found = self.matches()
+        if not found:
+            self.app.bell()
+            return
+        tree = self.app.query_one(FeatureTree)
+        here = tree.cursor_node.data if tree.cursor_node is not None else None
+        after = self.model.index.get(here, -1) if isinstance(here, str) else -1
+        target = next((i for i in found if i > after), found[0])
+        app = self.app
+        assert isinstance(app, MenuConfigApp)
+        app.jump_to(self.model.features[target].id)
+        self.action_close()  # (the keys are the tree's again; / and Enter go on to the next match)
+
+    def action_close(self) -> None:
+        self.display = False
+        self.app.query_one(FeatureTree).focus()
 
 
 class MenuConfigApp(App[None]):
@@ -42,6 +107,7 @@ class MenuConfigApp(App[None]):
         Binding("t", "time", "time"),
         Binding("m", "mode", "mode"),
         Binding("question_mark", "why", "why"),
+        Binding("slash", "search", "search"),
         Binding("s", "save", "save"),
         Binding("q", "quit_menu", "quit"),
         # Ctrl+Q as q (Textual's own quit lost unsaved decisions at once); Ctrl-C, which
@@ -62,6 +128,7 @@ class MenuConfigApp(App[None]):
     def compose(self) -> ComposeResult:
         yield Header()
         yield FeatureTree(self._label(0), id="features")
+        yield Search(self.session.model)
         with VerticalScroll(id="detail"):
             yield Static(id="text")
         yield Footer()
@@ -144,28 +211,7 @@ class MenuConfigApp(App[None]):
         self.query_one("#text", Static).update(text)
 
     def _show_status(self) -> None:
-        session = self.session
-        text = Text()
-        if session.valid:
-            chosen = sum(1 for s in session.states if OFF not in s)
-            text.append("valid", "bold green")
-            text.append(
-                f": {plural(len(session.decisions), 'decision')}, {plural(chosen, 'feature')} selected "
-                "in every variant they allow\n"
-            )
-            text.append(HINT, "dim")
-        else:
-            first = session.problems[0]
-            text.append("no valid variant", "bold red")
-            text.append(f": {first.message}\n")
-            if session.repairs:
-                text.append("repairs (press the digit):\n", "dim")
-                for k, repair in enumerate(session.repairs, 1):
-                    text.append(f"{k}", "bold cyan")
-                    text.append(f" {repair_text(repair)}\n")
-            else:
-                text.append("no change to the decisions helps: the model has no valid variant\n")
-        self._detail(text)
+        self._detail(_status(self.session))
 
     def _feature(self) -> str | None:
         node = self.query_one(FeatureTree).cursor_node
@@ -244,6 +290,22 @@ class MenuConfigApp(App[None]):
         self.session.saved()
         self.notify(f"saved {self.path}")
 
+    def action_search(self) -> None:
+        search = self.query_one(Search)
+        search.display = True
+        search.focus()
+
+    def jump_to(self, fid: str) -> None:
+        """Open the tree down to `fid` and put the cursor on it (a search's match)."""
+        node = self.nodes[fid]
+        parent = node.parent
+        while parent is not None:
+            parent.expand()
+            parent = parent.parent
+        tree = self.query_one(FeatureTree)
+        tree.move_cursor(node)
+        tree.scroll_to_node(node, animate=False)
+
     def action_interrupt(self) -> None:
         self.exit(None, EXIT_INTERRUPTED)
 
@@ -263,3 +325,28 @@ class MenuConfigApp(App[None]):
         except MotivmlError as exc:  # cannot happen with the session's own documents
             self.notify(exc.diagnostics[0].message, severity="error")
         self._redraw()
+
+
+def _status(session: Configurator) -> Text:
+    """The detail panel between questions: valid and how far, or the conflict and its repairs."""
+    text = Text()
+    if session.valid:
+        chosen = sum(1 for s in session.states if OFF not in s)
+        text.append("valid", "bold green")
+        text.append(
+            f": {plural(len(session.decisions), 'decision')}, {plural(chosen, 'feature')} selected "
+            "in every variant they allow\n"
+        )
+        text.append(HINT, "dim")
+    else:
+        first = session.problems[0]
+        text.append("no valid variant", "bold red")
+        text.append(f": {first.message}\n")
+        if session.repairs:
+            text.append("repairs (press the digit):\n", "dim")
+            for k, repair in enumerate(session.repairs, 1):
+                text.append(f"{k}", "bold cyan")
+                text.append(f" {repair_text(repair)}\n")
+        else:
+            text.append("no change to the decisions helps: the model has no valid variant\n")
+    return text
