@@ -320,3 +320,55 @@ def test_slash_searches_ids_and_names_and_jumps_to_the_next_match(robot: Path) -
     assert seen["selected"] == "[x] [XOR] hectorslam  **"
     assert seen["none"] == "no feature's id or name holds 'nothing like it'"
     assert seen["closed"] is False
+
+
+def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
+    robot: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 33: a decision on a large model is drawn at once and propagated off the UI
+    thread, "propagating" shown meanwhile, and what needs the consequences (save, why, a
+    repair) waits for them. The propagation is held here until the test lets it go; of two
+    decisions made meanwhile, the second's consequences are the ones shown."""
+    import threading
+
+    from motivml.binding.configurator import Configurator as Session
+    from motivml.cli import menuconfig_app
+
+    monkeypatch.setattr(menuconfig_app.Propagation, "LARGE", 1)  # (simplebot counts as large)
+    session, path = open_session(str(robot), "sketch", None)
+    go = threading.Event()
+    real = Session.propagate
+
+    def held(self: Session, decisions: dict[str, Any]) -> Any:
+        assert go.wait(30), "the test never let the propagation go"
+        return real(self, decisions)
+
+    monkeypatch.setattr(Session, "propagate", held)
+    seen: dict[str, Any] = {}
+
+    async def steps(app: Any, pilot: Any) -> None:
+        await go_to(app, pilot, "kartoslam")
+        await pilot.press("y")
+        seen["drawn"] = label(app, "kartoslam")  # the decision, at once
+        seen["slam while busy"] = label(app, "slam")  # its consequences not yet
+        seen["panel"] = detail(app)
+        seen["title"] = app.sub_title
+        await pilot.press("s")  # needs the consequences: waits, nothing saved
+        seen["saved while busy"] = path.exists()
+        await pilot.press("n")  # a second decision before the first is propagated
+        go.set()
+        await app.workers.wait_for_complete()
+        await pilot.pause()
+        seen["after"] = label(app, "kartoslam")
+        seen["slam after"] = label(app, "slam")
+        seen["panel after"] = detail(app)
+        await pilot.press("q", "q")
+
+    drive(session, path, steps)
+    assert seen["drawn"] == "[x] [XOR] kartoslam  **"
+    assert seen["slam while busy"] == "( ) ? slam  **"
+    assert seen["panel"] == "propagating the decision..." and seen["title"].endswith("(propagating...)")
+    assert seen["saved while busy"] is False
+    assert seen["after"].startswith("[ ] [XOR] kartoslam")  # the second decision's answer
+    assert seen["slam after"] == "( ) ? slam  **"  # (kartoslam deselected forces nothing)
+    assert seen["panel after"].startswith("valid: 1 decision")

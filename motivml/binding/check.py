@@ -8,6 +8,7 @@ the CLI runs them when a model is validated without a configuration.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import pickle
@@ -248,22 +249,27 @@ def _as_warning(explained: Diagnostic, where: Location, head: str, rule: str, fe
     )
 
 
-def binding_states(model: FeatureModel, config: Configuration | None) -> list[set[FeatureState]]:
+def binding_states(
+    model: FeatureModel, config: Configuration | None, kept: enc.Encoding | None = None
+) -> list[set[FeatureState]]:
     """Per feature, what valid variants (of the configuration) can make of it.
 
     Each set holds OFF (not selected) and/or the bindings it can take; a one-element set is
     what the solver forces. This is the paper's "binding semantics interpreter", answered
-    by `Encoding.cover`.
+    by `Encoding.cover`. `kept`: an encoding of the model to ask, kept by the caller for
+    the next configuration too (the configurator's, one per session: the configuration is
+    assumed, not put in its solver for good); without it, one is made for this question.
     """
     signs = [(1 if b.early else -1, 1 if b.static else -1) for b in Binding]
     # asked of the first of each class of interchangeable features only (symmetry.py)
     same = Classes(model, config)
     m, position = len(same.asked), same.position  # (a parent is never in a class: it has sub-features)
     parents = [model.features[i].parent for i in same.asked]
-    with no_gc(), enc.Encoding(model) as hard:
+    with no_gc(), contextlib.nullcontext(kept) if kept is not None else enc.Encoding(model) as hard:
         if config is not None:
             hard.set_configuration(config)
-            hard.fix_configuration()  # (every question is asked under it)
+            if kept is None:
+                hard.fix_configuration()  # (every question is asked under it)
         # Each feature not selected, then selected (the last target that has a variable
         # gives its hint: selected), a feature's selection only with its parent's: below a
         # dead feature all is settled without a solve, as `analyse` does. Then the bindings

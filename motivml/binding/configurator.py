@@ -18,6 +18,7 @@ on disk, so a conflict's facts point at the lines the saved file will have.
 from __future__ import annotations
 
 import json
+import threading
 from collections.abc import Collection
 from dataclasses import dataclass
 
@@ -25,6 +26,7 @@ from ..documents.loader import parse
 from ..errors import ChangeKind, Diagnostic, Repair, Severity
 from ..language.model import Configuration, Entry, FeatureModel, FeatureState, Mode, Time
 from ..language.reader import read_configuration
+from . import encoding as enc
 from .check import binding_states, check_variant
 from .why import Reason, why
 
@@ -51,6 +53,15 @@ def decisions_text(config: Configuration, extra: dict[str, object] | None = None
             item["props"] = props
         properties.append(item)
     return json.dumps({**(extra or {}), "partial": True, "properties": properties}, indent=2) + "\n"
+
+
+@dataclass(frozen=True)
+class Propagated:
+    """What follows from a set of decisions (`Configurator.propagate`)."""
+
+    config: Configuration
+    problems: list[Diagnostic]  # errors, or conflicts with their repairs ([]: valid)
+    states: list[set[FeatureState]]  # per feature, what valid variants can make of it ([] while invalid)
 
 
 class Configurator:
@@ -84,26 +95,50 @@ class Configurator:
         self.states: list[set[FeatureState]] = []
         self.problems: list[Diagnostic] = []
         self.saved_text: str | None = None
+        self._encoding: enc.Encoding | None = None  # the model's, kept for every decision
+        self._asking = threading.Lock()  # (propagations of two threads ask it in turn)
+        # deferred: a change updates the decisions only, and the caller propagates them
+        # (menuconfig, off its UI thread on a large model); else each change propagates
+        self.deferred = False
         self.refresh()
 
     # ------------------------------------------------------------------ reading
-    def text(self) -> str:
-        """The decisions file as it would be saved now."""
+    def text(self, decisions: dict[str, Choice] | None = None) -> str:
+        """The decisions file as it would be saved now (or of `decisions`), in definition
+        order, so that the file reads as the tree does."""
         config = Configuration({}, "")
-        for position, (fid, d) in enumerate(self.decisions.items()):
+        index = self.model.index
+        chosen = sorted((self.decisions if decisions is None else decisions).items(), key=lambda item: index[item[0]])
+        for position, (fid, d) in enumerate(chosen):
             config.entries[fid] = Entry(fid, d.selected is not False, d.time, d.mode, position)
         return decisions_text(config, self.extra)
 
     def refresh(self) -> None:
-        """Read the decisions back as a file and work out what follows from them."""
-        # In definition order, so that the file reads as the tree does.
-        self.decisions = dict(sorted(self.decisions.items(), key=lambda item: self.model.index[item[0]]))
-        doc = parse(self.text(), self.file)
-        config, diagnostics = read_configuration(doc, self.model, partial=True)
-        self.config = config
-        errors = [d for d in diagnostics if d.severity is Severity.ERROR]
-        self.problems = errors or check_variant(self.model, config)
-        self.states = binding_states(self.model, config) if not self.problems else []
+        """Work out what follows from the decisions, now."""
+        self.install(self.propagate(dict(self.decisions)))
+
+    def propagate(self, decisions: dict[str, Choice]) -> Propagated:
+        """What follows from `decisions` (read back as the file they will be saved as); from
+        any thread, one at a time (the session's one encoding is asked)."""
+        with self._asking:
+            doc = parse(self.text(decisions), self.file)
+            config, diagnostics = read_configuration(doc, self.model, partial=True)
+            errors = [d for d in diagnostics if d.severity is Severity.ERROR]
+            if errors:
+                return Propagated(config, errors, [])
+            kept = self._kept()  # (one encoding for the session: a decision asks it again, not built again)
+            kept.set_configuration(config)
+            problems = [] if kept.solve() else check_variant(self.model, config)
+            return Propagated(config, problems, binding_states(self.model, config, kept) if not problems else [])
+
+    def install(self, propagated: Propagated) -> None:
+        """Take what `propagate` worked out as the session's."""
+        self.config, self.problems, self.states = propagated.config, propagated.problems, propagated.states
+
+    def _kept(self) -> enc.Encoding:
+        if self._encoding is None:
+            self._encoding = enc.Encoding(self.model)
+        return self._encoding
 
     @property
     def valid(self) -> bool:
@@ -182,7 +217,8 @@ class Configurator:
             self.decisions.pop(fid, None)
         else:
             self.decisions[fid] = decision
-        self.refresh()
+        if not self.deferred:
+            self.refresh()
 
     def apply(self, repair: Repair) -> None:
         """Make every change of a repair, then refresh once."""
@@ -197,7 +233,8 @@ class Configurator:
             else:
                 raise ValueError(f"not a change to a configuration: {change.change}")
             self.decisions[change.feature] = new
-        self.refresh()
+        if not self.deferred:
+            self.refresh()
 
     def saved(self) -> None:
         self.saved_text = self.text()

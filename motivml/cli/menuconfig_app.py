@@ -13,7 +13,7 @@ from textual.binding import Binding
 from textual.containers import VerticalScroll
 from textual.widgets import Footer, Header, Input, Static, Tree
 
-from ..binding.configurator import Configurator
+from ..binding.configurator import Configurator, Propagated
 from ..errors import MotivmlError, repair_text
 from ..language.model import OFF, FeatureModel, Mode, Time
 from ..language.model import Binding as FeatureBinding
@@ -92,6 +92,51 @@ class Search(Input):
         self.app.query_one(FeatureTree).focus()
 
 
+class Propagation:
+    """A decision's consequences, worked out off the UI thread on a large model (LARGE
+    features or more; a smaller one propagates in milliseconds, at once): the key press
+    redraws the decision at once, the title and the panel say "propagating" until the
+    consequences come, and a later decision's consequences replace an earlier one's, which
+    are dropped when they come (the session's one encoding answers them in turn)."""
+
+    LARGE = 300
+
+    def __init__(self, app: MenuConfigApp) -> None:
+        self.app = app
+        self.asked = 0  # decisions sent to be propagated; the last one's answer is taken
+        self.busy = False
+
+    def start(self) -> None:
+        app = self.app
+        self.asked += 1
+        asked, decisions = self.asked, dict(app.session.decisions)
+        self.busy = True
+        app.sub_title = f"{app.path}  (propagating...)"
+        app.run_worker(lambda: self._work(decisions, asked), thread=True, group="propagate")
+
+    def _work(self, decisions: dict[str, Any], asked: int) -> None:
+        try:
+            found = self.app.session.propagate(decisions)
+        except Exception as exc:  # (a bug: said, and the session stays as it was)
+            self.app.call_from_thread(self.app.notify, f"propagation failed: {exc}", severity="error")
+            return
+        self.app.call_from_thread(self._done, found, asked)
+
+    def _done(self, found: Propagated, asked: int) -> None:
+        if asked != self.asked:
+            return  # (a later decision's answer is on its way)
+        self.busy = False
+        self.app.session.install(found)
+        self.app.sub_title = str(self.app.path)
+        self.app.redraw()
+
+    def waiting(self) -> bool:
+        """True (and said) while the last decision is being propagated."""
+        if self.busy:
+            self.app.notify("the last decision is still being propagated: a moment", severity="warning")
+        return self.busy
+
+
 class MenuConfigApp(App[None]):
     """menuconfig's application: a Configurator shown as a tree, changed by keys, saved to a path."""
 
@@ -124,6 +169,8 @@ class MenuConfigApp(App[None]):
         self.nodes: dict[str, Any] = {}
         self.leaving = False
         self.sub_title = str(path)
+        self.propagation = Propagation(self)
+        session.deferred = len(session.model.features) >= Propagation.LARGE
 
     def compose(self) -> ComposeResult:
         yield Header()
@@ -202,7 +249,7 @@ class MenuConfigApp(App[None]):
                     text.append("*")
         return text
 
-    def _redraw(self) -> None:
+    def redraw(self) -> None:
         for f in self.session.model.features:
             self.nodes[f.id].set_label(self._label(f.index))
         self._show_status()
@@ -211,7 +258,8 @@ class MenuConfigApp(App[None]):
         self.query_one("#text", Static).update(text)
 
     def _show_status(self) -> None:
-        self._detail(_status(self.session))
+        busy = Text("propagating the decision...", "bold yellow")
+        self._detail(busy if self.propagation.busy else _status(self.session))
 
     def _feature(self) -> str | None:
         node = self.query_one(FeatureTree).cursor_node
@@ -253,6 +301,8 @@ class MenuConfigApp(App[None]):
             self._change(lambda: self.session.bind(fid, d.time, after))
 
     def action_repair(self, k: int) -> None:
+        if self.propagation.waiting():
+            return
         repairs = self.session.repairs
         if not 1 <= k <= len(repairs):
             self.notify(f"there is no repair {k}", severity="warning")
@@ -261,7 +311,7 @@ class MenuConfigApp(App[None]):
 
     def action_why(self) -> None:
         node = self.query_one(FeatureTree).cursor_node
-        if node is None or node.data is None:
+        if node is None or node.data is None or self.propagation.waiting():
             return
         if not self.session.valid:
             self.notify("the decisions conflict: repair them first (1-5)", severity="warning")
@@ -277,6 +327,8 @@ class MenuConfigApp(App[None]):
     def action_save(self) -> None:
         from ..documents.writing import write_if_changed
 
+        if self.propagation.waiting():
+            return
         if not self.session.valid:
             self.notify(
                 "not saved: the decisions have no valid variant (apply a repair: 1-5)", severity="error"
@@ -324,7 +376,9 @@ class MenuConfigApp(App[None]):
             change()
         except MotivmlError as exc:  # cannot happen with the session's own documents
             self.notify(exc.diagnostics[0].message, severity="error")
-        self._redraw()
+        if self.session.deferred:  # (the decision drawn now, its consequences when they come)
+            self.propagation.start()
+        self.redraw()
 
 
 def _status(session: Configurator) -> Text:
