@@ -35,6 +35,8 @@ class DocumentKind(StrEnum):
     ARCHITECTURE = "architecture"
     COORDINATION = "coordination"
     PLUGINS = "plugins"
+    FLEET = "fleet file"
+    ROBOT = "robot's configuration"  # (a robot of a fleet file: its variant with the fleet's overrides)
 
 
 @dataclass

@@ -7,7 +7,7 @@ import json
 import re
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NoReturn
 
 import click
 from rich.markup import escape
@@ -50,10 +50,14 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     """Check a feature model, or a configuration (variant) of it.
 
     TARGET is a model.json or a robot folder (default: the current folder). A robot folder
-    without --variant checks the model and every variant in variants/.
+    without --variant checks the model and every variant in variants/. A fleet file
+    (fleet.json, NAME.fleet.json) checks every robot's variant with the fleet's overrides.
     """
+    from ..fleet import is_fleet_file
     from ..validate import DocumentKind, validate
 
+    if is_fleet_file(target) and config is None and variant is None:
+        _validate_fleet(target, fmt)
     try:
         model_path, configs, analyse = targets(target, config, variant)
         folder = RobotFolder(Path(target)) if Path(target).is_dir() else None
@@ -75,6 +79,38 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
             if report.kind is not DocumentKind.MODEL or report.analysed or report.diagnostics:
                 _verdict(report, checked_variants=result.checked or not configs)
     sys.exit(0 if result.valid else 1)
+
+
+def _validate_fleet(target: str, fmt: str) -> NoReturn:
+    """validate FLEET.json: the fleet file, then each robot's configuration (its variant with
+    the fleet's overrides), each robot's messages naming it; exit 1 if any has an error."""
+    from ..fleet import validate_fleet
+    from ..validate import DocumentKind, Report
+
+    try:
+        problems, robots = validate_fleet(target)
+    except (MotivmlError, OSError) as exc:
+        problem = exc if isinstance(exc, MotivmlError) else environment_problem(exc)
+        if fmt == "text":
+            fail(problem)
+        click.echo(unchecked(fmt, target, problem))
+        sys.exit(problem.exit_code)
+    reports = [Report(target, DocumentKind.FLEET, problems)]
+    reports += [Report(f"{target} {r.namespace}", DocumentKind.ROBOT, r.diagnostics) for r in robots]
+    valid = all(report.valid for report in reports)
+    if fmt != "text":
+        click.echo(checked(fmt, reports, valid))
+        sys.exit(0 if valid else 1)
+    print_diagnostics(problems)
+    if problems:
+        out.print(f"[bold red]invalid[/]: {escape(target)}: {plural(len(problems), 'error')} in the fleet file")
+    for robot in robots:
+        print_diagnostics(robot.errors + robot.warnings)
+        counts = f"{plural(len(robot.errors), 'error')}, {plural(len(robot.warnings), 'warning')}"
+        said = f"robot {robot.namespace} ({robot.folder}, variant {robot.variant}; {', '.join(robot.layers) or 'no entries'})"
+        verdict = "[bold green]valid[/]" if robot.valid else "[bold red]invalid[/]"
+        out.print(f"{verdict}: {escape(said)}, {counts}")
+    sys.exit(0 if valid else 1)
 
 
 def _verdict(report: Report, checked_variants: bool) -> None:

@@ -72,6 +72,7 @@ FAMILIES = {
     "featureide": "FeatureIDE XML",
     "sxfm": "S.P.L.O.T.'s SXFM",
     "import": "Importing another tool's model",
+    "fleet": "A fleet file",
     "graphviz": "Drawing with Graphviz",
 }
 CONFLICT = "conflict"  # the rule of an explanation whose facts no single rule joins

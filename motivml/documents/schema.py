@@ -39,6 +39,7 @@ FEATURE_MODEL = "feature-model.schema.json"
 CONFIGURATION = "configuration.schema.json"
 PLUGIN = "plugin.schema.json"
 ROBOT = "robot.schema.json"
+FLEET = "fleet.schema.json"
 IDENTIFIER_PATTERN = "^[A-Za-z_][A-Za-z0-9_]*(?!\\n)$"
 
 _TYPE_NAMES = {

@@ -1,0 +1,195 @@
+"""A fleet file (reference.md section 9): robots by namespace, each a robot folder and one of
+its variants, with decisions overridden in layers, checked robot by robot.
+
+Each robot's configuration is its variant's entries, then the fleet's overrides, then its
+groups' (in the order the robot lists them), then its own: an entry replaces the entry of
+the same feature that an earlier layer made. The result is checked against the robot's
+model as `validate MODEL --config` checks a configuration (a partial one when the variant
+is a decisions file), and every message is located where the entry it speaks of was
+written (the variant file, or the layer in the fleet file) and names the robot, and each
+conflict names the layers of the decisions it involves.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from .binding.check import check_variant
+from .documents.loader import Document, parse
+from .documents.robot_folder import RobotFolder
+from .documents.schema import FLEET, check_document, read_with_problems
+from .errors import Diagnostic, Location, MotivmlError, Severity, error
+from .language.model import Configuration, FeatureModel
+from .language.reader import load_model, read_configuration
+
+
+@dataclass(frozen=True)
+class Layer:
+    """Where a robot's entries come from: its variant file, or a layer of the fleet file."""
+
+    name: str  # "variant clinic", "fleet", "group night", "robot /uv1"
+    document: Document
+    steps: tuple[str | int, ...]  # the path of its entry list in the document
+
+
+@dataclass
+class RobotReport:
+    """What checking one robot of the fleet found."""
+
+    namespace: str
+    folder: str
+    variant: str
+    layers: list[str]
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+    model: FeatureModel | None = None
+    config: Configuration | None = None
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.ERROR]
+
+    @property
+    def warnings(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.WARNING]
+
+    @property
+    def valid(self) -> bool:
+        return not self.errors
+
+
+def is_fleet_file(path: str | Path) -> bool:
+    """A fleet file is named fleet.json, or NAME.fleet.json."""
+    name = Path(path).name
+    return name == "fleet.json" or name.endswith(".fleet.json")
+
+
+def validate_fleet(path: str | Path) -> tuple[list[Diagnostic], list[RobotReport]]:
+    """The fleet file's own errors (its schema, names that refer to nothing, a namespace
+    twice), and, when it has none, one report per robot in the file's order."""
+    doc, problems = read_with_problems(path, lambda d: check_document(d, FLEET, "a fleet file"))
+    if doc is None or problems:
+        return problems, []
+    root: dict[str, Any] = doc.root
+    groups: dict[str, Any] = root.get("groups", {})
+    seen: dict[str, int] = {}
+    for k, robot in enumerate(root["robots"]):
+        namespace = "/" + robot["namespace"].strip("/")
+        if namespace in seen:
+            problems.append(
+                error(
+                    doc.locate(("robots", k, "namespace")),
+                    f"{namespace} is robot {seen[namespace] + 1}'s namespace too: one robot per namespace",
+                    "fleet.namespace",
+                )
+            )
+        seen.setdefault(namespace, k)
+        for g, name in enumerate(robot.get("groups", [])):
+            if name not in groups:
+                known = ", ".join(groups) or "none"
+                problems.append(
+                    error(
+                        doc.locate(("robots", k, "groups", g)),
+                        f"no group {name!r} in the fleet file (groups: {known})",
+                        "fleet.group",
+                    )
+                )
+    if problems:
+        return problems, []
+    base = Path(path).parent
+    return [], [_robot(doc, k, base) for k in range(len(root["robots"]))]
+
+
+def _robot(doc: Document, k: int, base: Path) -> RobotReport:
+    robot: dict[str, Any] = doc.root["robots"][k]
+    namespace = "/" + robot["namespace"].strip("/")
+    where = os.path.normpath(base / robot["robot"])  # (said as "robots/uv1", not "fleets/../robots/uv1")
+    report = RobotReport(namespace, where, robot["variant"], [])
+    try:
+        folder = RobotFolder.open(where)
+        variant_path = folder.variant_path(robot["variant"])
+    except MotivmlError as exc:  # (a folder or a variant that is not there: said at the robot's entry)
+        where = doc.locate(("robots", k, "robot" if "variant" not in exc.diagnostics[0].message else "variant"))
+        report.diagnostics = [_about(namespace, replace(d, location=where)) for d in exc.diagnostics]
+        return report
+    model, problems = load_model(folder.model_path)
+    variant_doc, variant_problems = read_with_problems(variant_path, lambda d: [])
+    if model is None or variant_doc is None or not isinstance(variant_doc.root, dict):
+        report.diagnostics = [_about(namespace, d) for d in [*problems, *variant_problems] if d.severity is Severity.ERROR]
+        if not report.diagnostics:
+            report.diagnostics = [_about(namespace, error(Location(str(variant_path)), "not a configuration", "schema.type"))]
+        return report
+    report.model = model
+    layers = [Layer(f"variant {robot['variant']}", variant_doc, ("properties",))]
+    layers.append(Layer("fleet", doc, ("overrides",)))
+    layers += [Layer(f"group {name}", doc, ("groups", name, "overrides")) for name in robot.get("groups", [])]
+    layers.append(Layer(f"robot {namespace}", doc, ("robots", k, "overrides")))
+    entries, origins = _merged(layers)
+    report.layers = [layer.name for layer in layers if _entries(layer)]
+    partial = variant_doc.root.get("partial") is True
+    merged = parse(json.dumps({"partial": partial, "properties": entries}), f"{namespace} (merged)")
+    config, diagnostics = read_configuration(merged, model, partial=partial)
+    report.config = config
+    if not [d for d in diagnostics if d.severity is Severity.ERROR]:
+        diagnostics += check_variant(model, config)
+    report.diagnostics = [_about(namespace, _moved(d, origins)) for d in diagnostics]
+    return report
+
+
+def _entries(layer: Layer) -> list[Any]:
+    node: Any = layer.document.root
+    for step in layer.steps:
+        if isinstance(node, dict) and isinstance(step, str):
+            node = node.get(step, [])
+        elif isinstance(node, list) and isinstance(step, int) and step < len(node):
+            node = node[step]
+        else:
+            return []
+    return node if isinstance(node, list) else []
+
+
+def _merged(layers: list[Layer]) -> tuple[list[Any], list[tuple[Layer, int]]]:
+    """The entries of every layer, a later layer's replacing an earlier one's for the same
+    feature (in the place of the first), and where each came from."""
+    at: dict[str, int] = {}
+    entries: list[Any] = []
+    origins: list[tuple[Layer, int]] = []
+    for layer in layers:
+        for position, entry in enumerate(_entries(layer)):
+            fid = entry.get("id") if isinstance(entry, dict) else None
+            if isinstance(fid, str) and fid in at:
+                entries[at[fid]], origins[at[fid]] = entry, (layer, position)
+                continue
+            if isinstance(fid, str):
+                at[fid] = len(entries)
+            entries.append(entry)
+            origins.append((layer, position))
+    return entries, origins
+
+
+def _moved(d: Diagnostic, origins: list[tuple[Layer, int]]) -> Diagnostic:
+    """A diagnostic of the merged configuration, located where its entries were written,
+    the layers of the entries it involves named."""
+    layers: list[str] = []
+
+    def where(location: Location) -> Location:
+        steps = location.steps
+        if len(steps) >= 2 and steps[0] == "properties" and isinstance(steps[1], int) and steps[1] < len(origins):
+            layer, position = origins[steps[1]]
+            if layer.name not in layers:
+                layers.append(layer.name)
+            return layer.document.locate((*layer.steps, position, *steps[2:]))
+        return location
+
+    location = where(d.location)
+    facts = tuple(replace(f, location=where(f.location)) for f in d.facts)
+    said = f" (set by: {', '.join(layers)})" if layers else ""
+    return replace(d, location=location, facts=facts, message=d.message + said)
+
+
+def _about(namespace: str, d: Diagnostic) -> Diagnostic:
+    return replace(d, message=f"robot {namespace}: {d.message}")
+

@@ -1,0 +1,126 @@
+"""A fleet file (reference.md section 9): each robot's variant with the fleet's overrides in
+layers, checked robot by robot, every message located where its entry was written and
+naming the robot and the layers involved (issue 35)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+from click.testing import CliRunner
+from paths import ROOT, SIMPLEBOT
+
+from motivml.cli import main
+from motivml.fleet import validate_fleet
+
+
+def fleet(tmp_path: Path, **document: Any) -> Path:
+    path = tmp_path / "fleet.json"
+    path.write_text(json.dumps(document, indent=2))
+    return path
+
+
+def robot(namespace: str, variant: str = "field", **more: Any) -> dict[str, Any]:
+    return {"namespace": namespace, "robot": str(SIMPLEBOT), "variant": variant, **more}
+
+
+def test_a_valid_fleet_checks_every_robot_with_its_layers(tmp_path: Path) -> None:
+    path = fleet(
+        tmp_path,
+        overrides=[{"id": "orbslam", "selected": False}],
+        groups={"indoor": {"overrides": [{"id": "kartoslam", "props": {"time": "Late", "mode": "Dynamic"}}]}},
+        robots=[robot("bot1"), robot("/bot2", groups=["indoor"]), robot("bot3", "lab")],
+    )
+    result = CliRunner().invoke(main, ["validate", str(path)])
+    assert result.exit_code == 0, result.output
+    lines = [" ".join(line.split()) for line in result.output.splitlines()]
+    assert lines == [
+        f"valid: robot /bot1 ({SIMPLEBOT}, variant field; variant field, fleet), 0 errors, 0 warnings",
+        f"valid: robot /bot2 ({SIMPLEBOT}, variant field; variant field, fleet, group indoor), 0 errors, 0 warnings",
+        f"valid: robot /bot3 ({SIMPLEBOT}, variant lab; variant lab, fleet), 0 errors, 0 warnings",
+    ]
+
+
+def test_a_later_layer_replaces_an_earlier_ones_entry(tmp_path: Path) -> None:
+    path = fleet(
+        tmp_path,
+        overrides=[{"id": "orbslam", "selected": False}],
+        groups={"g": {"overrides": [{"id": "orbslam", "props": {"time": "Late", "mode": "Dynamic"}}]}},
+        robots=[robot("one", groups=["g"]), robot("two", groups=["g"], overrides=[{"id": "orbslam", "selected": False}])],
+    )
+    problems, robots = validate_fleet(path)
+    assert problems == []
+    one, two = (r.config.entries["orbslam"] for r in robots if r.config is not None)
+    assert (one.selected, str(one.time), str(one.mode)) == (True, "Late", "Dynamic")  # the group's, over the fleet's
+    assert two.selected is False  # the robot's own, over the group's
+
+
+def test_a_conflicting_override_is_located_in_its_layer_and_names_robot_and_layers(tmp_path: Path) -> None:
+    path = fleet(
+        tmp_path,
+        robots=[robot("ok"), robot("bad", "lab", overrides=[{"id": "grid_map", "props": {"mode": "Dynamic"}}])],
+    )
+    result = CliRunner().invoke(main, ["validate", str(path)])
+    assert result.exit_code == 1, result.output
+    text = " ".join(result.output.split())
+    assert f"valid: robot /ok ({SIMPLEBOT}, variant field; variant field), 0 errors" in text
+    (problem,) = [r for r in validate_fleet(path)[1] if r.namespace == "/bad"][0].errors
+    where = problem.location
+    assert (Path(where.file), where.path) == (path, "$.robots[1].overrides[0].props.mode")
+    assert problem.message.startswith("robot /bad: slam requires grid_map, but grid_map is configured Dynamic")
+    assert problem.message.endswith("(set by: robot /bad, variant lab)")
+    facts = {Path(f.location.file).name: f.text for f in problem.facts}
+    assert facts["fleet.json"] == "grid_map is configured Dynamic" and facts["lab.json"] == "slam is selected"
+    assert problem.repairs  # (the configuration's repairs, as validate --config gives them)
+    assert f"invalid: robot /bad ({SIMPLEBOT}, variant lab; variant lab, robot /bad), 1 error, 0 warnings" in text
+
+
+@pytest.mark.parametrize(
+    ("document", "path", "message"),
+    [
+        ({"robots": [robot("a", groups=["night"])]}, "$.robots[0].groups[0]", "no group 'night' in the fleet file (groups: none)"),
+        ({"robots": [robot("a"), robot("/a")]}, "$.robots[1].namespace", "/a is robot 1's namespace too"),
+        ({"robots": [robot("a")], "colour": "red"}, "$.colour", "unknown key 'colour'"),
+        ({"robots": []}, "$.robots", ""),
+        ({"robots": [robot("a b")]}, "$.robots[0].namespace", ""),
+    ],
+    ids=["unknown group", "namespace twice", "unknown key", "no robot", "bad namespace"],
+)
+def test_the_fleet_files_own_errors_are_located_and_no_robot_is_checked(
+    tmp_path: Path, document: dict[str, Any], path: str, message: str
+) -> None:
+    file = fleet(tmp_path, **document)
+    problems, robots = validate_fleet(file)
+    assert robots == [] and problems
+    assert problems[0].location.path == path and message in problems[0].message
+    result = CliRunner().invoke(main, ["validate", str(file)])
+    assert result.exit_code == 1 and "in the fleet file" in result.output
+
+
+def test_a_robot_folder_or_variant_that_is_not_there_is_said_at_the_robots_entry(tmp_path: Path) -> None:
+    path = fleet(tmp_path, robots=[robot("a", "nosuch"), {"namespace": "b", "robot": "nowhere", "variant": "v"}])
+    _, robots = validate_fleet(path)
+    (variant,), (folder,) = (r.errors for r in robots)
+    assert variant.location.path == "$.robots[0].variant" and variant.message.startswith("robot /a: ")
+    assert folder.location.path == "$.robots[1].robot" and "no such robot folder" in folder.message
+
+
+def test_validate_fleet_in_json(tmp_path: Path) -> None:
+    path = fleet(tmp_path, robots=[robot("a"), robot("b", overrides=[{"id": "slam", "selected": False}])])
+    result = CliRunner().invoke(main, ["validate", str(path), "--format", "json"])
+    payload = json.loads(result.output)
+    assert result.exit_code == 1 and payload["valid"] is False
+    assert [(d["file"], d["kind"], d["valid"]) for d in payload["documents"]] == [
+        (str(path), "fleet file", True),
+        (f"{path} /a", "robot's configuration", True),
+        (f"{path} /b", "robot's configuration", False),
+    ]
+
+
+def test_the_fleet_schemas_entry_is_the_configurations() -> None:
+    schemas = ROOT / "schemas"
+    fleet_schema = json.loads((schemas / "fleet.schema.json").read_text())
+    configuration = json.loads((schemas / "configuration.schema.json").read_text())
+    assert fleet_schema["$defs"]["entry"] == configuration["$defs"]["entry"]
