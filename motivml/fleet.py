@@ -12,11 +12,12 @@ conflict names the layers of the decisions it involves.
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .binding.check import check_variant
 from .documents.loader import Document, parse
@@ -25,6 +26,9 @@ from .documents.schema import FLEET, check_document, read_with_problems
 from .errors import Diagnostic, Location, MotivmlError, Severity, error
 from .language.model import Configuration, FeatureModel
 from .language.reader import load_model, read_configuration
+
+if TYPE_CHECKING:
+    from .runtime.requests import Request
 
 
 @dataclass(frozen=True)
@@ -47,6 +51,8 @@ class RobotReport:
     diagnostics: list[Diagnostic] = field(default_factory=list)
     model: FeatureModel | None = None
     config: Configuration | None = None
+    origins: list[tuple[Layer, int]] = field(default_factory=list)  # where each entry of `config` was written
+    entry: Location | None = None  # the robot's entry in the fleet file
 
     @property
     def errors(self) -> list[Diagnostic]:
@@ -107,7 +113,7 @@ def _robot(doc: Document, k: int, base: Path) -> RobotReport:
     robot: dict[str, Any] = doc.root["robots"][k]
     namespace = "/" + robot["namespace"].strip("/")
     where = os.path.normpath(base / robot["robot"])  # (said as "robots/uv1", not "fleets/../robots/uv1")
-    report = RobotReport(namespace, where, robot["variant"], [])
+    report = RobotReport(namespace, where, robot["variant"], [], entry=doc.locate(("robots", k)))
     try:
         folder = RobotFolder.open(where)
         variant_path = folder.variant_path(robot["variant"])
@@ -132,7 +138,7 @@ def _robot(doc: Document, k: int, base: Path) -> RobotReport:
     partial = variant_doc.root.get("partial") is True
     merged = parse(json.dumps({"partial": partial, "properties": entries}), f"{namespace} (merged)")
     config, diagnostics = read_configuration(merged, model, partial=partial)
-    report.config = config
+    report.config, report.origins = config, origins
     if not [d for d in diagnostics if d.severity is Severity.ERROR]:
         diagnostics += check_variant(model, config)
     report.diagnostics = [_about(namespace, _moved(d, origins)) for d in diagnostics]
@@ -193,3 +199,63 @@ def _moved(d: Diagnostic, origins: list[tuple[Layer, int]]) -> Diagnostic:
 def _about(namespace: str, d: Diagnostic) -> Diagnostic:
     return replace(d, message=f"robot {namespace}: {d.message}")
 
+
+
+# ----------------------------------------------------------------------------- plan
+@dataclass
+class RobotPlan:
+    """What a change would do to one robot: accepted (what loads and unloads) or not (why)."""
+
+    namespace: str
+    accepted: bool
+    loads: tuple[str, ...] = ()
+    unloads: tuple[str, ...] = ()
+    diagnostics: list[Diagnostic] = field(default_factory=list)  # why not, with the repairs
+
+
+def selected(robots: list[RobotReport], groups: dict[str, list[str]], selector: str | None) -> list[RobotReport]:
+    """The robots a selector names: a glob over namespaces ("/bay*"), or "@GROUP" for the
+    robots of a group; None: every robot."""
+    if selector is None:
+        return robots
+    if selector.startswith("@"):
+        members = set(groups.get(selector[1:], []))
+        return [r for r in robots if r.namespace in members]
+    pattern = "/" + selector.strip("/")
+    return [r for r in robots if fnmatch.fnmatchcase(r.namespace, pattern)]
+
+
+def plan_fleet(
+    path: str | Path, request: Request, selector: str | None = None
+) -> tuple[list[Diagnostic], list[RobotPlan]]:
+    """The change checked for each selected robot as `ctl` checks it on a running robot,
+    against the active set its variant starts with (no running robot is asked), touching
+    nothing: the fleet file's errors (then no plan), or one plan per selected robot."""
+    problems, robots = validate_fleet(path)
+    if problems:
+        return problems, []
+    doc, _ = read_with_problems(path, lambda d: [])
+    assert doc is not None
+    groups: dict[str, list[str]] = {}
+    for robot in doc.root["robots"]:
+        for name in robot.get("groups", []):
+            groups.setdefault(name, []).append("/" + robot["namespace"].strip("/"))
+    return [], [_plan(r, request) for r in selected(robots, groups, selector)]
+
+
+def _plan(robot: RobotReport, request: Request) -> RobotPlan:
+    from .binding.resolve import resolve, start_state
+    from .runtime.reconfigure import Reconfigurer, Refused
+
+    if not robot.valid or robot.model is None or robot.config is None:
+        why = f"robot {robot.namespace}: its configuration has errors (validate the fleet file): nothing planned"
+        where = robot.entry or Location(robot.folder)
+        return RobotPlan(robot.namespace, False, diagnostics=[error(where, why, "fleet.invalid")])
+    variant = resolve(robot.model, robot.config)
+    active = [f.id for f in start_state(variant)]
+    try:
+        plan = Reconfigurer(variant, robot.config).plan(active, request)
+    except Refused as refused:
+        said = [_about(robot.namespace, _moved(d, robot.origins)) for d in refused.diagnostics]
+        return RobotPlan(robot.namespace, False, diagnostics=said)
+    return RobotPlan(robot.namespace, True, plan.loads, plan.unloads)

@@ -124,3 +124,45 @@ def test_the_fleet_schemas_entry_is_the_configurations() -> None:
     fleet_schema = json.loads((schemas / "fleet.schema.json").read_text())
     configuration = json.loads((schemas / "configuration.schema.json").read_text())
     assert fleet_schema["$defs"]["entry"] == configuration["$defs"]["entry"]
+
+
+# ------------------------------------------------------------------ fleet plan
+def test_a_plan_says_per_robot_what_moves_or_why_not_touching_nothing(tmp_path: Path) -> None:
+    path = fleet(
+        tmp_path,
+        groups={"bays": {"overrides": [{"id": "kartoslam", "selected": False}]}},
+        robots=[robot("bay1"), robot("bay2", groups=["bays"]), robot("yard")],
+    )
+    before = path.read_bytes()
+    result = CliRunner().invoke(main, ["fleet", "plan", str(path), "swap", "hectorslam", "kartoslam"])
+    assert result.exit_code == 1, result.output
+    lines = [" ".join(line.split()) for line in result.output.splitlines()]
+    assert lines[0] == "/bay1: accepted: loads kartoslam; unloads hectorslam"
+    assert lines[1].startswith(f"{path}:") and "$.groups.bays.overrides[0]" in lines[1]
+    assert "robot /bay2: kartoslam is not selected in the variant" in lines[1] and lines[1].endswith("(set by: group bays)")
+    assert "/bay2: refused" in lines and "/yard: accepted: loads kartoslam; unloads hectorslam" in lines
+    assert lines[-1].startswith("swap hectorslam kartoslam: accepted by 2 of 3 robots, refused by 1 (checked against each robot's start state")
+    assert path.read_bytes() == before
+
+
+@pytest.mark.parametrize(("selector", "chosen"), [("bay*", ["/bay1", "/bay2"]), ("@bays", ["/bay2"]), ("/yard", ["/yard"])])
+def test_robots_are_selected_by_a_namespace_glob_or_a_group(tmp_path: Path, selector: str, chosen: list[str]) -> None:
+    from motivml.fleet import plan_fleet
+    from motivml.runtime.requests import Swap
+
+    path = fleet(tmp_path, groups={"bays": {}}, robots=[robot("bay1"), robot("bay2", groups=["bays"]), robot("yard")])
+    problems, plans = plan_fleet(path, Swap("hectorslam", "kartoslam"), selector)
+    assert problems == [] and [p.namespace for p in plans] == chosen and all(p.accepted for p in plans)
+
+
+def test_a_plan_refuses_a_robot_whose_configuration_has_errors_and_a_change_that_is_not_one(tmp_path: Path) -> None:
+    path = fleet(tmp_path, robots=[robot("a"), robot("b", overrides=[{"id": "slam", "selected": False}])])
+    result = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation"])
+    assert result.exit_code == 1
+    text = " ".join(result.output.split())
+    assert "/a: accepted: unloads navigation" in text
+    assert "$.robots[1]: error: robot /b: its configuration has errors (validate the fleet file): nothing planned" in text
+    usage = CliRunner().invoke(main, ["fleet", "plan", str(path), "swap", "hectorslam"])
+    assert usage.exit_code == 2 and "swap needs two features" in usage.output
+    nobody = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation", "--robots", "/nobody*"])
+    assert nobody.exit_code == 1 and "no robot" in nobody.output

@@ -50,6 +50,7 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "plot": ("drawing", "plot_command"),
     "export": ("drawing", "export_command"),
     "import": ("drawing", "import_command"),
+    "fleet": ("fleeting", "fleet_group"),
 }
 
 LONG_RUNNING = frozenset({"run", "ctl", "menuconfig"})  # the others use loader.one_command
