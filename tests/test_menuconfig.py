@@ -344,6 +344,14 @@ def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
         return real(self, decisions)
 
     monkeypatch.setattr(Session, "propagate", held)
+    installed: list[Any] = []
+    real_install = Session.install
+
+    def counted(self: Session, found: Any) -> None:
+        installed.append(found)
+        real_install(self, found)
+
+    monkeypatch.setattr(Session, "install", counted)
     seen: dict[str, Any] = {}
 
     async def steps(app: Any, pilot: Any) -> None:
@@ -372,3 +380,34 @@ def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
     assert seen["after"].startswith("[ ] [XOR] kartoslam")  # the second decision's answer
     assert seen["slam after"] == "( ) ? slam  **"  # (kartoslam deselected forces nothing)
     assert seen["panel after"].startswith("valid: 1 decision")
+    assert len(installed) == 1  # the first decision's propagation, no longer the last, never installed
+
+
+def test_a_propagation_that_fails_is_said_and_leaves_the_application_usable(
+    robot: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from motivml.binding.configurator import Configurator as Session
+    from motivml.cli import menuconfig_app
+
+    monkeypatch.setattr(menuconfig_app.Propagation, "LARGE", 1)
+    session, path = open_session(str(robot), "sketch", None)
+
+    def broken(self: Session, decisions: dict[str, Any]) -> Any:
+        raise RuntimeError("the solver fell over")
+
+    monkeypatch.setattr(Session, "propagate", broken)
+    seen: dict[str, Any] = {}
+
+    async def steps(app: Any, pilot: Any) -> None:
+        await go_to(app, pilot, "kartoslam")
+        await pilot.press("y")
+        await app.workers.wait_for_complete()
+        await pilot.pause()
+        seen["busy"] = app.propagation.busy
+        seen["title"] = app.sub_title
+        seen["said"] = [n.message for n in app._notifications]
+        await pilot.press("q", "q")
+
+    drive(session, path, steps)
+    assert seen["busy"] is False and seen["title"] == str(path)
+    assert "propagation failed: the solver fell over" in seen["said"]

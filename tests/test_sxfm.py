@@ -62,7 +62,7 @@ def structures(draw: st.DrawFn) -> tuple[str, list[tuple[str, str | None, str]],
                 lines += grow(fid, depth + 1)
             else:
                 size = draw(st.integers(1, 3))
-                low, high = draw(st.sampled_from([(1, 1), (1, None), (0, 1), (0, None), (1, size)]))
+                low, high = draw(st.sampled_from([(1, 1), (1, None), (0, 1), (0, None), (1, size), (0, size)]))
                 lines.append("\t" * (depth + 1) + f":g [{low},{'*' if high is None else high}]")
                 members = []
                 for _ in range(size):
@@ -139,6 +139,10 @@ def test_public_sxfm_files_import_and_round_trip_keeping_their_count(name: str) 
         (said,) = warnings
         assert said.message.startswith("`:m` and `:o` lines under a group `:g` are read as the group's members (")
         assert said.location.line == 34
+    elif name == "e_shop.xml":  # lines without ids: said once, with how many
+        (said,) = warnings
+        assert said.message.startswith("lines without an id `(id)` get one made from their name (a name used twice: ")
+        assert "(225 places, the first here)" in said.message and said.location.line == 7
     else:
         assert warnings == []
 
@@ -182,6 +186,8 @@ TREE = "<feature_model name='m'><feature_tree>\n{}\n</feature_tree><constraints>
     [
         (":r R(r)\n\t:g [2,3]\n\t\t: A(a)\n\t\t: B(b)\n\t\t: C(c)", "", (3, 2), "the group cardinality [2,3] over 3 members cannot be kept"),
         (":r R(r)\n\t:g [1,2]\n\t\t: A(a)\n\t\t: B(b)\n\t\t: C(c)", "", (3, 2), "the group cardinality [1,2] over 3 members"),
+        (":r R(r)\n\t:g [0,2]\n\t\t: A(a)\n\t\t: B(b)\n\t\t: C(c)", "", (3, 2), "the group cardinality [0,2] over 3 members"),
+        (":r R(r)\n\t: Pay\n\t: Pay", "c1: ~Pay", (6, 1), "the constraint names 'Pay', the name of two features without ids"),
         (":r R(r)\n:r S(s)", "", (3, 1), "a second root"),
         (":m R(r)", "", (2, 1), "the feature tree begins with its root"),
         (":r R(r)\n\t:o A(a)\n\t:o B(a)", "", (4, 2), "a second feature with the id 'a'"),
@@ -190,7 +196,7 @@ TREE = "<feature_model name='m'><feature_tree>\n{}\n</feature_tree><constraints>
         (":r R(r)\n\t:o A(a)", "c1: ~a or z", (5, 1), "the constraint names 'z', which is not a feature of the model"),
         (":r R(r)\n\t:o A(a)", "c1 ~a or r", (5, 1), "a constraint is written `label: a or ~b`"),
     ],
-    ids=["cardinality", "cardinality of some", "two roots", "no root", "id twice", "bad cardinality", "bad line", "unknown id", "bad clause"],
+    ids=["cardinality", "cardinality of some", "cardinality of at most some", "a name twice", "two roots", "no root", "id twice", "bad cardinality", "bad line", "unknown id", "bad clause"],
 )
 def test_refusals_are_located(tree: str, constraints: str, where: tuple[int, int], message: str) -> None:
     with pytest.raises(DocumentError) as refused:
@@ -207,7 +213,7 @@ def test_a_formula_too_large_for_clauses_is_refused_at_the_formula() -> None:
     with pytest.raises(DocumentError) as refused:
         write_sxfm(model_of(document))
     (diagnostic,) = refused.value.diagnostics
-    assert "is more than 10,000 clauses in conjunctive normal form" in diagnostic.message
+    assert "is more than 10,000 clauses (or 200,000 literals) in conjunctive normal form" in diagnostic.message
 
 
 def test_every_operator_is_written_as_clauses_of_the_same_meaning() -> None:
@@ -274,3 +280,9 @@ def test_export_sxfm_says_what_it_cannot_write_and_reads_back(tmp_path: Path) ->
     again = model_of(json.loads((tmp_path / "back" / "model.json").read_text()))
     assert count_selections(again, 60) == count_selections(original, 60)
     assert [f.id for f in again.features] == [f.id for f in original.features]
+
+
+def test_names_with_xml_characters_are_written_escaped() -> None:
+    document = {"id": "r", "name": "R & <co>", "sub": [{"id": "a", "name": "Pick & Place (fast)", "isMandatory": False}]}
+    back = read_sxfm(write_sxfm(model_of(document)).encode(), "back.xml")
+    assert (back["name"], back["sub"][0]["name"]) == ("R & <co>", "Pick & Place [fast]")  # (a line's id is in parentheses)

@@ -335,7 +335,7 @@ def test_import_and_export_commands(tmp_path: Path) -> None:
     assert exported.exit_code == 0
     assert (tmp_path / "back.uvl").read_text().splitlines()[:3] == [
         "features",
-        "    Sandwich {abstract, bindingTime 'Early', bindingMode 'Static'}",
+        "    Sandwich {abstract}",  # (no feature of it says a binding: none is written)
         "        mandatory",
     ]
     bad = tmp_path / "bad.uvl"
@@ -480,3 +480,27 @@ def test_kept_attributes_of_every_kind_are_written_back() -> None:
         "color": "red", "weight": 3, "ratio": 0.5, "flag": True, "off": False, "tags": ["a", "b"], "nested": {"x": "y"},
     }
     assert back["sub"][0]["x-uvl"] == {"note": "quoted"}
+
+
+def test_a_model_without_bindings_is_exported_without_them_and_reads_back_the_same(tmp_path: Path) -> None:
+    """A review found that export wrote the default binding of every feature, so that a model
+    imported without bindings came back saying them (show then spoke of bindings)."""
+    from motivml.language.featureide import read_featureide, write_featureide
+
+    document = read_uvl("features\n    R\n        optional\n            A\n", "m.uvl")
+    model = read(document)
+    assert not model.bindings_declared
+    assert "bindingTime" not in write_uvl(model) and "bindingTime" not in write_featureide(model)
+    assert not read(read_uvl(write_uvl(model), "back.uvl")).bindings_declared
+    assert not read(read_featureide(write_featureide(model).encode(), "back.xml")).bindings_declared
+
+
+def test_a_byte_order_mark_and_a_number_out_of_range(tmp_path: Path) -> None:
+    source = tmp_path / "bom.uvl"
+    source.write_bytes("\ufefffeatures\n    R\n".encode())
+    result = CliRunner().invoke(main, ["import", str(source), "-o", str(tmp_path / "bom")])
+    assert result.exit_code == 0, result.output
+    with pytest.raises(DocumentError) as refused:
+        read_uvl("features\n    R {weight 1e400}\n", "m.uvl")
+    (diagnostic,) = refused.value.diagnostics
+    assert (diagnostic.location.line, "the number 1e400 is out of range") == (2, diagnostic.message.split(":")[0])

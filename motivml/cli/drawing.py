@@ -334,7 +334,7 @@ def _imported(what: str | None, source: str) -> tuple[dict[str, Any], list[Diagn
     from ..language.uvl import read_uvl
 
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8").removeprefix("\ufeff")  # (a byte-order mark, as some editors write)
     except UnicodeDecodeError as exc:
         raise DocumentError(error(Location(source), f"is not UTF-8 text ({exc.reason})", "io")) from None
     return read_uvl(text, source, warnings), warnings

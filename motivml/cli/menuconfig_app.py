@@ -4,6 +4,7 @@ configurator runs (menuconfig.py imports this inside `MenuConfig`)."""
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -90,6 +91,9 @@ class Search(Input):
     def action_close(self) -> None:
         self.display = False
         self.app.query_one(FeatureTree).focus()
+        app = self.app
+        assert isinstance(app, MenuConfigApp)
+        app.redraw()  # (the panel shows the session again, not the matches)
 
 
 class Propagation:
@@ -105,6 +109,7 @@ class Propagation:
         self.app = app
         self.asked = 0  # decisions sent to be propagated; the last one's answer is taken
         self.busy = False
+        self.turn = threading.Lock()
 
     def start(self) -> None:
         app = self.app
@@ -115,12 +120,22 @@ class Propagation:
         app.run_worker(lambda: self._work(decisions, asked), thread=True, group="propagate")
 
     def _work(self, decisions: dict[str, Any], asked: int) -> None:
-        try:
-            found = self.app.session.propagate(decisions)
-        except Exception as exc:  # (a bug: said, and the session stays as it was)
-            self.app.call_from_thread(self.app.notify, f"propagation failed: {exc}", severity="error")
-            return
+        with self.turn:  # (one propagation at a time; one whose decision is no longer the last is skipped)
+            if asked != self.asked:
+                return
+            try:
+                found = self.app.session.propagate(decisions)
+            except Exception as exc:  # (a bug: said, and the session stays as it was)
+                self.app.call_from_thread(self._failed, f"propagation failed: {exc}", asked)
+                return
         self.app.call_from_thread(self._done, found, asked)
+
+    def _failed(self, said: str, asked: int) -> None:
+        self.app.notify(said, severity="error")
+        if asked == self.asked:
+            self.busy = False
+            self.app.sub_title = str(self.app.path)
+            self.app.redraw()
 
     def _done(self, found: Propagated, asked: int) -> None:
         if asked != self.asked:

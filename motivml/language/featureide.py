@@ -201,10 +201,10 @@ def write_featureide(model: FeatureModel) -> str:
             attributes += ' abstract="true"'
         if mandatory and parent is not None:
             attributes += ' mandatory="true"'
-        inner = [
+        inner = [  # (a model that says no binding takes the defaults, and reads back the same without them)
             f'<attribute name="bindingTime" type="string" value="{token(feature.time_allowed)}"/>',
             f'<attribute name="bindingMode" type="string" value="{token(feature.mode_allowed)}"/>',
-        ]
+        ] if model.bindings_declared else []
         # What rules cannot say, beside the rules other tools count by: an include's binding
         # rule (3.1), and that excluding features and members of a group written as rules
         # may be Dynamic alternatives (3.3). Read back, they replace their rules.

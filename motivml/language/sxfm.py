@@ -37,6 +37,7 @@ from .model import Feature, FeatureModel, GroupKind
 from .xmltree import Element, parse_xml
 
 MAX_CLAUSES = 10_000  # of one formula written as clauses
+MAX_LITERALS = 200_000  # in them (a few clauses of many literals each are as large as many clauses)
 
 _LINE = re.compile(r"(?P<indent>[ \t]*):(?P<kind>[rmog]?)(?:[ \t]+|(?=\())?(?P<rest>.*?)\s*\Z")
 _NAMED = re.compile(r"(?P<name>.*?)\s*\((?P<id>[^()]*)\)\Z")
@@ -68,12 +69,14 @@ class _Line:
         self.document: dict[str, Any] | None = None  # a feature's document (None: a group)
         self.members: list[dict[str, Any]] = []  # a group's members
         self.cardinality: tuple[int, int | None] = (0, None)  # a group's (None: *)
+        self.owner: dict[str, Any] | None = None  # a group's feature
 
 
 class _SxfmReader(ImportReader):
     def __init__(self) -> None:
         super().__init__()
         self.named: dict[str, str] = {}  # the name of a feature written without an id -> its id
+        self.twice: set[str] = set()  # such names that two features have (a clause cannot name them)
 
     def document(self, top: Element) -> dict[str, Any]:
         if top.tag != "feature_model":
@@ -119,6 +122,7 @@ class _SxfmReader(ImportReader):
                 if parent is None or parent.document is None:
                     raise Refusal(line, "a group (`:g`) belongs to a feature, indented under it")
                 line.cardinality = self._cardinality(line)
+                line.owner = parent.document
                 groups.append(line)
             elif parent is None:
                 raise Refusal(line, "a feature outside the root: indent it under its parent")
@@ -135,7 +139,7 @@ class _SxfmReader(ImportReader):
                     line.document["isMandatory"] = False
                 parent.document.setdefault("sub", []).append(line.document)
             above.append(line)
-        formulas += self._groups(groups, lines)
+        formulas += self._groups(groups)
         assert lines[0].document is not None
         return lines[0].document, formulas
 
@@ -162,7 +166,10 @@ class _SxfmReader(ImportReader):
         if not key and not name:
             raise Refusal(line, "a feature without a name or an id")
         if not key:
+            self.tolerate(line, "lines without an id `(id)` get one made from their name (a name used twice: _2, _3, ...)")
             made = self.ids.fresh(name)
+            if name in self.named:
+                self.twice.add(name)
             self.named.setdefault(name, made)
             return {"id": made, "name": name}
         if key in self.ids:
@@ -176,20 +183,20 @@ class _SxfmReader(ImportReader):
             raise Refusal(line, f"a group's cardinality is written [low,high] (high a number or *), not {line.rest!r}")
         return int(match["low"]), None if match["high"] == "*" else int(match["high"])
 
-    def _groups(self, groups: list[_Line], lines: list[_Line]) -> list[str]:
+    def _groups(self, groups: list[_Line]) -> list[str]:
         """Each group's members under their feature: an OR or XOR group, or optional
         members with formulas (a second group of a kind, or one of at most one)."""
-        parents = {id(line): self._parent(line, lines) for line in groups}
         seen: dict[tuple[int, str], int] = {}
         formulas: list[str] = []
         for group in groups:
-            parent = parents[id(group)]
+            parent = group.owner
+            assert parent is not None  # (set when the group's line was read)
             members = group.members
             if not members:
                 raise Refusal(group, "a group without members")
             low, high = group.cardinality
             top = len(members) if high is None else min(high, len(members))
-            if low > top or top == 0 or low > 1 or (low == 1 and top not in (1, len(members))):
+            if low > top or top == 0 or low > 1 or top not in (1, len(members)):  # ([0,k], [1,k]: 1 < k < n)
                 shown = "*" if high is None else high
                 raise Refusal(
                     group,
@@ -211,14 +218,6 @@ class _SxfmReader(ImportReader):
             parent.setdefault("sub", []).extend(members)
         return formulas
 
-    @staticmethod
-    def _parent(group: _Line, lines: list[_Line]) -> dict[str, Any]:
-        k = lines.index(group)
-        for line in reversed(lines[:k]):
-            if line.depth < group.depth and line.document is not None:
-                return line.document
-        raise AssertionError("a group's parent was checked when it was read")
-
     # -- the constraints: one clause per line
     def _clauses(self, constraints: Element) -> list[str]:
         formulas: list[str] = []
@@ -235,6 +234,8 @@ class _SxfmReader(ImportReader):
                 name = literal.removeprefix("~").strip()
                 if not name or not re.fullmatch(r"[^\s~()]+", name):
                     raise Refusal(where, f"a literal is an id or ~id, not {literal!r}")
+                if name not in self.ids and name in self.twice:
+                    raise Refusal(where, f"the constraint names {name!r}, the name of two features without ids: give them ids")
                 var = Var(self.named[name], 0) if name not in self.ids and name in self.named else self.reference(name, where)
                 literals.append(self.negate(var) if negated else var)
             formulas.append(self.text(self.combine(OR, literals)))
@@ -267,7 +268,7 @@ def write_sxfm(model: FeatureModel) -> str:
             lines.append(item)
             continue
         feature, depth, mark = item
-        lines.append("\t" * depth + f"{mark}{_name(feature)}({feature.id})")
+        lines.append("\t" * depth + f"{mark}{_escape(_name(feature))}({feature.id})")
         children = [model.features[c] for c in feature.children]
         pending: list[tuple[Feature, int, str] | str] = []
         pending += [(c, depth + 1, ":m " if c.mandatory else ":o ") for c in children if not c.group]
@@ -290,8 +291,9 @@ def write_sxfm(model: FeatureModel) -> str:
             raise DocumentError(
                 error(
                     where,
-                    f"formula {formula.text[:60]!r} is more than {MAX_CLAUSES:,} clauses in conjunctive normal "
-                    "form, and SXFM writes a formula so, without new variables: simplify it, or export another format",
+                    f"formula {formula.text[:60]!r} is more than {MAX_CLAUSES:,} clauses (or {MAX_LITERALS:,} "
+                    "literals) in conjunctive normal form, and SXFM writes a formula so, without new variables: "
+                    "simplify it, or export another format",
                     "sxfm",
                 )
             )
@@ -354,8 +356,10 @@ def _cnf(tree: Node) -> list[list[str]] | None:
         else:
             if len(left) * len(right) > MAX_CLAUSES:
                 return None
+            if len(left) * sum(map(len, right)) + len(right) * sum(map(len, left)) > MAX_LITERALS:
+                return None
             clauses = [a + b for a in left for b in right]
-        if len(clauses) > MAX_CLAUSES:
+        if len(clauses) > MAX_CLAUSES or sum(len(clause) for clause in clauses) > MAX_LITERALS:
             return None
         results.append(clauses)
     return [list(dict.fromkeys(clause)) for clause in results[0]]

@@ -22,6 +22,7 @@ exhaust Python's stack.
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable
 from typing import Any
@@ -226,7 +227,7 @@ class _UvlReader(ImportReader):
             self.tolerate(
                 children[0],
                 f"a feature named {children[0]}, a word of UVL's types, is read as a name "
-                "(UVL quotes it: \"Integer\"; FeatureIDE's exports do not)",
+                f"(UVL quotes it: \"{children[0]}\"; FeatureIDE's exports do not)",
             )
         elif children and not hasattr(children[0], "data") and children[0].type == "TYPE" and str(children[0]) != "Boolean":
             raise Refusal(children[0], f"a feature of type {children[0]} cannot be kept: only Boolean features")
@@ -291,7 +292,10 @@ class _UvlReader(ImportReader):
             return str(node.children[0])[1:-1]
         if data == "number":
             text = str(node.children[0])
-            return int(text) if re.fullmatch(r"[+-]?\d+", text) else float(text)
+            number = int(text) if re.fullmatch(r"[+-]?\d+", text) else float(text)
+            if isinstance(number, float) and not math.isfinite(number):
+                raise Refusal(node.children[0], f"the number {text} is out of range: it cannot be kept")
+            return number
         if data in ("true", "false"):
             return data == "true"
         if data == "vector":
@@ -368,7 +372,8 @@ def write_uvl(model: FeatureModel) -> str:
             continue
         feature = features[item]
         kept = attributes(model, feature.index, "x-uvl")  # (the attributes an import kept)
-        lines.append("    " * level + _uvl_name(feature.id) + _uvl_attributes(feature, positions.get(item), kept))
+        said = _uvl_attributes(feature, positions.get(item), kept, model.bindings_declared)
+        lines.append("    " * level + _uvl_name(feature.id) + said)
         # children in their order, one keyword per run of a kind; a group's members together
         # where its first one stands (UVL has one place per group): if that moves a child,
         # each child says its position, so that the order comes back on import
@@ -420,7 +425,11 @@ def _uvl_name(feature_id: str) -> str:
 _KIND = {"OR": "or", "XOR": "alternative"}
 
 
-def _uvl_attributes(feature: Feature, position: int | None = None, kept: dict[str, Any] | None = None) -> str:
+def _uvl_attributes(
+    feature: Feature, position: int | None = None, kept: dict[str, Any] | None = None, bound: bool = True
+) -> str:
+    """A feature's attributes; its binding only where the model says bindings (`bound`: a
+    model that says none takes the defaults, and reads back the same without them)."""
     parts: list[str] = []
     if position is not None:
         parts.append(f"position {position}")
@@ -428,8 +437,9 @@ def _uvl_attributes(feature: Feature, position: int | None = None, kept: dict[st
         parts.append("abstract")
     if feature.name != feature.id:
         parts.append(f"name {_uvl_string(feature.name)}")
-    parts.append(f"bindingTime '{token(feature.time_allowed)}'")
-    parts.append(f"bindingMode '{token(feature.mode_allowed)}'")
+    if bound:
+        parts.append(f"bindingTime '{token(feature.time_allowed)}'")
+        parts.append(f"bindingMode '{token(feature.mode_allowed)}'")
     if feature.includes:
         parts.append("includes [" + ", ".join(f"'{i}'" for i in dict.fromkeys(feature.includes)) + "]")
     if feature.excludes:
