@@ -286,3 +286,12 @@ def test_names_with_xml_characters_are_written_escaped() -> None:
     document = {"id": "r", "name": "R & <co>", "sub": [{"id": "a", "name": "Pick & Place (fast)", "isMandatory": False}]}
     back = read_sxfm(write_sxfm(model_of(document)).encode(), "back.xml")
     assert (back["name"], back["sub"][0]["name"]) == ("R & <co>", "Pick & Place [fast]")  # (a line's id is in parentheses)
+
+
+def test_the_format_is_told_past_a_doctype_and_every_constraints_element_is_read() -> None:
+    from motivml.language.importer import guess
+
+    assert guess(b'<?xml version="1.0"?>\n<!DOCTYPE m [<!ENTITY a "b">]>\n<feature_model name="m">')[0] == "sxfm"
+    text = TREE.format(":r R(r)\n\t:o A(a)\n\t:o B(b)", "c1: ~a or b") + ""
+    text = text.replace("</feature_model>", "<constraints>\nc2: ~b or a\n</constraints></feature_model>")
+    assert read_sxfm(text.encode(), "m.xml")["formulas"] == ["!a | b", "!b | a"]

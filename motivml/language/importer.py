@@ -181,7 +181,7 @@ def attributes(model: FeatureModel, index: int, key: str) -> dict[str, Any]:
 
 FORMATS = {"uvl": "UVL", "featureide": "FeatureIDE XML", "sxfm": "S.P.L.O.T.'s SXFM"}
 _ROOTS = {"featureModel": "featureide", "extendedFeatureModel": "featureide", "feature_model": "sxfm"}
-_PROLOGUE = re.compile(rb"\s*(?:<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^>]*>|\s)*<([A-Za-z_][\w:.-]*)", re.S)
+_PROLOGUE = re.compile(rb"\s*(?:<\?.*?\?>|<!--.*?-->|<!DOCTYPE[^\[>]*(?:\[.*?\])?\s*>|\s)*<([A-Za-z_][\w:.-]*)", re.S)
 
 
 def guess(data: bytes) -> tuple[str | None, str]:

@@ -95,8 +95,7 @@ class _SxfmReader(ImportReader):
                 sxfm["meta"] = {key: value for key, value in data.items() if key and value}
         if sxfm:
             root["x-sxfm"] = sxfm
-        constraints = next((c for c in top.children if c.tag == "constraints"), None)
-        if constraints is not None:
+        for constraints in (c for c in top.children if c.tag == "constraints"):  # (every one: a file may have two)
             formulas += self._clauses(constraints)
         if formulas:
             root["formulas"] = formulas
