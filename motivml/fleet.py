@@ -21,8 +21,8 @@ from typing import TYPE_CHECKING, Any
 
 from .binding.check import check_variant
 from .documents.loader import Document, parse
-from .documents.robot_folder import RobotFolder
-from .documents.schema import FLEET, check_document, read_with_problems
+from .documents.robot_folder import RobotFolder, UnknownVariant
+from .documents.schema import FLEET, check_configuration, check_document, read_with_problems
 from .errors import Diagnostic, Location, MotivmlError, Severity, error
 from .language.model import Configuration, FeatureModel
 from .language.reader import load_model, read_configuration
@@ -53,6 +53,7 @@ class RobotReport:
     config: Configuration | None = None
     origins: list[tuple[Layer, int]] = field(default_factory=list)  # where each entry of `config` was written
     entry: Location | None = None  # the robot's entry in the fleet file
+    variant_layer: Layer | None = None  # its variant file, where the configuration as a whole is said
 
     @property
     def errors(self) -> list[Diagnostic]:
@@ -73,9 +74,10 @@ def is_fleet_file(path: str | Path) -> bool:
     return name == "fleet.json" or name.endswith(".fleet.json")
 
 
-def validate_fleet(path: str | Path) -> tuple[list[Diagnostic], list[RobotReport]]:
+def validate_fleet(path: str | Path, partial: bool = False) -> tuple[list[Diagnostic], list[RobotReport]]:
     """The fleet file's own errors (its schema, names that refer to nothing, a namespace
-    twice), and, when it has none, one report per robot in the file's order."""
+    twice), and, when it has none, one report per robot in the file's order (`partial`:
+    every robot's configuration checked as a partial one, as validate --partial does)."""
     doc, problems = read_with_problems(path, lambda d: check_document(d, FLEET, "a fleet file"))
     if doc is None or problems:
         return problems, []
@@ -106,10 +108,10 @@ def validate_fleet(path: str | Path) -> tuple[list[Diagnostic], list[RobotReport
     if problems:
         return problems, []
     base = Path(path).parent
-    return [], [_robot(doc, k, base) for k in range(len(root["robots"]))]
+    return [], [_robot(doc, k, base, partial) for k in range(len(root["robots"]))]
 
 
-def _robot(doc: Document, k: int, base: Path) -> RobotReport:
+def _robot(doc: Document, k: int, base: Path, partial: bool) -> RobotReport:
     robot: dict[str, Any] = doc.root["robots"][k]
     namespace = "/" + robot["namespace"].strip("/")
     where = os.path.normpath(base / robot["robot"])  # (said as "robots/uv1", not "fleets/../robots/uv1")
@@ -118,30 +120,36 @@ def _robot(doc: Document, k: int, base: Path) -> RobotReport:
         folder = RobotFolder.open(where)
         variant_path = folder.variant_path(robot["variant"])
     except MotivmlError as exc:  # (a folder or a variant that is not there: said at the robot's entry)
-        where = doc.locate(("robots", k, "robot" if "variant" not in exc.diagnostics[0].message else "variant"))
-        report.diagnostics = [_about(namespace, replace(d, location=where)) for d in exc.diagnostics]
+        key = "variant" if isinstance(exc, UnknownVariant) else "robot"
+        at = doc.locate(("robots", k, key))
+        report.diagnostics = [
+            _about(namespace, replace(d, location=at, message=f"{d.message} ({d.location})")) for d in exc.diagnostics
+        ]
         return report
     model, problems = load_model(folder.model_path)
-    variant_doc, variant_problems = read_with_problems(variant_path, lambda d: [])
-    if model is None or variant_doc is None or not isinstance(variant_doc.root, dict):
+    # the variant as validate --variant reads it: its schema, then (below) its own entries
+    variant_doc, variant_problems = read_with_problems(variant_path, check_configuration)
+    if model is None or variant_doc is None or variant_problems:
         report.diagnostics = [_about(namespace, d) for d in [*problems, *variant_problems] if d.severity is Severity.ERROR]
-        if not report.diagnostics:
-            report.diagnostics = [_about(namespace, error(Location(str(variant_path)), "not a configuration", "schema.type"))]
         return report
     report.model = model
     layers = [Layer(f"variant {robot['variant']}", variant_doc, ("properties",))]
+    report.variant_layer = layers[0]
     layers.append(Layer("fleet", doc, ("overrides",)))
     layers += [Layer(f"group {name}", doc, ("groups", name, "overrides")) for name in robot.get("groups", [])]
     layers.append(Layer(f"robot {namespace}", doc, ("robots", k, "overrides")))
-    entries, origins = _merged(layers)
+    entries, origins, twice = _merged(layers)
     report.layers = [layer.name for layer in layers if _entries(layer)]
-    partial = variant_doc.root.get("partial") is True
+    if twice:
+        report.diagnostics = [_about(namespace, d) for d in twice]
+        return report
+    partial = partial or variant_doc.root.get("partial") is True
     merged = parse(json.dumps({"partial": partial, "properties": entries}), f"{namespace} (merged)")
     config, diagnostics = read_configuration(merged, model, partial=partial)
     report.config, report.origins = config, origins
     if not [d for d in diagnostics if d.severity is Severity.ERROR]:
         diagnostics += check_variant(model, config)
-    report.diagnostics = [_about(namespace, _moved(d, origins)) for d in diagnostics]
+    report.diagnostics = [_about(namespace, _moved(d, origins, layers[0])) for d in diagnostics]
     return report
 
 
@@ -157,15 +165,26 @@ def _entries(layer: Layer) -> list[Any]:
     return node if isinstance(node, list) else []
 
 
-def _merged(layers: list[Layer]) -> tuple[list[Any], list[tuple[Layer, int]]]:
+def _merged(layers: list[Layer]) -> tuple[list[Any], list[tuple[Layer, int]], list[Diagnostic]]:
     """The entries of every layer, a later layer's replacing an earlier one's for the same
-    feature (in the place of the first), and where each came from."""
+    feature (in the place of the first), and where each came from; and the errors of a
+    layer that decides a feature twice (a layer is a decisions file: once each)."""
     at: dict[str, int] = {}
     entries: list[Any] = []
     origins: list[tuple[Layer, int]] = []
+    twice: list[Diagnostic] = []
     for layer in layers:
+        mine: dict[str, int] = {}
         for position, entry in enumerate(_entries(layer)):
             fid = entry.get("id") if isinstance(entry, dict) else None
+            if isinstance(fid, str) and fid in mine:
+                where = layer.document.locate((*layer.steps, position, "id"))
+                first = layer.document.locate((*layer.steps, mine[fid]))
+                said = f"a second entry for {fid!r} in {layer.name} (the first at line {first.line}): a layer decides a feature once"
+                twice.append(error(where, said, "config.duplicate", fid))
+                continue
+            if isinstance(fid, str):
+                mine[fid] = position
             if isinstance(fid, str) and fid in at:
                 entries[at[fid]], origins[at[fid]] = entry, (layer, position)
                 continue
@@ -173,10 +192,10 @@ def _merged(layers: list[Layer]) -> tuple[list[Any], list[tuple[Layer, int]]]:
                 at[fid] = len(entries)
             entries.append(entry)
             origins.append((layer, position))
-    return entries, origins
+    return entries, origins, twice
 
 
-def _moved(d: Diagnostic, origins: list[tuple[Layer, int]]) -> Diagnostic:
+def _moved(d: Diagnostic, origins: list[tuple[Layer, int]], variant: Layer | None) -> Diagnostic:
     """A diagnostic of the merged configuration, located where its entries were written,
     the layers of the entries it involves named."""
     layers: list[str] = []
@@ -188,6 +207,8 @@ def _moved(d: Diagnostic, origins: list[tuple[Layer, int]]) -> Diagnostic:
             if layer.name not in layers:
                 layers.append(layer.name)
             return layer.document.locate((*layer.steps, position, *steps[2:]))
+        if steps in ((), ("properties",)) and variant is not None:  # (the configuration as a whole: its variant's)
+            return variant.document.locate(steps)
         return location
 
     location = where(d.location)
@@ -202,6 +223,10 @@ def _about(namespace: str, d: Diagnostic) -> Diagnostic:
 
 
 # ----------------------------------------------------------------------------- plan
+class UnknownGroup(ValueError):
+    """A selector names a group the fleet file does not define."""
+
+
 @dataclass
 class RobotPlan:
     """What a change would do to one robot: accepted (what loads and unloads) or not (why)."""
@@ -219,7 +244,9 @@ def selected(robots: list[RobotReport], groups: dict[str, list[str]], selector: 
     if selector is None:
         return robots
     if selector.startswith("@"):
-        members = set(groups.get(selector[1:], []))
+        if selector[1:] not in groups:
+            raise UnknownGroup(f"no group {selector[1:]!r} in the fleet file (groups: {', '.join(groups) or 'none'})")
+        members = set(groups[selector[1:]])
         return [r for r in robots if r.namespace in members]
     pattern = "/" + selector.strip("/")
     return [r for r in robots if fnmatch.fnmatchcase(r.namespace, pattern)]
@@ -236,7 +263,7 @@ def plan_fleet(
         return problems, []
     doc, _ = read_with_problems(path, lambda d: [])
     assert doc is not None
-    groups: dict[str, list[str]] = {}
+    groups: dict[str, list[str]] = {name: [] for name in doc.root.get("groups", {})}
     for robot in doc.root["robots"]:
         for name in robot.get("groups", []):
             groups.setdefault(name, []).append("/" + robot["namespace"].strip("/"))
@@ -256,6 +283,6 @@ def _plan(robot: RobotReport, request: Request) -> RobotPlan:
     try:
         plan = Reconfigurer(variant, robot.config).plan(active, request)
     except Refused as refused:
-        said = [_about(robot.namespace, _moved(d, robot.origins)) for d in refused.diagnostics]
+        said = [_about(robot.namespace, _moved(d, robot.origins, robot.variant_layer)) for d in refused.diagnostics]
         return RobotPlan(robot.namespace, False, diagnostics=said)
     return RobotPlan(robot.namespace, True, plan.loads, plan.unloads)

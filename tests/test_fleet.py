@@ -166,3 +166,74 @@ def test_a_plan_refuses_a_robot_whose_configuration_has_errors_and_a_change_that
     assert usage.exit_code == 2 and "swap needs two features" in usage.output
     nobody = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation", "--robots", "/nobody*"])
     assert nobody.exit_code == 1 and "no robot" in nobody.output
+
+
+# ------------------------------------------------------------------ from a review
+def copy_of_simplebot(tmp_path: Path, **variants: Any) -> Path:
+    import shutil
+
+    folder = tmp_path / "rb"
+    shutil.copytree(SIMPLEBOT, folder)
+    for name, document in variants.items():
+        (folder / "variants" / f"{name}.json").write_text(json.dumps(document))
+    return folder
+
+
+def test_a_variant_is_read_as_validate_reads_it_and_a_layer_decides_a_feature_once(tmp_path: Path) -> None:
+    folder = copy_of_simplebot(
+        tmp_path,
+        noid={"partial": True, "properties": [{"selected": True}]},
+        soon={"partial": True, "properties": [{"id": "slam", "props": {"time": "Soon"}}]},
+        dup={"partial": True, "properties": [{"id": "slam"}, {"id": "slam"}]},
+    )
+    path = fleet(
+        tmp_path,
+        overrides=[{"id": "orbslam", "selected": False}, {"id": "orbslam"}],
+        robots=[{"namespace": n, "robot": str(folder), "variant": n} for n in ("noid", "soon", "dup")],
+    )
+    problems, robots = validate_fleet(path)
+    assert problems == []
+    noid, soon, dup = (r.errors[0] for r in robots)
+    assert Path(noid.location.file).name == "noid.json" and "missing required key 'id'" in noid.message
+    assert Path(soon.location.file).name == "soon.json" and noid.message.startswith("robot /noid: ")
+    assert Path(dup.location.file).name == "dup.json" and dup.location.path == "$.properties[1].id"
+    assert "a second entry for 'slam' in variant dup" in dup.message
+    result = CliRunner().invoke(main, ["validate", str(path)])
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    in_fleet = [d for d in robots[2].errors if Path(d.location.file).name == "fleet.json"]
+    assert [d.location.path for d in in_fleet] == ["$.overrides[1].id"]  # (the fleet layer's own twice, too)
+    assert "a second entry for 'orbslam' in fleet" in in_fleet[0].message
+
+
+def test_an_incomplete_full_variant_is_said_in_its_file_and_partial_is_heard(tmp_path: Path) -> None:
+    folder = copy_of_simplebot(tmp_path)
+    full = json.loads((folder / "variants" / "field.json").read_text())
+    full["properties"] = [e for e in full["properties"] if e["id"] != "amcl"]
+    (folder / "variants" / "short.json").write_text(json.dumps(full))
+    path = fleet(tmp_path, robots=[{"namespace": "a", "robot": str(folder), "variant": "short"}])
+    (robot_report,) = validate_fleet(path)[1]
+    (incomplete,) = robot_report.errors
+    assert Path(incomplete.location.file).name == "short.json" and "amcl" in incomplete.message
+    assert validate_fleet(path, partial=True)[1][0].valid
+    assert CliRunner().invoke(main, ["validate", str(path), "--partial"]).exit_code == 0
+
+
+def test_a_folder_without_a_model_is_said_at_the_robot_key(tmp_path: Path) -> None:
+    (tmp_path / "empty").mkdir()
+    path = fleet(tmp_path, robots=[{"namespace": "a", "robot": str(tmp_path / "empty"), "variant": "v"}])
+    (report,) = validate_fleet(path)[1]
+    (problem,) = report.errors
+    assert problem.location.path == "$.robots[0].robot" and str(tmp_path / "empty") in problem.message
+
+
+def test_an_unknown_group_selector_or_a_set_is_a_usage_error_and_a_group_is_listed_once(tmp_path: Path) -> None:
+    path = fleet(tmp_path, groups={"bays": {}}, robots=[robot("a")])
+    unknown = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation", "--robots", "@nosuch"])
+    assert unknown.exit_code == 2 and "no group 'nosuch' in the fleet file (groups: bays)" in unknown.output
+    empty = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation", "--robots", "@bays"])
+    assert empty.exit_code == 1 and "no robot" in empty.output
+    settled = CliRunner().invoke(main, ["fleet", "plan", str(path), "set", "navigation"])
+    assert settled.exit_code == 2 and "set is not planned for a fleet" in settled.output
+    twice = fleet(tmp_path, groups={"g": {}}, robots=[robot("a", groups=["g", "g"])])
+    problems, _ = validate_fleet(twice)
+    assert problems and problems[0].location.path == "$.robots[0].groups"

@@ -57,7 +57,7 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     from ..validate import DocumentKind, validate
 
     if is_fleet_file(target) and config is None and variant is None:
-        _validate_fleet(target, fmt)
+        _validate_fleet(target, fmt, partial)
     try:
         model_path, configs, analyse = targets(target, config, variant)
         folder = RobotFolder(Path(target)) if Path(target).is_dir() else None
@@ -81,14 +81,14 @@ def validate_command(target: str, config: str | None, variant: str | None, parti
     sys.exit(0 if result.valid else 1)
 
 
-def _validate_fleet(target: str, fmt: str) -> NoReturn:
+def _validate_fleet(target: str, fmt: str, partial: bool) -> NoReturn:
     """validate FLEET.json: the fleet file, then each robot's configuration (its variant with
     the fleet's overrides), each robot's messages naming it; exit 1 if any has an error."""
     from ..fleet import validate_fleet
     from ..validate import DocumentKind, Report
 
     try:
-        problems, robots = validate_fleet(target)
+        problems, robots = validate_fleet(target, partial)
     except (MotivmlError, OSError) as exc:
         problem = exc if isinstance(exc, MotivmlError) else environment_problem(exc)
         if fmt == "text":

@@ -28,10 +28,10 @@ def fleet_group() -> None:
     "--robots",
     "selector",
     metavar="SELECTOR",
-    help="The robots to plan for: a glob over namespaces (/bay*), or @GROUP for a group's robots (default: all).",
+    help="The robots to plan for: a glob over namespaces (/bay*; * also crosses /), or @GROUP for a group's robots (default: all).",
 )
 def plan_command(fleet: str, change: tuple[str, ...], selector: str | None) -> None:
-    """Check CHANGE (load F..., unload F..., reload F..., swap OUT IN, set +F -G) for each
+    """Check CHANGE (load F..., unload F..., reload F..., swap OUT IN) for each
     robot of FLEET as `ctl` checks it on a running robot, without touching anything: per
     robot, accepted with what loads and unloads, or refused with the reason and the repairs.
 
@@ -39,17 +39,20 @@ def plan_command(fleet: str, change: tuple[str, ...], selector: str | None) -> N
     fleet's overrides): no running robot is asked. Exit 0 when every robot accepts it, 1
     when one refuses it or its configuration has errors, 2 for a change that is not one.
     """
-    from ..fleet import plan_fleet
+    from ..fleet import UnknownGroup, plan_fleet
     from ..runtime.requests import Event, RequestError, parse
 
+    if change[0] not in ("load", "unload", "reload", "swap"):
+        raise click.UsageError(f"{change[0]} is not planned for a fleet: load, unload, reload or swap")
     try:
         request = parse(change[0], change[1:])
     except RequestError as exc:
         raise click.UsageError(f"{' '.join(change)!r}: {exc}") from None
-    if isinstance(request, Event):
-        raise click.UsageError("an event goes to one robot's coordination: motivml ctl ROBOT event NAME")
+    assert not isinstance(request, Event)  # (no event verb gets here)
     try:
         problems, plans = plan_fleet(fleet, request, selector)
+    except UnknownGroup as unknown:
+        raise click.BadParameter(str(unknown), param_hint="'--robots'") from None
     except (MotivmlError, OSError) as exc:
         from .common import environment_problem
 
