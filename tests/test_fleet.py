@@ -237,3 +237,11 @@ def test_an_unknown_group_selector_or_a_set_is_a_usage_error_and_a_group_is_list
     twice = fleet(tmp_path, groups={"g": {}}, robots=[robot("a", groups=["g", "g"])])
     problems, _ = validate_fleet(twice)
     assert problems and problems[0].location.path == "$.robots[0].groups"
+
+
+def test_plan_on_a_fleet_file_with_errors_or_none_plans_nothing(tmp_path: Path) -> None:
+    broken = fleet(tmp_path, robots=[robot("a", groups=["night"])])
+    result = CliRunner().invoke(main, ["fleet", "plan", str(broken), "unload", "navigation"])
+    assert result.exit_code == 1 and "error in the fleet file: nothing planned" in " ".join(result.output.split())
+    missing = CliRunner().invoke(main, ["fleet", "plan", str(tmp_path / "nowhere.json"), "unload", "navigation"])
+    assert missing.exit_code == 3 and "nowhere.json" in missing.output
