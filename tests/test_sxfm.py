@@ -295,3 +295,12 @@ def test_the_format_is_told_past_a_doctype_and_every_constraints_element_is_read
     text = TREE.format(":r R(r)\n\t:o A(a)\n\t:o B(b)", "c1: ~a or b") + ""
     text = text.replace("</feature_model>", "<constraints>\nc2: ~b or a\n</constraints></feature_model>")
     assert read_sxfm(text.encode(), "m.xml")["formulas"] == ["!a | b", "!b | a"]
+
+
+def test_indentation_that_mixes_tabs_and_spaces_is_said() -> None:
+    warnings: list[Diagnostic] = []
+    text = TREE.format(":r R(r)\n\t:o A(a)\n    :o B(b)", "")
+    document = read_sxfm(text.encode(), "m.xml", warnings)
+    assert [c["id"] for c in document["sub"]] == ["a", "b"]  # (a tab is 4 spaces: siblings)
+    (said,) = warnings
+    assert (said.location.line, said.message) == (4, "the indentation mixes tabs and spaces: a tab counts as 4 spaces")

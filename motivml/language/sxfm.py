@@ -144,6 +144,8 @@ class _SxfmReader(ImportReader):
 
     def _lines(self, tree: Element) -> list[_Line]:
         lines: list[_Line] = []
+        kinds: set[str] = set()  # of the indentation's characters so far
+        mixed = False
         for k, text in enumerate(tree.text.split("\n")):
             if not text.strip():
                 continue
@@ -153,6 +155,10 @@ class _SxfmReader(ImportReader):
             if match is None:
                 raise Refusal(_At(line, column), f"not a line of an SXFM feature tree: {text.strip()[:60]!r}")
             depth = len(match["indent"].expandtabs(4)) if k else 0
+            kinds.update(set(match["indent"]) & {"\t", " "})
+            if len(kinds) == 2 and not mixed:
+                mixed = True  # (said once: where tabs and spaces first meet)
+                self.tolerate(_At(line, column), "the indentation mixes tabs and spaces: a tab counts as 4 spaces")
             lines.append(_Line(line, column, depth, match["kind"], match["rest"]))
         return lines
 
