@@ -314,7 +314,9 @@ def test_slash_searches_ids_and_names_and_jumps_to_the_next_match(robot: Path) -
         await pilot.press("q", "q")
 
     drive(session, path, steps)
-    assert seen["listed"].startswith("4 matches (Enter jumps to the next one)\nslam (SLAM) in root_feature > localization\n")
+    assert seen["listed"].startswith(
+        "4 matches (Enter jumps to the first one after the cursor)\nslam (SLAM) in root_feature > localization\n"
+    )
     assert "hectorslam (HectorSLAM) in root_feature > localization > slam" in seen["listed"]
     assert (seen["first"], seen["second"]) == ("slam", "hectorslam")
     assert seen["selected"] == "[x] [XOR] hectorslam  **"

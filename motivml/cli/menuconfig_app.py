@@ -56,7 +56,7 @@ class Search(Input):
             listed.append(f"no feature's id or name holds {self.value.strip()!r}", "yellow")
         else:
             listed.append(f"{len(found)} {'match' if len(found) == 1 else 'matches'}", "bold")
-            listed.append(" (Enter jumps to the next one)\n")
+            listed.append(" (Enter jumps to the first one after the cursor)\n")
             for i in found[: self.SHOWN]:
                 listed.append(self._where(i) + "\n")
             if len(found) > self.SHOWN:
