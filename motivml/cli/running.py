@@ -350,7 +350,7 @@ def _watch(session: Session, show: bool) -> None:
         else:
             while not session.wait(0.25):
                 _report(session, out)
-        _report_notes(session, out)  # all of the run's log, before the summary (same place every run)
+        _report(session, out)  # the rest of the log (and of the changes, if the run ended first), before the summary
     finally:
         session.stop_watching()
 
