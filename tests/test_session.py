@@ -104,7 +104,10 @@ def test_a_socket_that_cannot_open_closes_the_robot(tmp_path: Path) -> None:
 
 
 def test_ctrl_c_ends_the_run_and_a_second_one_calls_on_stuck() -> None:
-    """The handler itself, called as the signal would call it: first stop, then give up."""
+    """The handler itself, called as the signal would call it: first stop, then give up;
+    and the handler before the session is given back (Python's own, or SIG_IGN where the
+    process was started with Ctrl-C ignored, as a shell's background job is)."""
+    before = signal.getsignal(signal.SIGINT)
     stuck = threading.Event()
     session = Session(launch(SIMPLEBOT, "field"), 3600.0, "real", on_stuck=lambda signum: stuck.set())
     session.open()
@@ -115,7 +118,7 @@ def test_ctrl_c_ends_the_run_and_a_second_one_calls_on_stuck() -> None:
     session._interrupt(signal.SIGINT, None)
     assert stuck.is_set()
     session.close()
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert signal.getsignal(signal.SIGINT) is before
 
 
 def test_a_second_sigterm_on_a_stuck_loop_leaves_no_socket_and_no_registration(
