@@ -196,6 +196,24 @@ class EnvironmentProblem(MotivmlError):
     exit_code = 3
 
 
+class Judged:
+    """Something checked, judged by its diagnostics: a document's report, a fleet's robot."""
+
+    diagnostics: list[Diagnostic]
+
+    @property
+    def errors(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.ERROR]
+
+    @property
+    def warnings(self) -> list[Diagnostic]:
+        return [d for d in self.diagnostics if d.severity is Severity.WARNING]
+
+    @property
+    def valid(self) -> bool:
+        return not self.errors
+
+
 def error(location: Location, message: str, rule: str, feature: str | None = None) -> Diagnostic:
     return Diagnostic(Severity.ERROR, location, message, rule, feature)
 

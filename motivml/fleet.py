@@ -23,7 +23,7 @@ from .binding.check import check_variant
 from .documents.loader import Document, parse
 from .documents.robot_folder import RobotFolder, UnknownVariant
 from .documents.schema import FLEET, check_configuration, check_document, read_with_problems
-from .errors import Diagnostic, Location, MotivmlError, Severity, error
+from .errors import Diagnostic, Judged, Location, MotivmlError, Severity, error
 from .language.model import Configuration, FeatureModel
 from .language.reader import load_model, read_configuration
 
@@ -41,7 +41,7 @@ class Layer:
 
 
 @dataclass
-class RobotReport:
+class RobotReport(Judged):
     """What checking one robot of the fleet found."""
 
     namespace: str
@@ -54,18 +54,6 @@ class RobotReport:
     origins: list[tuple[Layer, int]] = field(default_factory=list)  # where each entry of `config` was written
     entry: Location | None = None  # the robot's entry in the fleet file
     variant_layer: Layer | None = None  # its variant file, where the configuration as a whole is said
-
-    @property
-    def errors(self) -> list[Diagnostic]:
-        return [d for d in self.diagnostics if d.severity is Severity.ERROR]
-
-    @property
-    def warnings(self) -> list[Diagnostic]:
-        return [d for d in self.diagnostics if d.severity is Severity.WARNING]
-
-    @property
-    def valid(self) -> bool:
-        return not self.errors
 
 
 def is_fleet_file(path: str | Path) -> bool:

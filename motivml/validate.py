@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 from .binding.check import analyse_model, check_variant
 from .documents.robot_folder import ARCHITECTURE_FILE, RobotFolder, optional_document
 from .documents.schema import read_checked
-from .errors import Diagnostic, Severity, error
+from .errors import Diagnostic, Judged, Severity, error
 from .language.model import Configuration, FeatureModel
 from .language.reader import load_configuration, load_model
 
@@ -40,7 +40,7 @@ class DocumentKind(StrEnum):
 
 
 @dataclass
-class Report:
+class Report(Judged):
     """What a check found in one document, errors first (each group best first)."""
 
     file: str
@@ -51,18 +51,6 @@ class Report:
     analysed: bool = False  # model analyses (dead features, bindings) ran
     open_bindings: int = 0  # selected features whose binding the configuration leaves open
     open_features: int = 0  # features without an entry (a partial configuration, a decisions file)
-
-    @property
-    def errors(self) -> list[Diagnostic]:
-        return [d for d in self.diagnostics if d.severity is Severity.ERROR]
-
-    @property
-    def warnings(self) -> list[Diagnostic]:
-        return [d for d in self.diagnostics if d.severity is Severity.WARNING]
-
-    @property
-    def valid(self) -> bool:
-        return not self.errors
 
 
 @dataclass
