@@ -470,14 +470,14 @@ def test_a_model_with_errors(tmp_path: Path) -> None:
 def test_a_count_that_runs_out_of_time_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
     """The counter runs in a child process that is killed when the time is up."""
     monkeypatch.setattr(analysis_module, "_count_here", _never_answers)
-    result = CliRunner().invoke(main, ["analyse", str(SENSORBOT), "--count-timeout", "0.2"])
+    result = CliRunner().invoke(main, ["analyse", str(SENSORBOT), "--count-timeout", "0.2", "--no-compiled"])
     assert result.exit_code == 0
     assert result.output.splitlines()[-2:] == [
         "selections: not counted within 0.2 s (see --count-timeout)",
         "variants: not counted within 0.2 s (see --count-timeout)",
     ]
     as_json = CliRunner().invoke(
-        main, ["analyse", str(SENSORBOT), "--count-timeout", "0.2", "--format", "json"]
+        main, ["analyse", str(SENSORBOT), "--count-timeout", "0.2", "--format", "json", "--no-compiled"]
     )
     payload = json.loads(as_json.output)
     assert payload["selection_count"] is None and payload["uncounted"] == ["selection", "variant"]
@@ -493,7 +493,7 @@ def test_a_counter_that_fails_is_an_environment_error(monkeypatch: pytest.Monkey
     monkeypatch.setattr(analysis_module, "_count_here", _dies)
     with pytest.raises(CountFailed, match="stopped without an answer"):
         count_selections(read(feature("r")), timeout=30)
-    result = CliRunner().invoke(main, ["analyse", str(SENSORBOT)])
+    result = CliRunner().invoke(main, ["analyse", str(SENSORBOT), "--no-compiled"])
     assert result.exit_code == 3 and "the model counter stopped without an answer" in result.output
 
 

@@ -11,7 +11,9 @@ features by what they select, and so do the variants derived from the first few 
 without a solve (`cuts`: a valid variant less one of its subtrees); the classes left are
 settled in rounds (`_atomic_sets`).
 
-Counts are exact (Python integers) and come from Ganak (`pyganak`), an exact projected
+Counts are exact (Python integers). They come from the model's compiled forms
+(`compiled.py`: d-DNNFs kept beside the model, made on first use within a time limit) and,
+where no compiled form is at hand, from Ganak (`pyganak`), an exact projected
 model counter: the selection count counts `selection_cnf` (section 2 alone, as other tools
 read it); the variant count counts the hard build of the encoding projected onto each
 feature's selection, time and mode, with the time and mode of a feature left out fixed (the
@@ -26,6 +28,7 @@ from array import array
 from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass, field
 from operator import neg
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..language.model import FeatureModel, Mode, Time
@@ -67,6 +70,19 @@ class Analysis:
     selection_count: int | None = None  # None: not asked for, or not done in time (`uncounted`)
     variant_count: int | None = None
     uncounted: list[str] = field(default_factory=list)  # the counts given up on ("selection", "variant")
+    # per count done ("selection", "variant"): how, "compiled form" or "Ganak", and why Ganak
+    counted_by: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Compiling:
+    """Whether and how `analyse` counts from compiled forms (`compiled.py`): kept in
+    `beside`/.motivml/compiled (None: kept nowhere), made within `limit` seconds (None:
+    no limit) when missing; `use=False`: Ganak only."""
+
+    beside: Path | None = None
+    limit: float | None = 60.0
+    use: bool = True
 
 
 def analyse(
@@ -74,10 +90,22 @@ def analyse(
     counts: bool = True,
     progress: Progress | None = None,
     count_timeout: float | None = COUNT_TIMEOUT,
+    compiling: Compiling = Compiling(),
 ) -> Analysis:
-    """Every analysis of section 7 (the counts only with `counts`, each given up after
-    `count_timeout` seconds)."""
+    """Every analysis of section 7 (the counts only with `counts`: from the compiled
+    forms as `compiling` says, else by Ganak, each given up after `count_timeout`
+    seconds).
+
+    With a compiled form of the variants at hand (kept; or, with `counts`, made within
+    `compiling.limit`), every answer comes from it (`_from_form`); else from the SAT
+    solver, as below."""
     step = progress or (lambda _: None)
+    if compiling.use:
+        from .compiled import CompiledForm, Kind, compiled_form
+
+        form = compiled_form(model, compiling.beside, Kind.VARIANTS, compiling.limit, make=counts)
+        if isinstance(form, CompiledForm):
+            return _from_form(model, form, counts, step, compiling, count_timeout)
     features = model.features
     n = len(features)
     with no_gc(), enc.Encoding(model, record=True) as hard:
@@ -160,16 +188,119 @@ def analyse(
         impossible=[(features[i].id, aspect, str(value)) for i, aspect, value in impossible],
     )
     if counts:
+        from .compiled import Kind
+
         step(STEPS[5])
-        analysis.selection_count = count_selections(model, count_timeout)
+        analysis.selection_count = _counted(model, Kind.SELECTIONS, compiling, count_timeout, analysis.counted_by)
         step(STEPS[6])
-        analysis.variant_count = count_variants(model, count_timeout)
+        analysis.variant_count = _counted(model, Kind.VARIANTS, compiling, count_timeout, analysis.counted_by)
         analysis.uncounted = [
             name
             for name, value in (("selection", analysis.selection_count), ("variant", analysis.variant_count))
             if value is None
         ]
     return analysis
+
+
+SAMPLED = 24  # uniform variants whose selections split the atomic sets' candidates (`_from_form`)
+
+
+def _from_form(
+    model: FeatureModel, form: Any, counts: bool, step: Progress, compiling: Compiling, timeout: float | None
+) -> Analysis:
+    """Section 7 from the compiled form of the variants (`compiled.CompiledForm`): one pass
+    counts, for every feature, the variants that select it, make it Early and make it
+    Static; core and dead features and impossible bindings are read off those counts.
+    Two live features are in one atomic set when as many variants select both as select
+    each: features are compared only within groups of the same count that SAMPLED
+    uniform variants select alike, one count per comparison. (Counts under conditions do
+    not split them as well: two independent features with as many variants each have
+    as many under any condition on a third.)"""
+    step(STEPS[0])
+    total = form.count()
+    if total == 0:
+        return Analysis(True, selection_count=0 if counts else None, variant_count=0 if counts else None)
+    features = model.features
+    n = len(features)
+    step(STEPS[1])
+    counted = form.counts([form.literal(i, aspect) for i in range(n) for aspect in ("selected", "early", "static")])
+    selected, early, static = counted[0::3], counted[1::3], counted[2::3]
+    alive = [c > 0 for c in selected]
+    core = [i for i in range(n) if selected[i] == total]
+    step(STEPS[2])
+    drawn = form.uniform(SAMPLED, seed=0)
+    groups: dict[tuple[int, tuple[bool, ...]], list[int]] = {}
+    for i in range(n):
+        if alive[i] and selected[i] != total:
+            groups.setdefault((selected[i], tuple(d[form.literal(i) - 1] > 0 for d in drawn)), []).append(i)
+    atomic: list[list[int]] = [core]
+    for members in groups.values():
+        sets: list[list[int]] = []
+        for i in members:
+            for found in sets:
+                if form.count([form.literal(i), form.literal(found[0])]) == selected[i]:
+                    found.append(i)
+                    break
+            else:
+                sets.append([i])
+        atomic += sets
+    atomic = sorted(sorted(members) for members in atomic)
+    step(STEPS[3])
+    impossible: list[tuple[int, str, Time | Mode]] = []
+    for f in features:
+        i = f.index
+        if not alive[i]:
+            continue
+        if f.time_allowed is None:
+            impossible += [(i, "time", v) for v, c in ((Time.EARLY, early[i]), (Time.LATE, selected[i] - early[i])) if not c]
+        if f.mode_allowed is None:
+            impossible += [
+                (i, "mode", v) for v, c in ((Mode.STATIC, static[i]), (Mode.DYNAMIC, selected[i] - static[i])) if not c
+            ]
+    step(STEPS[4])
+    atomic_set_of = {i: k for k, members in enumerate(atomic) for i in members}
+    false_optional = [
+        f.index
+        for f in features
+        if f.parent is not None and not f.mandatory and alive[f.index] and atomic_set_of[f.index] == atomic_set_of[f.parent]
+    ]
+    analysis = Analysis(
+        False,
+        core=[features[i].id for i in core],
+        dead=[f.id for f in features if not alive[f.index]],
+        false_optional=[features[i].id for i in false_optional],
+        atomic_sets=[[features[i].id for i in members] for members in atomic],
+        impossible=[(features[i].id, aspect, str(value)) for i, aspect, value in impossible],
+    )
+    if counts:
+        from .compiled import Kind
+
+        step(STEPS[5])
+        analysis.selection_count = _counted(model, Kind.SELECTIONS, compiling, timeout, analysis.counted_by)
+        step(STEPS[6])
+        analysis.variant_count = total
+        analysis.counted_by["variant"] = "compiled form"
+        analysis.uncounted = ["selection"] if analysis.selection_count is None else []
+    return analysis
+
+
+def _counted(
+    model: FeatureModel, kind: Any, compiling: Compiling, timeout: float | None, how: dict[str, str]
+) -> int | None:
+    """A count from the compiled form of `kind`, or by Ganak where there is none (`how`
+    says which, and why)."""
+    from .compiled import Kind, NotCompiled, compiled_form
+
+    name = "selection" if kind is Kind.SELECTIONS else "variant"
+    if compiling.use:
+        form = compiled_form(model, compiling.beside, kind, compiling.limit)
+        if not isinstance(form, NotCompiled):
+            how[name] = "compiled form"
+            return form.count()
+        how[name] = f"Ganak: no compiled form, {form.reason}"
+    else:
+        how[name] = "Ganak"
+    return (count_selections if kind is Kind.SELECTIONS else count_variants)(model, timeout)
 
 
 COVERING = 4  # variants asked for what no variant found selects yet (`_covering`)

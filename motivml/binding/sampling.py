@@ -199,3 +199,80 @@ def _phases(values: list[tuple[int, tuple[int, ...]]], waiting: list[int]) -> li
 def _count(features: int, per_feature: int, t: int) -> int:
     """C(features, t) * per_feature**t: the combinations of t values of distinct features."""
     return int(comb(features, t) * per_feature**t)
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """What t-wise combinations some variants show (`coverage`)."""
+
+    t: int
+    combinations: int
+    valid: int  # how many of them some valid variant has
+    shown: int  # how many valid ones the variants show
+
+
+def coverage(
+    model: FeatureModel,
+    variants: list[dict[int, Binding | None]],
+    t: int = 2,
+    bindings: bool = False,
+    progress: Callable[[int, int], None] | None = None,
+) -> Coverage:
+    """The t-wise coverage of `variants` (each valid): a combination they show is valid; one
+    they do not is refuted by unit propagation or else solved for."""
+    features = [f.index for f in model.features if f.parent is not None]
+    per_feature = 6 if bindings else 2
+    total = _count(len(features), per_feature, t)
+    if total > LIMIT:
+        raise TooMany(f"{total:,} {t}-wise combinations over {len(features):,} features: more than {LIMIT:,}")
+    # per value (feature, what): the bit mask of the variants that have it
+    values: list[tuple[int, int]] = []
+    for i in features:
+        states = [variant[i] for variant in variants]
+        masks = [sum(1 << k for k, b in enumerate(states) if b is None), sum(1 << k for k, b in enumerate(states) if b is not None)]
+        if bindings:
+            masks += [
+                sum(1 << k for k, b in enumerate(states) if b is not None and test(b))
+                for test in (_early, _late, _static, _dynamic)
+            ]
+        values += [(i, mask) for mask in masks]
+    shown = invalid = 0
+    with no_gc(), enc.Encoding(model) as hard:
+        s, E, S = hard.s, hard.E, hard.S  # noqa: N806
+        literals: list[tuple[int, ...]] = []
+        for i in features:
+            literals += [(-s(i),), (s(i),)]
+            if bindings:
+                literals += [(s(i), E(i)), (s(i), -E(i)), (s(i), S(i)), (s(i), -S(i))]
+        solver = hard.solver
+        for done, combo in enumerate(_combinations([(i, ()) for i, _ in values], t), 1):
+            if progress is not None and done % REPORT == 0:
+                progress(done, total)
+            mask = -1
+            for v in combo:
+                mask &= values[v][1]
+            if mask:
+                shown += 1
+                continue
+            wanted = [lit for v in combo for lit in literals[v]]
+            if not solver.propagate(assumptions=wanted)[0] or not solver.solve(assumptions=wanted):
+                invalid += 1
+    if progress is not None:
+        progress(total, total)
+    return Coverage(t, total, total - invalid, shown)
+
+
+def _early(b: Binding) -> bool:
+    return b.early
+
+
+def _late(b: Binding) -> bool:
+    return not b.early
+
+
+def _static(b: Binding) -> bool:
+    return b.static
+
+
+def _dynamic(b: Binding) -> bool:
+    return not b.static

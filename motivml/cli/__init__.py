@@ -44,6 +44,7 @@ COMMANDS = {  # command name -> the module of this package that defines it, and 
     "cmake-dir": ("building", "cmake_dir_command"),
     "analyse": ("analysing", "analyse_command"),
     "sample": ("analysing", "sample_command"),
+    "compile": ("analysing", "compile_command"),
     "run": ("running", "run_command"),
     "ctl": ("running", "ctl_command"),
     "graph": ("drawing", "graph_command"),

@@ -51,6 +51,7 @@ FAMILIES = {
     "limits": "A document within motivml's limits (size, nesting)",
     "schema": "The document follows its JSON Schema",
     "io": "A file or folder that cannot be read",
+    "compile": "A compiled form that could not be made in time",
     "record": "A run record (motivml run --record) that motivml plot can read",
     "plot": "A picture motivml plot can draw from a run record",
     "usage": "The command line names something that is not there",

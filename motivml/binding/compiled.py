@@ -1,0 +1,237 @@
+"""A model's compiled forms: its selections and its variants as d-DNNFs, made once and kept
+beside the model, then asked for counts, commonalities and uniform samples at once.
+
+Two forms per model (reference.md section 7):
+
+* **selections**: the CNF of section 2 (`encoding.selection_cnf`), projected onto all its
+  variables: the helper variables it adds (XOR counters, formula operators) are each
+  defined by the features', so the count over all of them is the selection count, and
+  feature i is variable i + 1;
+* **variants**: the CNF of sections 2-4 (`analysis.variant_cnf`), projected onto each
+  feature's selection, time and mode (feature i is variables 3i + 1, 3i + 2, 3i + 3: selected,
+  Early, Static), so that a variant is counted once whatever start states it has.
+
+`compiler.py` makes each; ddnnife (LGPL-3.0-or-later, a library this module imports, not
+code of ours) answers from it. A form is kept in `.motivml/compiled/` beside the model,
+named by its kind and a hash of what was compiled (the compiler's format, the clauses and
+the projection): a changed model has another name, so a kept form is never stale, and
+`.motivml/compiled/` may be deleted at any time. A compile that passes its time limit is
+given up and remembered (a `.gaveup` file), so that the next command does not wait for it
+again unless given a longer limit; the caller then counts with Ganak as before.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import time
+from array import array
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from enum import StrEnum
+from pathlib import Path
+from typing import Any
+
+from ..language.model import Binding, FeatureModel
+from . import encoding as enc
+from .compiler import CompileTimeout, Dnnf, compile_cnf
+
+FORMAT = 1  # what compiler.py writes; a change of meaning takes a new number (and new files)
+COMPILE_LIMIT = 60.0  # seconds a compile may take by default before the commands fall back
+FOLDER = Path(".motivml") / "compiled"  # beside the model
+
+
+class Kind(StrEnum):
+    SELECTIONS = "selections"
+    VARIANTS = "variants"
+
+
+@dataclass
+class CompiledForm:
+    """One compiled form, loaded. Literals are over the form's own variables (`literal`)."""
+
+    kind: Kind
+    features: int
+    variables: int
+    path: Path | None  # where it is kept (None: it could not be kept)
+    seconds: float  # what the compile took
+    made_now: bool
+    nodes: int
+    _answers: Any = field(default=None, repr=False)  # ddnnife's DdnnfMut
+
+    def literal(self, feature: int, aspect: str = "selected") -> int:
+        """The variable of a feature's selection (or, in the variants form, "early" or
+        "static": its time is Early, its mode Static)."""
+        if self.kind is Kind.SELECTIONS:
+            if aspect != "selected":
+                raise ValueError("the selections form has no bindings")
+            return feature + 1
+        return 3 * feature + {"selected": 1, "early": 2, "static": 3}[aspect]
+
+    def count(self, assumptions: Sequence[int] = ()) -> int:
+        """How many selections (or variants) have every literal of `assumptions`."""
+        return int(self._answers.count(list(assumptions)))
+
+    def counts(self, variables: Sequence[int], assumptions: Sequence[int] = ()) -> list[int]:
+        """For each of `variables`, how many of those with `assumptions` set it true."""
+        return [int(c) for c in self._answers.count_multiple(list(assumptions), list(variables))]
+
+    def uniform(self, amount: int, seed: int, assumptions: Sequence[int] = ()) -> list[list[int]]:
+        """`amount` selections (or variants) with `assumptions`, each drawn uniformly at
+        random and independently (so one may come twice), as the literals of the form's
+        variables (the selections form: of its features only)."""
+        drawn = self._answers.random(list(assumptions), amount, seed)
+        if self.kind is Kind.SELECTIONS:
+            return [list(sample[: self.features]) for sample in drawn]
+        return [list(sample) for sample in drawn]
+
+    def bindings(self, literals: Sequence[int]) -> list[Binding | None]:
+        """A variant drawn from the variants form, per feature: its binding, None when off."""
+        found: list[Binding | None] = []
+        for i in range(self.features):
+            selected, early, static = (literals[3 * i + k] > 0 for k in range(3))
+            found.append(Binding.from_flags(early, static) if selected else None)
+        return found
+
+
+@dataclass(frozen=True)
+class NotCompiled:
+    """Why no compiled form is at hand."""
+
+    reason: str
+
+
+def cnf(model: FeatureModel, kind: Kind) -> tuple[int, list[list[int]], list[int]]:
+    """(variables, clauses, projection) of a form."""
+    if kind is Kind.SELECTIONS:
+        selection = enc.selection_cnf(model)
+        return selection.variables, selection.clauses, list(range(1, selection.variables + 1))
+    from .analysis import variant_cnf
+
+    variant = variant_cnf(model)
+    return variant.variables, variant.clauses, variant.projection
+
+
+def key(kind: Kind, variables: int, clauses: Sequence[Sequence[int]], projection: Sequence[int]) -> str:
+    """The name of what is compiled: its kind, the compiler's format, the clauses and the
+    projection, hashed."""
+    digest = hashlib.sha256(f"motivml compiled form {FORMAT} {kind} {variables}\n".encode())
+    digest.update(array("i", projection).tobytes())
+    for clause in clauses:
+        digest.update(array("i", [*clause, 0]).tobytes())
+    return digest.hexdigest()[:24]
+
+
+def compiled_form(
+    model: FeatureModel,
+    beside: Path | None,
+    kind: Kind,
+    limit: float | None = COMPILE_LIMIT,
+    make: bool = True,
+) -> CompiledForm | NotCompiled:
+    """The kept compiled form of `model` (in `beside`/.motivml/compiled; None: keep
+    nothing), or one made now within `limit` seconds (None: no limit) if `make`."""
+    variables, clauses, projection = cnf(model, kind)
+    name = f"{kind}-{key(kind, variables, clauses, projection)}"
+    folder = beside / FOLDER if beside is not None else None
+    if folder is not None:
+        kept = _kept(folder, name, kind, len(model.features))
+        if kept is not None:
+            return kept
+        gave_up = _gave_up(folder / f"{name}.gaveup")
+        if gave_up is not None and (limit is not None and limit <= gave_up):
+            return NotCompiled(f"its compile was given up after {gave_up:g} s before (`motivml compile` with a longer --limit tries again)")
+    if not make:
+        return NotCompiled("it is not compiled yet (`motivml compile`)")
+    started = time.monotonic()
+    try:
+        dnnf = compile_cnf(variables, clauses, projection, None if limit is None else started + limit)
+    except CompileTimeout:
+        if folder is not None and limit is not None:
+            _keep(folder, {f"{name}.gaveup": json.dumps({"format": FORMAT, "limit": limit}) + "\n"})
+        return NotCompiled(f"its compile did not end within {limit:g} s")
+    seconds = time.monotonic() - started
+    return _made(dnnf, folder, name, kind, len(model.features), seconds)
+
+
+def _made(dnnf: Dnnf, folder: Path | None, name: str, kind: Kind, features: int, seconds: float) -> CompiledForm:
+    """The new form loaded, and kept in `folder` when it can be (else in a temporary file
+    that is gone once ddnnife has read it)."""
+    import io
+
+    text = io.StringIO()
+    dnnf.write_c2d(text)
+    data = text.getvalue()
+    meta = {
+        "format": FORMAT,
+        "kind": str(kind),
+        "features": features,
+        "variables": dnnf.variables,
+        "nodes": len(dnnf.nodes),
+        "decisions": dnnf.decisions,
+        "seconds": round(seconds, 3),
+        "sha256": hashlib.sha256(data.encode()).hexdigest(),
+    }
+    path = None
+    if folder is not None and _keep(folder, {f"{name}.nnf": data, f"{name}.json": json.dumps(meta, indent=2) + "\n"}):
+        path = folder / f"{name}.nnf"
+        answers = _load(path, dnnf.variables)
+    else:
+        handle, temporary = tempfile.mkstemp(suffix=".nnf")
+        try:
+            with os.fdopen(handle, "w") as out:
+                out.write(data)
+            answers = _load(Path(temporary), dnnf.variables)
+        finally:
+            os.unlink(temporary)
+    return CompiledForm(kind, features, dnnf.variables, path, seconds, True, len(dnnf.nodes), answers)
+
+
+def _kept(folder: Path, name: str, kind: Kind, features: int) -> CompiledForm | None:
+    """The form kept under `name`, if it is there whole (its text has the hash its
+    description names); None otherwise (then it is made again)."""
+    path, described = folder / f"{name}.nnf", folder / f"{name}.json"
+    try:
+        meta = json.loads(described.read_text())
+        data = path.read_bytes()
+        if meta.get("format") != FORMAT or hashlib.sha256(data).hexdigest() != meta.get("sha256"):
+            return None
+        variables = int(meta["variables"])
+        return CompiledForm(
+            kind, features, variables, path, float(meta["seconds"]), False, int(meta["nodes"]), _load(path, variables)
+        )
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _gave_up(path: Path) -> float | None:
+    """The limit that an earlier compile passed, if one did."""
+    try:
+        meta = json.loads(path.read_text())
+        return float(meta["limit"]) if meta.get("format") == FORMAT else None
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def _keep(folder: Path, files: dict[str, str]) -> bool:
+    """Write `files` into `folder` (each whole or not at all); False when it cannot be
+    written there (read-only, full): the form is then not kept, which costs a compile."""
+    from ..documents.writing import write_if_changed
+    from ..errors import EnvironmentProblem
+
+    try:
+        fresh = not folder.exists()
+        write_if_changed(folder, files)
+        if fresh:  # (a cache: never to be committed)
+            write_if_changed(folder.parent, {".gitignore": "# motivml's kept answers: made again when missing\n*\n"})
+        return True
+    except EnvironmentProblem:
+        return False
+
+
+def _load(path: Path, variables: int) -> Any:
+    import ddnnife
+
+    return ddnnife.Ddnnf.from_file(str(path), variables).as_mut()
