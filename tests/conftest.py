@@ -10,7 +10,32 @@ tried with, `make test` (and CI) runs every test."""
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+
 import pytest
+
+_COMPILED = "MOTIVML_COMPILED_DIR"
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Compiled forms (`motivml compile`, and analyse, sample and menuconfig on first use)
+    are kept in a scratch folder of this process, not beside the repository's models; the
+    tests of where they are kept beside a model unset it."""
+    if _COMPILED not in os.environ:
+        os.environ[_COMPILED] = tempfile.mkdtemp(prefix="motivml-tests-compiled-")
+        config.stash[_STASHED] = os.environ[_COMPILED]
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    folder = config.stash.get(_STASHED, None)
+    if folder is not None:
+        shutil.rmtree(folder, ignore_errors=True)
+        os.environ.pop(_COMPILED, None)
+
+
+_STASHED = pytest.StashKey[str]()
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

@@ -215,6 +215,13 @@ def test_uniform_variants_are_valid_and_spread_over_bindings() -> None:
 
 
 # ------------------------------------------------------- kept beside the model
+@pytest.fixture
+def beside_the_model(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Forms kept beside the model, as without MOTIVML_COMPILED_DIR (which the tests set)."""
+    monkeypatch.delenv(compiled.ELSEWHERE, raising=False)
+
+
+@pytest.mark.usefixtures("beside_the_model")
 def test_a_form_is_kept_and_read_back(tmp_path: Path) -> None:
     model = read(feature("r", [feature("a", isMandatory=False), feature("b", isMandatory=False)]))
     made = compiled_form(model, tmp_path, Kind.SELECTIONS)
@@ -227,6 +234,7 @@ def test_a_form_is_kept_and_read_back(tmp_path: Path) -> None:
     assert isinstance(compiled_form(other, tmp_path, Kind.SELECTIONS, make=False), NotCompiled)
 
 
+@pytest.mark.usefixtures("beside_the_model")
 def test_a_damaged_form_is_made_again(tmp_path: Path) -> None:
     model = read(feature("r", [feature("a", isMandatory=False), feature("b", isMandatory=False)]))
     made = compiled_form(model, tmp_path, Kind.SELECTIONS)
@@ -237,6 +245,7 @@ def test_a_damaged_form_is_made_again(tmp_path: Path) -> None:
     assert not isinstance(again, NotCompiled) and again.made_now and again.count() == 4
 
 
+@pytest.mark.usefixtures("beside_the_model")
 def test_a_form_that_cannot_be_kept_is_still_made(tmp_path: Path) -> None:
     (tmp_path / ".motivml").write_text("a file where the folder would be")
     model = read(feature("r", [feature("a", isMandatory=False)]))
@@ -244,6 +253,7 @@ def test_a_form_that_cannot_be_kept_is_still_made(tmp_path: Path) -> None:
     assert not isinstance(form, NotCompiled) and form.path is None and form.count() == 2
 
 
+@pytest.mark.usefixtures("beside_the_model")
 def test_a_compile_given_up_is_remembered_until_a_longer_limit(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     model = read(feature("r", [feature("a", isMandatory=False)]))
     tried: list[float | None] = []
@@ -258,7 +268,7 @@ def test_a_compile_given_up_is_remembered_until_a_longer_limit(tmp_path: Path, m
     second = compiled_form(model, tmp_path, Kind.SELECTIONS, limit=5)
     assert isinstance(second, NotCompiled) and "given up after 5 s before" in second.reason
     assert len(tried) == 1
-    monkeypatch.undo()
+    monkeypatch.setattr(compiled, "compile_cnf", compile_cnf)
     longer = compiled_form(model, tmp_path, Kind.SELECTIONS, limit=10)
     assert not isinstance(longer, NotCompiled) and longer.count() == 2
 
@@ -271,6 +281,7 @@ def robot(tmp_path: Path) -> Path:
     return folder
 
 
+@pytest.mark.usefixtures("beside_the_model")
 def test_compile_makes_both_forms_then_reads_them(tmp_path: Path) -> None:
     folder = robot(tmp_path)
     runner = CliRunner()
@@ -286,6 +297,7 @@ def test_compile_makes_both_forms_then_reads_them(tmp_path: Path) -> None:
     )["variant_count"]
 
 
+@pytest.mark.usefixtures("beside_the_model")
 def test_compile_past_its_limit_says_so_and_exits_3(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     def too_slow(*_: Any) -> Any:
         raise CompileTimeout
@@ -309,6 +321,7 @@ def test_compile_refuses_a_model_with_errors(tmp_path: Path) -> None:
     assert result.exit_code == 1 and "nothing analysed" in result.output
 
 
+@pytest.mark.usefixtures("beside_the_model")
 def test_analyse_counts_from_the_form_and_falls_back_to_ganak(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     folder = robot(tmp_path)
     runner = CliRunner()
@@ -386,6 +399,7 @@ def test_sample_as_github_matrices(tmp_path: Path) -> None:
     assert json.loads((out / "coverage.json").read_text())["coverage"] == 1.0
 
 
+@pytest.mark.usefixtures("beside_the_model")
 def test_sample_uniform_without_a_compiled_form_exits_3(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     def too_slow(*_: Any) -> Any:
         raise CompileTimeout
@@ -441,13 +455,39 @@ def test_analyses_from_a_kept_form_equal_those_of_the_solver(raw: dict[str, Any]
         kept = analyse(model, counts=False, compiling=Compiling(beside=Path(folder)))
     solved = analyse(model, counts=False, compiling=Compiling(use=False))
     assert kept == solved
-    from test_analysis import assert_analyses_equal_brute_force
-
-    assert_analyses_equal_brute_force(raw)  # (counts too: the form made in memory)
 
 
+@pytest.mark.usefixtures("beside_the_model")
 def test_analyse_without_counts_makes_no_form(tmp_path: Path) -> None:
     folder = robot(tmp_path)
     result = CliRunner().invoke(main, ["analyse", str(folder), "--no-counts"])
     assert result.exit_code == 0, result.output
     assert not (folder / ".motivml").exists()
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=7), st.data())
+def test_every_literal_counted_at_once_equals_brute_force(raw: dict[str, Any], data: Any) -> None:
+    model = read(raw)
+    form = compiled_form(model, None, Kind.VARIANTS)
+    assert not isinstance(form, NotCompiled)
+    ids = [f.id for f in model.features]
+    chosen = data.draw(st.dictionaries(st.sampled_from(ids), st.booleans(), max_size=2))
+    assumed = [form.literal(ids.index(f)) * (1 if on else -1) for f, on in chosen.items()]
+    valid = [v for v in ref.valid_variants(raw, None) if all((f in v) == on for f, on in chosen.items())]
+    total, through = form.every_literal(assumed)
+    assert total == len(valid)
+    for i, f in enumerate(ids):
+        assert through.get(form.literal(i), 0) == sum(1 for v in valid if f in v)
+        assert through.get(form.literal(i, "early"), 0) == sum(1 for v in valid if f in v and v[f][0])
+        assert through.get(-form.literal(i, "static"), 0) == sum(1 for v in valid if not (f in v and v[f][1]))
+
+
+def test_forms_are_kept_where_motivml_compiled_dir_says(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    elsewhere = tmp_path / "cache"
+    monkeypatch.setenv(compiled.ELSEWHERE, str(elsewhere))
+    folder = robot(tmp_path)
+    result = CliRunner().invoke(main, ["compile", str(folder)])
+    assert result.exit_code == 0, result.output
+    assert not (folder / ".motivml").exists()
+    assert len(list(elsewhere.glob("*.nnf"))) == 2 and not (elsewhere / ".gitignore").exists()

@@ -26,6 +26,17 @@ from motivml.language.model import Mode, Time
 from motivml.language.reader import load_model
 
 
+@pytest.fixture(autouse=True)
+def no_live_counts(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The labels these tests read are those without live counts (whose compile in the
+    background would add a share to them at a moment of its own); the tests of live counts
+    are marked `live_counts`."""
+    if request.node.get_closest_marker("live_counts") is None:
+        from motivml.cli import menuconfig_app
+
+        monkeypatch.setattr(menuconfig_app.LiveCounts, "start", lambda self: None)
+
+
 @pytest.fixture
 def robot(tmp_path: Path) -> Path:
     folder = tmp_path / "simplebot"
@@ -413,3 +424,35 @@ def test_a_propagation_that_fails_is_said_and_leaves_the_application_usable(
     drive(session, path, steps)
     assert seen["busy"] is False and seen["title"] == str(path)
     assert "propagation failed: the solver fell over" in seen["said"]
+
+
+@pytest.mark.live_counts
+def test_live_counts_show_the_variants_left_and_each_open_features_share(robot: Path) -> None:
+    """With the compiled form (made in the background on first use), the panel says how many
+    variants the decisions leave and each open feature's label its share of them; a decision
+    counts again at once. Checked against the form's own counts."""
+    session, path = open_session(str(robot), "sketch", None)
+    seen: dict[str, Any] = {}
+
+    async def steps(app: Any, pilot: Any) -> None:
+        await app.workers.wait_for_complete()
+        await pilot.pause()
+        seen["before"] = (detail(app), label(app, "slam"), session.left)
+        await go_to(app, pilot, "slam")
+        await pilot.press("y")
+        await pilot.pause()
+        seen["after"] = (detail(app), label(app, "slam"), session.left)
+        await pilot.press("q", "q")
+
+    drive(session, path, steps)
+    form = session.form
+    assert form is not None and form.kind == "variants"
+    total = form.count()
+    slam = form.literal(session.model.index["slam"])
+    with_slam = form.count([slam])
+    before, slam_label, left = seen["before"]
+    assert left == total and f"{total:,} variants left" in before
+    assert slam_label.endswith(f"{round(100 * with_slam / total)}%")
+    after, slam_label, left = seen["after"]
+    assert left == with_slam and f"{with_slam:,} variants left" in after
+    assert not slam_label.endswith("%")  # (decided: no share)

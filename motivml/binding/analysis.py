@@ -223,8 +223,10 @@ def _from_form(
     features = model.features
     n = len(features)
     step(STEPS[1])
-    counted = form.counts([form.literal(i, aspect) for i in range(n) for aspect in ("selected", "early", "static")])
-    selected, early, static = counted[0::3], counted[1::3], counted[2::3]
+    _, through = form.every_literal()
+    selected = [through.get(form.literal(i), 0) for i in range(n)]
+    early = [through.get(form.literal(i, "early"), 0) for i in range(n)]
+    static = [through.get(form.literal(i, "static"), 0) for i in range(n)]
     alive = [c > 0 for c in selected]
     core = [i for i in range(n) if selected[i] == total]
     step(STEPS[2])

@@ -15,7 +15,8 @@ Two forms per model (reference.md section 7):
 code of ours) answers from it. A form is kept in `.motivml/compiled/` beside the model,
 named by its kind and a hash of what was compiled (the compiler's format, the clauses and
 the projection): a changed model has another name, so a kept form is never stale, and
-`.motivml/compiled/` may be deleted at any time. A compile that passes its time limit is
+`.motivml/compiled/` may be deleted at any time (MOTIVML_COMPILED_DIR, when set, names one
+folder to keep every model's forms in instead: a read-only checkout, a cache CI keeps). A compile that passes its time limit is
 given up and remembered (a `.gaveup` file), so that the next command does not wait for it
 again unless given a longer limit; the caller then counts with Ganak as before.
 """
@@ -41,6 +42,7 @@ from .compiler import CompileTimeout, Dnnf, compile_cnf
 FORMAT = 1  # what compiler.py writes; a change of meaning takes a new number (and new files)
 COMPILE_LIMIT = 60.0  # seconds a compile may take by default before the commands fall back
 FOLDER = Path(".motivml") / "compiled"  # beside the model
+ELSEWHERE = "MOTIVML_COMPILED_DIR"  # the environment variable that names one folder for all forms instead
 
 
 class Kind(StrEnum):
@@ -60,6 +62,8 @@ class CompiledForm:
     made_now: bool
     nodes: int
     _answers: Any = field(default=None, repr=False)  # ddnnife's DdnnfMut
+    _text: str | None = field(default=None, repr=False)  # the c2d text, when it is not kept in `path`
+    _circuit: Circuit | None = field(default=None, repr=False)
 
     def literal(self, feature: int, aspect: str = "selected") -> int:
         """The variable of a feature's selection (or, in the variants form, "early" or
@@ -78,6 +82,16 @@ class CompiledForm:
         """For each of `variables`, how many of those with `assumptions` set it true."""
         return [int(c) for c in self._answers.count_multiple(list(assumptions), list(variables))]
 
+    def every_literal(self, assumptions: Sequence[int] = ()) -> tuple[int, dict[int, int]]:
+        """How many selections (or variants) have `assumptions`, and for each literal how
+        many of those have it too: all at once, in two passes over the nodes
+        (`Circuit.every_literal`; ddnnife's `count_multiple` asks once per variable: 212 ms
+        for Automotive01's 2,513 features, where this takes 25)."""
+        if self._circuit is None:
+            text = self._text if self._text is not None else self.path.read_text() if self.path is not None else ""
+            self._circuit = Circuit(text)
+        return self._circuit.every_literal(assumptions)
+
     def uniform(self, amount: int, seed: int, assumptions: Sequence[int] = ()) -> list[list[int]]:
         """`amount` selections (or variants) with `assumptions`, each drawn uniformly at
         random and independently (so one may come twice), as the literals of the form's
@@ -94,6 +108,73 @@ class CompiledForm:
             selected, early, static = (literals[3 * i + k] > 0 for k in range(3))
             found.append(Binding.from_flags(early, static) if selected else None)
         return found
+
+
+class Circuit:
+    """A smooth d-DNNF read from c2d's text, in Python: for `every_literal`."""
+
+    def __init__(self, text: str) -> None:
+        self.kinds = bytearray()  # per node: 0 literal, 1 AND, 2 OR
+        self.children: list[tuple[int, ...]] = []
+        self.literal: list[int] = []
+        for line in text.splitlines()[1:]:
+            parts = line.split()
+            if not parts:
+                continue
+            if parts[0] == "L":
+                self.kinds.append(0)
+                self.children.append(())
+                self.literal.append(int(parts[1]))
+            else:
+                self.kinds.append(1 if parts[0] == "A" else 2)
+                self.children.append(tuple(map(int, parts[2 if parts[0] == "A" else 3 :])))
+                self.literal.append(0)
+
+    def every_literal(self, assumptions: Sequence[int]) -> tuple[int, dict[int, int]]:
+        """The model count under `assumptions`, and per literal the count with it too: the
+        count upwards, then each node's derivative downwards (a model is counted through
+        each of its literals once: the d-DNNF is smooth and deterministic)."""
+        kinds, children, literal = self.kinds, self.children, self.literal
+        n = len(kinds)
+        if n == 0:
+            return 0, {}
+        ruled_out = {-a for a in assumptions}
+        value = [0] * n
+        for i in range(n):
+            if kinds[i] == 0:
+                value[i] = 0 if literal[i] in ruled_out else 1
+            elif kinds[i] == 1:
+                product = 1
+                for c in children[i]:
+                    product *= value[c]
+                    if not product:
+                        break
+                value[i] = product
+            else:
+                value[i] = sum(value[c] for c in children[i])
+        through = [0] * n
+        through[n - 1] = 1
+        for i in range(n - 1, -1, -1):
+            above = through[i]
+            if not above or kinds[i] == 0:
+                continue
+            parts = children[i]
+            if kinds[i] == 2:
+                for c in parts:
+                    through[c] += above
+                continue
+            before = [1]
+            for c in parts:
+                before.append(before[-1] * value[c])
+            after = 1
+            for j in range(len(parts) - 1, -1, -1):
+                through[parts[j]] += above * before[j] * after
+                after *= value[parts[j]]
+        counts: dict[int, int] = {}
+        for i in range(n):
+            if kinds[i] == 0 and value[i]:
+                counts[literal[i]] = counts.get(literal[i], 0) + through[i]
+        return value[n - 1], counts
 
 
 @dataclass(frozen=True)
@@ -135,7 +216,8 @@ def compiled_form(
     nothing), or one made now within `limit` seconds (None: no limit) if `make`."""
     variables, clauses, projection = cnf(model, kind)
     name = f"{kind}-{key(kind, variables, clauses, projection)}"
-    folder = beside / FOLDER if beside is not None else None
+    elsewhere = os.environ.get(ELSEWHERE)
+    folder = Path(elsewhere) if elsewhere else beside / FOLDER if beside is not None else None
     if folder is not None:
         kept = _kept(folder, name, kind, len(model.features))
         if kept is not None:
@@ -186,7 +268,9 @@ def _made(dnnf: Dnnf, folder: Path | None, name: str, kind: Kind, features: int,
             answers = _load(Path(temporary), dnnf.variables)
         finally:
             os.unlink(temporary)
-    return CompiledForm(kind, features, dnnf.variables, path, seconds, True, len(dnnf.nodes), answers)
+    return CompiledForm(
+        kind, features, dnnf.variables, path, seconds, True, len(dnnf.nodes), answers, data if path is None else None
+    )
 
 
 def _kept(folder: Path, name: str, kind: Kind, features: int) -> CompiledForm | None:
@@ -224,7 +308,7 @@ def _keep(folder: Path, files: dict[str, str]) -> bool:
     try:
         fresh = not folder.exists()
         write_if_changed(folder, files)
-        if fresh:  # (a cache: never to be committed)
+        if fresh and folder.parent.name == ".motivml":  # (a cache beside the model: never to be committed)
             write_if_changed(folder.parent, {".gitignore": "# motivml's kept answers: made again when missing\n*\n"})
         return True
     except EnvironmentProblem:

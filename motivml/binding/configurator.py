@@ -8,7 +8,10 @@ from them on the one encoding:
 * `states`: per feature what valid variants can still make of it (one value: forced);
 * `problems`: when the decisions have no valid variant, the conflicts, each with the
   configuration's minimal repairs (section 6); `apply` makes one of them;
-* `why(feature)`: the located reasons, as `show --why` gives them.
+* `why(feature)`: the located reasons, as `show --why` gives them;
+* `left` and `commonality`: with a compiled form of the model (`form`, compiled.py), how
+  many variants (or selections) the decisions leave, and in how many of them each feature
+  is selected, counted at once after every change.
 
 The decisions are kept as the decisions file they will be saved as (reference.md section
 1, `"partial": true`): after each change that text is read back by the same reader as a file
@@ -21,6 +24,8 @@ import json
 import threading
 from collections.abc import Collection
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 from ..documents.loader import parse
 from ..errors import ChangeKind, Diagnostic, Repair, Severity
@@ -62,6 +67,8 @@ class Propagated:
     config: Configuration
     problems: list[Diagnostic]  # errors, or conflicts with their repairs ([]: valid)
     states: list[set[FeatureState]]  # per feature, what valid variants can make of it ([] while invalid)
+    left: int | None = None  # with a compiled form: the variants (or selections) the decisions leave
+    commonality: list[int] | None = None  # with it: per feature, how many of those select it
 
 
 class Configurator:
@@ -94,6 +101,10 @@ class Configurator:
         self.config: Configuration
         self.states: list[set[FeatureState]] = []
         self.problems: list[Diagnostic] = []
+        self.form: Any = None  # a compiled.CompiledForm of the model, once one is at hand
+        self.beside: Path | None = None  # the model's folder, where its compiled forms are kept
+        self.left: int | None = None
+        self.commonality: list[int] | None = None
         self.saved_text: str | None = None
         self._encoding: enc.Encoding | None = None  # the model's, kept for every decision
         self._asking = threading.Lock()  # (propagations of two threads ask it in turn)
@@ -129,11 +140,35 @@ class Configurator:
             kept = self._kept()  # (one encoding for the session: a decision asks it again, not built again)
             kept.set_configuration(config)
             problems = [] if kept.solve() else check_variant(self.model, config)
-            return Propagated(config, problems, binding_states(self.model, config, kept) if not problems else [])
+            if problems:
+                return Propagated(config, problems, [])
+            left, commonality = self._counted(config)
+            return Propagated(config, problems, binding_states(self.model, config, kept), left, commonality)
+
+    def _counted(self, config: Configuration) -> tuple[int | None, list[int] | None]:
+        """With a compiled form: the variants `config` leaves, and per feature how many of
+        them select it."""
+        form = self.form
+        if form is None:
+            return None, None
+        assumed: list[int] = []
+        index = self.model.index
+        variants = form.kind == "variants"
+        for entry in config.entries.values():
+            i = index[entry.id]
+            assumed.append(form.literal(i) if entry.selected else -form.literal(i))
+            if entry.selected and variants:
+                if entry.time is not None:
+                    assumed.append(form.literal(i, "early") * (1 if entry.time is Time.EARLY else -1))
+                if entry.mode is not None:
+                    assumed.append(form.literal(i, "static") * (1 if entry.mode is Mode.STATIC else -1))
+        left, through = form.every_literal(assumed)
+        return left, [through.get(form.literal(i), 0) for i in range(len(self.model.features))]
 
     def install(self, propagated: Propagated) -> None:
         """Take what `propagate` worked out as the session's."""
         self.config, self.problems, self.states = propagated.config, propagated.problems, propagated.states
+        self.left, self.commonality = propagated.left, propagated.commonality
 
     def _kept(self) -> enc.Encoding:
         if self._encoding is None:

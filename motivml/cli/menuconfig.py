@@ -104,6 +104,7 @@ def open_session(
         root = start.source.root if start.source is not None else {}
         extra = {k: v for k, v in root.items() if isinstance(k, str) and k.startswith("x-")}
     session = Configurator(model, str(path), start, extra, prefer)
+    session.beside = model_path.parent
     session.saved_text = session.text() if path.exists() else None
     return session, path
 

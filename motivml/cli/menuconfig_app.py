@@ -152,6 +152,67 @@ class Propagation:
         return self.busy
 
 
+class LiveCounts:
+    """The variants the decisions leave and each open feature's share of them, from the
+    model's compiled form (`motivml compile`): a kept form of the variants is read at once;
+    else one of the selections and then one of the variants are made in the background (each
+    within COMPILE_LIMIT seconds), and the counts appear when one is at hand."""
+
+    COMPILE_LIMIT = 60.0
+
+    def __init__(self, app: MenuConfigApp, beside: Path | None) -> None:
+        self.app = app
+        self.beside = beside
+        self.said = "live counts: reading the compiled form..."
+
+    def start(self) -> None:
+        self.app.run_worker(self._work, thread=True, group="compile")
+
+    def _work(self) -> None:
+        from ..binding.compiled import CompiledForm, Kind, NotCompiled, compiled_form
+
+        model = self.app.session.model
+        try:
+            form = compiled_form(model, self.beside, Kind.VARIANTS, make=False)
+            if isinstance(form, CompiledForm):
+                self.app.call_from_thread(self._installed, form, "")
+                return
+            self.app.call_from_thread(self._say, "live counts: compiling the model (motivml compile)...")
+            installed = False
+            for kind in (Kind.SELECTIONS, Kind.VARIANTS):
+                form = compiled_form(model, self.beside, kind, self.COMPILE_LIMIT)
+                if isinstance(form, CompiledForm):
+                    upgrade = " (compiling the variants...)" if kind is Kind.SELECTIONS else ""
+                    self.app.call_from_thread(self._installed, form, upgrade)
+                    installed = True
+            if isinstance(form, NotCompiled):  # (the variants' compile, at least, was given up)
+                said = " (of selections: the variants' " if installed else "no live counts: no compiled form, "
+                self.app.call_from_thread(self._say, f"{said}{form.reason}{')' if installed else ''}")
+        except Exception as exc:  # noqa: BLE001 - (a bug: said; the configurator works on without counts)
+            self.app.call_from_thread(self._say, f"no live counts: {type(exc).__name__}: {exc}")
+
+    def _say(self, said: str) -> None:
+        self.said = said
+        self.app.redraw()
+
+    def _installed(self, form: Any, still: str) -> None:
+        self.said = still
+        self.app.session.form = form
+        if self.app.session.deferred:
+            self.app.propagation.start()
+        else:
+            self.app.session.refresh()
+        self.app.redraw()
+
+
+def _share(count: int, left: int) -> str:
+    """A feature's share of the variants left, as a percentage ('' when forced either way)."""
+    if count in (0, left) or left == 0:
+        return ""
+    percent = 100 * count / left
+    return "<1%" if percent < 1 else ">99%" if percent > 99 else f"{percent:.0f}%"
+
+
 class MenuConfigApp(App[None]):
     """menuconfig's application: a Configurator shown as a tree, changed by keys, saved to a path."""
 
@@ -185,6 +246,7 @@ class MenuConfigApp(App[None]):
         self.leaving = False
         self.sub_title = str(path)
         self.propagation = Propagation(self)
+        self.counts = LiveCounts(self, session.beside)
         session.deferred = len(session.model.features) >= Propagation.LARGE
 
     def compose(self) -> ComposeResult:
@@ -224,6 +286,7 @@ class MenuConfigApp(App[None]):
         tree.root.expand()
         tree.focus()
         self._show_status()
+        self.counts.start()
 
     # ------------------------------------------------------------- drawing
     def _label(self, i: int) -> Any:
@@ -262,6 +325,11 @@ class MenuConfigApp(App[None]):
                     text.append(next(iter(values)).value[0], "dim")
                 else:
                     text.append("*")
+        left, shares = session.left, session.commonality
+        if decided.selected is None and left is not None and shares is not None:
+            share = _share(shares[i], left)
+            if share:
+                text.append(f"  {share}", "cyan")
         return text
 
     def redraw(self) -> None:
@@ -274,7 +342,7 @@ class MenuConfigApp(App[None]):
 
     def _show_status(self) -> None:
         busy = Text("propagating the decision...", "bold yellow")
-        self._detail(busy if self.propagation.busy else _status(self.session))
+        self._detail(busy if self.propagation.busy else _status(self.session, self.counts.said))
 
     def _feature(self) -> str | None:
         node = self.query_one(FeatureTree).cursor_node
@@ -396,7 +464,7 @@ class MenuConfigApp(App[None]):
         self.redraw()
 
 
-def _status(session: Configurator) -> Text:
+def _status(session: Configurator, counting: str = "") -> Text:
     """The detail panel between questions: valid and how far, or the conflict and its repairs."""
     text = Text()
     if session.valid:
@@ -406,6 +474,13 @@ def _status(session: Configurator) -> Text:
             f": {plural(len(session.decisions), 'decision')}, {plural(chosen, 'feature')} selected "
             "in every variant they allow\n"
         )
+        if session.left is not None and session.form is not None:
+            kind = "variant" if session.form.kind == "variants" else "selection"
+            text.append(f"{session.left:,} {kind}{'' if session.left == 1 else 's'} left", "bold cyan")
+            text.append(" (beside each open feature: its share of them)", "dim")
+            text.append(f"{counting}\n", "dim")
+        elif counting:
+            text.append(f"{counting}\n", "dim")
         text.append(HINT, "dim")
     else:
         first = session.problems[0]
