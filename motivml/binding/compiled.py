@@ -39,7 +39,7 @@ from ..language.model import Binding, FeatureModel
 from . import encoding as enc
 from .compiler import CompileTimeout, Dnnf, compile_cnf
 
-FORMAT = 1  # what compiler.py writes; a change of meaning takes a new number (and new files)
+FORMAT = 2  # what compiler.py writes; a change of meaning takes a new number (and new files)
 COMPILE_LIMIT = 60.0  # seconds a compile may take by default before the commands fall back
 FOLDER = Path(".motivml") / "compiled"  # beside the model
 ELSEWHERE = "MOTIVML_COMPILED_DIR"  # the environment variable that names one folder for all forms instead
@@ -187,7 +187,7 @@ class NotCompiled:
 def cnf(model: FeatureModel, kind: Kind) -> tuple[int, list[list[int]], list[int]]:
     """(variables, clauses, projection) of a form."""
     if kind is Kind.SELECTIONS:
-        selection = enc.selection_cnf(model)
+        selection = enc.selection_cnf(model, compact=True)
         return selection.variables, selection.clauses, list(range(1, selection.variables + 1))
     from .analysis import variant_cnf
 

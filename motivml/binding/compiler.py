@@ -180,6 +180,9 @@ class _Compiler:
             for literal in clause:
                 self.occurs[literal + variables].append(k)
         self.value = [0] * (variables + 1)
+        self.stamp = 0  # `_split`'s marks: a variable or clause met in the split of this stamp
+        self.met_variable = [0] * (variables + 1)
+        self.met_clause = [0] * len(kept)
         self.trail: list[int] = []
         self.true = [0] * len(kept)
         self.unassigned = [len(clause) for clause in kept]
@@ -270,32 +273,40 @@ class _Compiler:
 
     def _split(self, variables: Iterable[int]) -> tuple[list[tuple[list[int], list[int]]], list[int]]:
         """The components of the open clauses over the unassigned ones of `variables`, as
-        (variables, clauses), and those variables that no open clause has."""
+        (variables, clauses), and those variables that no open clause has. (Variables and
+        clauses met are marked with this call's stamp, not put in sets: two list reads
+        where a set took two hashes.)"""
         value, occurs, base, clauses, true = self.value, self.occurs, self.variables, self.clauses, self.true
-        seen: set[int] = set()
-        taken: set[int] = set()
+        self.stamp += 1
+        stamp, met_variable, met_clause = self.stamp, self.met_variable, self.met_clause
         parts: list[tuple[list[int], list[int]]] = []
         free: list[int] = []
         for start in variables:
-            if value[start] or start in seen:
+            if value[start] or met_variable[start] == stamp:
                 continue
-            seen.add(start)
+            met_variable[start] = stamp
             found, open_clauses = [start], []
-            at = 0
-            while at < len(found):
-                v = found[at]
-                at += 1
-                for occurrences in (occurs[base + v], occurs[base - v]):
-                    for k in occurrences:
-                        if true[k] or k in taken:
-                            continue
-                        taken.add(k)
-                        open_clauses.append(k)
-                        for literal in clauses[k]:
-                            w = literal if literal > 0 else -literal
-                            if not value[w] and w not in seen:
-                                seen.add(w)
-                                found.append(w)
+            for v in found:  # (grows as it is walked)
+                for k in occurs[base + v]:
+                    if true[k] or met_clause[k] == stamp:
+                        continue
+                    met_clause[k] = stamp
+                    open_clauses.append(k)
+                    for literal in clauses[k]:
+                        w = literal if literal > 0 else -literal
+                        if not value[w] and met_variable[w] != stamp:
+                            met_variable[w] = stamp
+                            found.append(w)
+                for k in occurs[base - v]:
+                    if true[k] or met_clause[k] == stamp:
+                        continue
+                    met_clause[k] = stamp
+                    open_clauses.append(k)
+                    for literal in clauses[k]:
+                        w = literal if literal > 0 else -literal
+                        if not value[w] and met_variable[w] != stamp:
+                            met_variable[w] = stamp
+                            found.append(w)
             if open_clauses:
                 parts.append((found, open_clauses))
             else:

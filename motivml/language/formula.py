@@ -255,3 +255,46 @@ def parse(text: str, position: int = 0) -> Formula:
             raise FormulaError(operators[-1][1], "'(' is never closed")
         reduce_one()
     return Formula(text, operands[0], position)
+
+
+def clauses_of(tree: Node, max_clauses: int, max_literals: int) -> list[list[tuple[str, bool]]] | None:
+    """The clauses of a formula, each a list of (feature id, positive), by negation normal
+    form and distribution, without new variables, iteratively; None if they would be more
+    than `max_clauses` clauses or `max_literals` literals (distribution can grow them
+    exponentially: a formula of n two-literal disjunctions is 2^n clauses)."""
+    results: list[list[list[tuple[str, bool]]]] = []
+    work: list[tuple[Node, bool, bool]] = [(tree, False, False)]  # (node, negated, its parts done)
+    while work:
+        node, negated, done = work.pop()
+        if isinstance(node, Var):
+            results.append([[(node.id, not negated)]])
+            continue
+        if isinstance(node, Not):
+            work.append((node.operand, not negated, False))
+            continue
+        op = node.op
+        if op in (IMPLIES, IFF) and not done:
+            if op == IMPLIES:  # a => b: !a | b
+                work.append((Binary(OR, Not(node.left), node.right), negated, False))
+            else:  # a <=> b: (!a | b) & (a | !b)
+                both = Binary(AND, Binary(OR, Not(node.left), node.right), Binary(OR, node.left, Not(node.right)))
+                work.append((both, negated, False))
+            continue
+        if not done:
+            work.append((node, negated, True))
+            work.append((node.right, negated, False))
+            work.append((node.left, negated, False))
+            continue
+        right, left = results.pop(), results.pop()
+        if (op == AND) != negated:  # a conjunction: the clauses of both
+            clauses = left + right
+        else:  # a disjunction: each clause of one with each of the other
+            if len(left) * len(right) > max_clauses:
+                return None
+            if len(left) * sum(map(len, right)) + len(right) * sum(map(len, left)) > max_literals:
+                return None
+            clauses = [a + b for a in left for b in right]
+        if len(clauses) > max_clauses or sum(len(clause) for clause in clauses) > max_literals:
+            return None
+        results.append(clauses)
+    return [list(dict.fromkeys(clause)) for clause in results[0]]

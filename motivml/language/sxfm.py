@@ -31,7 +31,7 @@ import re
 from typing import Any
 
 from ..errors import Diagnostic, DocumentError, Location, error
-from .formula import AND, IFF, IMPLIES, OR, Binary, Node, Not, Var
+from .formula import OR, Node, Var, clauses_of
 from .importer import ImportReader, Refusal, attributes
 from .model import Feature, FeatureModel, GroupKind
 from .xmltree import Element, parse_xml
@@ -327,44 +327,6 @@ def _escape(text: str) -> str:
 
 
 def _cnf(tree: Node) -> list[list[str]] | None:
-    """The clauses of a formula (literals `id` and `~id`), by negation normal form and
-    distribution, iteratively; None if they would be more than MAX_CLAUSES."""
-    # negation normal form: (node, negated) -> a tree of ("and" | "or", parts) and literals
-    results: list[Any] = []
-    work: list[tuple[Node, bool, bool]] = [(tree, False, False)]
-    while work:
-        node, negated, done = work.pop()
-        if isinstance(node, Var):
-            results.append([[("~" if negated else "") + node.id]])
-            continue
-        if isinstance(node, Not):
-            work.append((node.operand, not negated, False))
-            continue
-        assert isinstance(node, Binary)
-        op = node.op
-        if op in (IMPLIES, IFF) and not done:
-            if op == IMPLIES:  # a => b: !a | b
-                work.append((Binary(OR, Not(node.left), node.right), negated, False))
-            else:  # a <=> b: (!a | b) & (a | !b)
-                both = Binary(AND, Binary(OR, Not(node.left), node.right), Binary(OR, node.left, Not(node.right)))
-                work.append((both, negated, False))
-            continue
-        if not done:
-            work.append((node, negated, True))
-            work.append((node.right, negated, False))
-            work.append((node.left, negated, False))
-            continue
-        right, left = results.pop(), results.pop()
-        conjunction = (op == AND) != negated
-        if conjunction:
-            clauses = left + right
-        else:
-            if len(left) * len(right) > MAX_CLAUSES:
-                return None
-            if len(left) * sum(map(len, right)) + len(right) * sum(map(len, left)) > MAX_LITERALS:
-                return None
-            clauses = [a + b for a in left for b in right]
-        if len(clauses) > MAX_CLAUSES or sum(len(clause) for clause in clauses) > MAX_LITERALS:
-            return None
-        results.append(clauses)
-    return [list(dict.fromkeys(clause)) for clause in results[0]]
+    """The clauses of a formula as SXFM writes them (`id`, `~id`); None past the limits."""
+    found = clauses_of(tree, MAX_CLAUSES, MAX_LITERALS)
+    return None if found is None else [[("" if positive else "~") + fid for fid, positive in clause] for clause in found]
