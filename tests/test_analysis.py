@@ -23,7 +23,7 @@ from paths import ROOT
 from test_property_sat import models
 
 from motivml.binding import analysis as analysis_module
-from motivml.binding.analysis import CountFailed, analyse, count_selections, count_variants
+from motivml.binding.analysis import Compiling, CountFailed, analyse, count_selections, count_variants
 from motivml.cli import main
 
 
@@ -68,13 +68,15 @@ def optional(raw: dict[str, Any]) -> set[str]:
 @given(models(max_features=8))
 def test_analyses_equal_brute_force(raw: dict[str, Any]) -> None:
     assert_analyses_equal_brute_force(raw)
+    assert_analyses_equal_brute_force(raw, compiled=True)
 
 
-def assert_analyses_equal_brute_force(raw: dict[str, Any], counts: bool = True) -> None:
+def assert_analyses_equal_brute_force(raw: dict[str, Any], counts: bool = True, compiled: bool = False) -> None:
     """Every analysis of `raw` (the counts with `counts`) is what the reference's list of
-    every valid variant says."""
+    every valid variant says: from the solver and Ganak, or with `compiled` from the
+    compiled forms (made in memory)."""
     variants = list(ref.valid_variants(raw, None))
-    result = analyse(read(raw), counts=counts, count_timeout=60)
+    result = analyse(read(raw), counts=counts, count_timeout=60, compiling=Compiling(use=compiled))
     if not variants:
         assert result.void and result.selection_count == (0 if counts else None)
         assert result.variant_count == (0 if counts else None)

@@ -190,16 +190,17 @@ def test_uniform_samples_are_uniform() -> None:
 
     model, _ = load_model(SENSORBOT)
     assert model is not None
-    form = compiled_form(model, None, Kind.SELECTIONS)
-    assert not isinstance(form, NotCompiled) and form.count() == 9
-    drawn = form.uniform(9000, seed=7)
-    seen: dict[tuple[int, ...], int] = {}
-    for literals in drawn:
-        seen[tuple(literals)] = seen.get(tuple(literals), 0) + 1
-    assert len(seen) == 9
-    assert sum((n - 1000) ** 2 / 1000 for n in seen.values()) < 26.12
-    assert form.uniform(50, seed=7) == form.uniform(50, seed=7)  # (one seed, one sample)
-    assert form.uniform(50, seed=8) != form.uniform(50, seed=7)
+    for kind in (Kind.SELECTIONS, Kind.VALID_SELECTIONS):
+        form = compiled_form(model, None, kind)
+        assert not isinstance(form, NotCompiled) and form.count() == 9
+        drawn = form.uniform(9000, seed=7)
+        seen: dict[tuple[int, ...], int] = {}
+        for literals in drawn:
+            seen[tuple(literals)] = seen.get(tuple(literals), 0) + 1
+        assert len(seen) == 9
+        assert sum((n - 1000) ** 2 / 1000 for n in seen.values()) < 26.12
+        assert form.uniform(50, seed=7) == form.uniform(50, seed=7)  # (one seed, one sample)
+        assert form.uniform(50, seed=8) != form.uniform(50, seed=7)
 
 
 def test_uniform_variants_are_valid_and_spread_over_bindings() -> None:
@@ -258,7 +259,7 @@ def test_a_compile_given_up_is_remembered_until_a_longer_limit(tmp_path: Path, m
     model = read(feature("r", [feature("a", isMandatory=False)]))
     tried: list[float | None] = []
 
-    def too_slow(variables: int, clauses: Any, projection: Any, deadline: float | None) -> Any:
+    def too_slow(variables: int, clauses: Any, projection: Any, deadline: float | None, stop: Any = None) -> Any:
         tried.append(deadline)
         raise CompileTimeout
 
@@ -407,7 +408,9 @@ def test_sample_uniform_without_a_compiled_form_exits_3(tmp_path: Path, monkeypa
     monkeypatch.setattr(compiled, "compile_cnf", too_slow)
     result = CliRunner().invoke(main, ["sample", str(robot(tmp_path)), "--uniform", "3", "-o", str(tmp_path / "s")])
     assert result.exit_code == 3
-    assert "no compiled form of the selections to draw from: its compile did not end within 60 s" in result.output
+    assert "no compiled form of the selections valid variants make to draw from: its compile did not end within 60 s" in (
+        result.output
+    )
     assert not (tmp_path / "s").exists()
 
 
@@ -452,8 +455,8 @@ def test_analyses_from_a_kept_form_equal_those_of_the_solver(raw: dict[str, Any]
     model = read(raw)
     with tempfile.TemporaryDirectory() as folder:
         assert not isinstance(compiled_form(model, Path(folder), Kind.VARIANTS), NotCompiled)
-        kept = analyse(model, counts=False, compiling=Compiling(beside=Path(folder)))
-    solved = analyse(model, counts=False, compiling=Compiling(use=False))
+        kept = analyse(model, counts=False, compiling=Compiling(beside=Path(folder), use=True))
+    solved = analyse(model, counts=False)
     assert kept == solved
 
 
@@ -491,3 +494,101 @@ def test_forms_are_kept_where_motivml_compiled_dir_says(tmp_path: Path, monkeypa
     assert result.exit_code == 0, result.output
     assert not (folder / ".motivml").exists()
     assert len(list(elsewhere.glob("*.nnf"))) == 2 and not (elsewhere / ".gitignore").exists()
+
+
+def test_sample_uniform_draws_only_selections_some_valid_variant_makes(tmp_path: Path) -> None:
+    """a and b allow only Dynamic bindings and a includes b: section 2 allows {a, b}, but
+    an included feature must be Static (rule 3.1), so no valid variant selects a."""
+    (tmp_path / "model.json").write_text(
+        json.dumps(
+            feature(
+                "r",
+                [feature("a", isMandatory=False, mode="Dynamic", inc=["b"]), feature("b", isMandatory=False, mode="Dynamic")],
+            )
+        )
+    )
+    out = tmp_path / "s"
+    result = CliRunner().invoke(main, ["sample", str(tmp_path), "--uniform", "40", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    files = sorted(out.glob("sample-*.json"))
+    assert len(files) == 2  # {} and {b}
+    for path in files:
+        checked = CliRunner().invoke(main, ["validate", str(tmp_path / "model.json"), "--config", str(path)])
+        assert checked.exit_code == 0, checked.output
+
+
+def test_sample_uniform_of_a_model_void_by_its_bindings_says_so(tmp_path: Path) -> None:
+    (tmp_path / "model.json").write_text(json.dumps(feature("r", [feature("a", time="Late"), feature("b", isMandatory=False)])))
+    result = CliRunner().invoke(main, ["sample", str(tmp_path), "--uniform", "5", "-o", str(tmp_path / "s")])
+    assert result.exit_code == 1 and "the model has no valid variant" in result.output
+    assert not (tmp_path / "s").exists()
+
+
+def test_a_large_uniform_sample_is_named_in_order_and_replaced_whole(tmp_path: Path) -> None:
+    (tmp_path / "model.json").write_text(json.dumps(feature("r", [feature(f"f{i}", isMandatory=False) for i in range(12)])))
+    out = tmp_path / "s"
+    many = CliRunner().invoke(main, ["sample", str(tmp_path), "--uniform", "1400", "-o", str(out)])
+    assert many.exit_code == 0, many.output
+    names = sorted(p.name for p in out.glob("sample-*.json"))
+    assert len(names) > 999 and names[0] == "sample-0001.json"
+    assert f"sample-0001.json ... {names[-1]}" in many.output
+    few = CliRunner().invoke(main, ["sample", str(tmp_path), "--uniform", "3", "-o", str(out)])
+    assert few.exit_code == 0, few.output
+    assert sorted(p.name for p in out.iterdir()) == ["sample-001.json", "sample-002.json", "sample-003.json"]
+
+
+@pytest.mark.usefixtures("beside_the_model")
+def test_kept_files_of_another_shape_are_made_again(tmp_path: Path) -> None:
+    model = read(feature("r", [feature("a", isMandatory=False)]))
+    made = compiled_form(model, tmp_path, Kind.SELECTIONS)
+    assert not isinstance(made, NotCompiled) and made.path is not None
+    made.path.with_suffix(".json").write_text("[1, 2]")
+    again = compiled_form(model, tmp_path, Kind.SELECTIONS)
+    assert not isinstance(again, NotCompiled) and again.made_now and again.count() == 2
+    assert again.path is not None
+    again.path.with_suffix(".gaveup").write_text("null")
+    assert not isinstance(compiled_form(model, tmp_path, Kind.SELECTIONS), NotCompiled)
+
+
+@pytest.mark.usefixtures("beside_the_model")
+def test_a_compile_that_ends_removes_the_record_of_one_given_up(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    model = read(feature("r", [feature("a", isMandatory=False)]))
+
+    def too_slow(*_: Any) -> Any:
+        raise CompileTimeout
+
+    monkeypatch.setattr(compiled, "compile_cnf", too_slow)
+    assert isinstance(compiled_form(model, tmp_path, Kind.SELECTIONS, limit=1), NotCompiled)
+    assert list((tmp_path / ".motivml" / "compiled").glob("*.gaveup"))
+    monkeypatch.setattr(compiled, "compile_cnf", compile_cnf)
+    assert not isinstance(compiled_form(model, tmp_path, Kind.SELECTIONS, limit=2), NotCompiled)
+    assert not list((tmp_path / ".motivml" / "compiled").glob("*.gaveup"))
+
+
+def test_a_compile_told_to_stop_stops_and_is_not_remembered(tmp_path: Path) -> None:
+    n = 3000
+    clauses = [[-v, v + 1, -(v + 2)] for v in range(1, n - 1)]
+    with pytest.raises(CompileTimeout):
+        compile_cnf(n, clauses, stop=lambda: True)
+    model = read(feature("r", [feature("a", isMandatory=False), feature("b", isMandatory=False)]))
+    told = compiled_form(model, tmp_path, Kind.SELECTIONS, stop=lambda: True)
+    assert isinstance(told, NotCompiled) and told.reason == "its compile was stopped"
+    assert not list(tmp_path.rglob("*.gaveup"))
+
+
+def test_analyse_asks_for_the_variants_form_once(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A variants compile given up (and not recorded: nowhere to keep it) is not tried a
+    second time for the variant count."""
+    from motivml.binding.analysis import Compiling, analyse
+
+    tried: list[str] = []
+
+    def too_slow(variables: int, clauses: Any, projection: Any, deadline: Any, stop: Any = None) -> Any:
+        tried.append("compile")
+        raise CompileTimeout
+
+    monkeypatch.setattr(compiled, "compile_cnf", too_slow)
+    monkeypatch.delenv(compiled.ELSEWHERE, raising=False)
+    result = analyse(read(feature("r", [feature("a", isMandatory=False)])), compiling=Compiling(use=True, limit=1))
+    assert tried == ["compile", "compile"]  # (the variants, then the selections: once each)
+    assert result.counted_by["variant"].startswith("Ganak: no compiled form") and result.variant_count == 2

@@ -456,3 +456,30 @@ def test_live_counts_show_the_variants_left_and_each_open_features_share(robot: 
     after, slam_label, left = seen["after"]
     assert left == with_slam and f"{with_slam:,} variants left" in after
     assert not slam_label.endswith("%")  # (decided: no share)
+
+
+@pytest.mark.live_counts
+def test_quitting_stops_a_compile_under_way(robot: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Leaving menuconfig does not wait for the live counts' compile: it is told to stop."""
+    import threading
+
+    from motivml.binding import compiled
+
+    started = threading.Event()
+    ended: list[bool] = []
+
+    def endless(variables: int, clauses: Any, projection: Any, deadline: Any, stop: Any = None) -> Any:
+        started.set()
+        ended.append(stop.__self__.wait(60))  # (stop is the app's Event.is_set: True once it is set)
+        raise compiled.CompileTimeout
+
+    monkeypatch.setattr(compiled, "compile_cnf", endless)
+    monkeypatch.setenv(compiled.ELSEWHERE, str(robot / "forms"))
+    session, path = open_session(str(robot), "sketch", None)
+
+    async def steps(app: Any, pilot: Any) -> None:
+        await asyncio.to_thread(started.wait, 60)
+        await pilot.press("q", "q")
+
+    drive(session, path, steps)
+    assert ended == [True]

@@ -46,6 +46,7 @@ Progress = Callable[[str], None]  # told the name of each step as it begins
 CUT_WITNESSES = 8
 COUNT_TIMEOUT = 60.0  # seconds per count, by default: exact counting can take exponential time
 
+COMPILED_STEP = "the compiled form"  # (analyse's first step, before STEPS)
 STEPS = (
     "satisfiability",
     "core and dead features",
@@ -76,13 +77,15 @@ class Analysis:
 
 @dataclass(frozen=True)
 class Compiling:
-    """Whether and how `analyse` counts from compiled forms (`compiled.py`): kept in
-    `beside`/.motivml/compiled (None: kept nowhere), made within `limit` seconds (None:
-    no limit) when missing; `use=False`: Ganak only."""
+    """Whether and how `analyse` answers from compiled forms (`compiled.py`): `use` (the
+    command line does; a library caller asks for it, else the solver and Ganak answer),
+    kept in `beside`/.motivml/compiled (None: kept nowhere; MOTIVML_COMPILED_DIR, when set,
+    names the folder instead), made within `limit` seconds per form (None: no limit) when
+    missing."""
 
     beside: Path | None = None
     limit: float | None = 60.0
-    use: bool = True
+    use: bool = False
 
 
 def analyse(
@@ -100,12 +103,14 @@ def analyse(
     `compiling.limit`), every answer comes from it (`_from_form`); else from the SAT
     solver, as below."""
     step = progress or (lambda _: None)
+    step(COMPILED_STEP)
+    variants_form: Any = None  # (the variants' form, or why there is none: asked once)
     if compiling.use:
         from .compiled import CompiledForm, Kind, compiled_form
 
-        form = compiled_form(model, compiling.beside, Kind.VARIANTS, compiling.limit, make=counts)
-        if isinstance(form, CompiledForm):
-            return _from_form(model, form, counts, step, compiling, count_timeout)
+        variants_form = compiled_form(model, compiling.beside, Kind.VARIANTS, compiling.limit, make=counts)
+        if isinstance(variants_form, CompiledForm):
+            return _from_form(model, variants_form, counts, step, compiling, count_timeout)
     features = model.features
     n = len(features)
     with no_gc(), enc.Encoding(model, record=True) as hard:
@@ -193,7 +198,9 @@ def analyse(
         step(STEPS[5])
         analysis.selection_count = _counted(model, Kind.SELECTIONS, compiling, count_timeout, analysis.counted_by)
         step(STEPS[6])
-        analysis.variant_count = _counted(model, Kind.VARIANTS, compiling, count_timeout, analysis.counted_by)
+        analysis.variant_count = _counted(
+            model, Kind.VARIANTS, compiling, count_timeout, analysis.counted_by, variants_form
+        )
         analysis.uncounted = [
             name
             for name, value in (("selection", analysis.selection_count), ("variant", analysis.variant_count))
@@ -287,15 +294,20 @@ def _from_form(
 
 
 def _counted(
-    model: FeatureModel, kind: Any, compiling: Compiling, timeout: float | None, how: dict[str, str]
+    model: FeatureModel,
+    kind: Any,
+    compiling: Compiling,
+    timeout: float | None,
+    how: dict[str, str],
+    known: Any = None,
 ) -> int | None:
-    """A count from the compiled form of `kind`, or by Ganak where there is none (`how`
-    says which, and why)."""
+    """A count from the compiled form of `kind` (`known`: the form, or why there is none,
+    if already asked), or by Ganak where there is none (`how` says which, and why)."""
     from .compiled import Kind, NotCompiled, compiled_form
 
     name = "selection" if kind is Kind.SELECTIONS else "variant"
     if compiling.use:
-        form = compiled_form(model, compiling.beside, kind, compiling.limit)
+        form = known if known is not None else compiled_form(model, compiling.beside, kind, compiling.limit)
         if not isinstance(form, NotCompiled):
             how[name] = "compiled form"
             return form.count()

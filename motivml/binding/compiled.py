@@ -9,7 +9,12 @@ Two forms per model (reference.md section 7):
   feature i is variable i + 1;
 * **variants**: the CNF of sections 2-4 (`analysis.variant_cnf`), projected onto each
   feature's selection, time and mode (feature i is variables 3i + 1, 3i + 2, 3i + 3: selected,
-  Early, Static), so that a variant is counted once whatever start states it has.
+  Early, Static), so that a variant is counted once whatever start states it has;
+* **valid-selections**: the same CNF projected onto the selections alone (feature i is
+  variable i + 1): the selections some valid variant makes, which `sample --uniform` draws
+  from (a section-2 selection need not have a valid variant: a feature that only Dynamic
+  bindings allow cannot be included, rule 3.1; and a valid variant may select two
+  alternatives, rule 3.3).
 
 `compiler.py` makes each; ddnnife (LGPL-3.0-or-later, a library this module imports, not
 code of ours) answers from it. A form is kept in `.motivml/compiled/` beside the model,
@@ -29,7 +34,7 @@ import os
 import tempfile
 import time
 from array import array
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
@@ -46,8 +51,13 @@ ELSEWHERE = "MOTIVML_COMPILED_DIR"  # the environment variable that names one fo
 
 
 class Kind(StrEnum):
-    SELECTIONS = "selections"
-    VARIANTS = "variants"
+    SELECTIONS = "selections"  # section 2's selections (what the selection count counts)
+    VARIANTS = "variants"  # sections 2-4's variants, each feature's selection, time and mode
+    VALID_SELECTIONS = "valid-selections"  # the selections of valid variants (`sample --uniform`)
+
+    @property
+    def words(self) -> str:
+        return "selections valid variants make" if self is Kind.VALID_SELECTIONS else str(self)
 
 
 @dataclass
@@ -57,20 +67,21 @@ class CompiledForm:
     kind: Kind
     features: int
     variables: int
-    path: Path | None  # where it is kept (None: it could not be kept)
+    path: Path | None  # where it is kept (None: it could not be kept, `not_kept` says why)
     seconds: float  # what the compile took
     made_now: bool
     nodes: int
     _answers: Any = field(default=None, repr=False)  # ddnnife's DdnnfMut
     _text: str | None = field(default=None, repr=False)  # the c2d text, when it is not kept in `path`
+    not_kept: str = ""
     _circuit: Circuit | None = field(default=None, repr=False)
 
     def literal(self, feature: int, aspect: str = "selected") -> int:
         """The variable of a feature's selection (or, in the variants form, "early" or
         "static": its time is Early, its mode Static)."""
-        if self.kind is Kind.SELECTIONS:
+        if self.kind is not Kind.VARIANTS:
             if aspect != "selected":
-                raise ValueError("the selections form has no bindings")
+                raise ValueError(f"the {self.kind} form has no bindings")
             return feature + 1
         return 3 * feature + {"selected": 1, "early": 2, "static": 3}[aspect]
 
@@ -86,7 +97,9 @@ class CompiledForm:
         """How many selections (or variants) have `assumptions`, and for each literal how
         many of those have it too: all at once, in two passes over the nodes
         (`Circuit.every_literal`; ddnnife's `count_multiple` asks once per variable: 212 ms
-        for Automotive01's 2,513 features, where this takes 25)."""
+        for Automotive01's selections form of 13,379 nodes, where this takes 25; it grows
+        with the nodes and the digits: 0.3 s for eCos's 52,076, 2 s for Automotive01's
+        variants form)."""
         if self._circuit is None:
             text = self._text if self._text is not None else self.path.read_text() if self.path is not None else ""
             self._circuit = Circuit(text)
@@ -97,7 +110,7 @@ class CompiledForm:
         random and independently (so one may come twice), as the literals of the form's
         variables (the selections form: of its features only)."""
         drawn = self._answers.random(list(assumptions), amount, seed)
-        if self.kind is Kind.SELECTIONS:
+        if self.kind is not Kind.VARIANTS:
             return [list(sample[: self.features]) for sample in drawn]
         return [list(sample) for sample in drawn]
 
@@ -192,6 +205,8 @@ def cnf(model: FeatureModel, kind: Kind) -> tuple[int, list[list[int]], list[int
     from .analysis import variant_cnf
 
     variant = variant_cnf(model)
+    if kind is Kind.VALID_SELECTIONS:
+        return variant.variables, variant.clauses, variant.projection[0::3]
     return variant.variables, variant.clauses, variant.projection
 
 
@@ -211,9 +226,12 @@ def compiled_form(
     kind: Kind,
     limit: float | None = COMPILE_LIMIT,
     make: bool = True,
+    stop: Callable[[], bool] | None = None,
 ) -> CompiledForm | NotCompiled:
-    """The kept compiled form of `model` (in `beside`/.motivml/compiled; None: keep
-    nothing), or one made now within `limit` seconds (None: no limit) if `make`."""
+    """The kept compiled form of `model` (in `beside`/.motivml/compiled, or where
+    MOTIVML_COMPILED_DIR says; None: keep nothing), or one made now within `limit` seconds
+    (None: no limit) if `make`; `stop()` true gives the compile up at once (nothing is
+    remembered)."""
     variables, clauses, projection = cnf(model, kind)
     name = f"{kind}-{key(kind, variables, clauses, projection)}"
     elsewhere = os.environ.get(ELSEWHERE)
@@ -229,12 +247,19 @@ def compiled_form(
         return NotCompiled("it is not compiled yet (`motivml compile`)")
     started = time.monotonic()
     try:
-        dnnf = compile_cnf(variables, clauses, projection, None if limit is None else started + limit)
+        dnnf = compile_cnf(variables, clauses, projection, None if limit is None else started + limit, stop)
     except CompileTimeout:
+        if stop is not None and stop():
+            return NotCompiled("its compile was stopped")
         if folder is not None and limit is not None:
             _keep(folder, {f"{name}.gaveup": json.dumps({"format": FORMAT, "limit": limit}) + "\n"})
         return NotCompiled(f"its compile did not end within {limit:g} s")
     seconds = time.monotonic() - started
+    if folder is not None:
+        try:
+            (folder / f"{name}.gaveup").unlink(missing_ok=True)  # (an earlier, shorter try's)
+        except OSError:
+            pass  # (nothing can be kept there: `_made` says so)
     return _made(dnnf, folder, name, kind, len(model.features), seconds)
 
 
@@ -257,8 +282,12 @@ def _made(dnnf: Dnnf, folder: Path | None, name: str, kind: Kind, features: int,
         "sha256": hashlib.sha256(data.encode()).hexdigest(),
     }
     path = None
-    if folder is not None and _keep(folder, {f"{name}.nnf": data, f"{name}.json": json.dumps(meta, indent=2) + "\n"}):
-        path = folder / f"{name}.nnf"
+    why = "no folder to keep it in" if folder is None else _keep(
+        folder, {f"{name}.nnf": data, f"{name}.json": json.dumps(meta, indent=2) + "\n"}
+    )
+    if not why:
+        path = folder / f"{name}.nnf" if folder is not None else None
+        assert path is not None
         answers = _load(path, dnnf.variables)
     else:
         handle, temporary = tempfile.mkstemp(suffix=".nnf")
@@ -268,9 +297,11 @@ def _made(dnnf: Dnnf, folder: Path | None, name: str, kind: Kind, features: int,
             answers = _load(Path(temporary), dnnf.variables)
         finally:
             os.unlink(temporary)
-    return CompiledForm(
+    form = CompiledForm(
         kind, features, dnnf.variables, path, seconds, True, len(dnnf.nodes), answers, data if path is None else None
     )
+    form.not_kept = why
+    return form
 
 
 def _kept(folder: Path, name: str, kind: Kind, features: int) -> CompiledForm | None:
@@ -280,13 +311,14 @@ def _kept(folder: Path, name: str, kind: Kind, features: int) -> CompiledForm | 
     try:
         meta = json.loads(described.read_text())
         data = path.read_bytes()
-        if meta.get("format") != FORMAT or hashlib.sha256(data).hexdigest() != meta.get("sha256"):
+        if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+            return None
+        if hashlib.sha256(data).hexdigest() != meta.get("sha256"):
             return None
         variables = int(meta["variables"])
-        return CompiledForm(
-            kind, features, variables, path, float(meta["seconds"]), False, int(meta["nodes"]), _load(path, variables)
-        )
-    except (OSError, ValueError, KeyError, TypeError):
+        answers = _load(path, variables)
+        return CompiledForm(kind, features, variables, path, float(meta["seconds"]), False, int(meta["nodes"]), answers)
+    except Exception:  # noqa: BLE001 - (unreadable, damaged, gone meanwhile, refused by ddnnife: made again)
         return None
 
 
@@ -294,14 +326,15 @@ def _gave_up(path: Path) -> float | None:
     """The limit that an earlier compile passed, if one did."""
     try:
         meta = json.loads(path.read_text())
-        return float(meta["limit"]) if meta.get("format") == FORMAT else None
+        return float(meta["limit"]) if isinstance(meta, dict) and meta.get("format") == FORMAT else None
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
 
-def _keep(folder: Path, files: dict[str, str]) -> bool:
-    """Write `files` into `folder` (each whole or not at all); False when it cannot be
-    written there (read-only, full): the form is then not kept, which costs a compile."""
+def _keep(folder: Path, files: dict[str, str]) -> str:
+    """Write `files` into `folder` (each whole or not at all); why not, when they cannot
+    be written there (read-only, full): the form is then not kept, which costs a compile
+    next time; '' when written."""
     from ..documents.writing import write_if_changed
     from ..errors import EnvironmentProblem
 
@@ -310,9 +343,10 @@ def _keep(folder: Path, files: dict[str, str]) -> bool:
         write_if_changed(folder, files)
         if fresh and folder.parent.name == ".motivml":  # (a cache beside the model: never to be committed)
             write_if_changed(folder.parent, {".gitignore": "# motivml's kept answers: made again when missing\n*\n"})
-        return True
-    except EnvironmentProblem:
-        return False
+        return ""
+    except EnvironmentProblem as exc:
+        said = exc.diagnostics[0] if exc.diagnostics else None
+        return f"{said.location}: {said.message}" if said is not None else f"{folder}: cannot write"
 
 
 def _load(path: Path, variables: int) -> Any:

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import heapq
 import time
-from collections.abc import Generator, Iterable, Sequence
+from collections.abc import Callable, Generator, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, TextIO
 
@@ -105,14 +105,30 @@ def compile_cnf(
     clauses: Iterable[Sequence[int]],
     projection: Sequence[int] | None = None,
     deadline: float | None = None,
+    stop: Callable[[], bool] | None = None,
 ) -> Dnnf:
     """The CNF over variables 1..`variables`, projected onto `projection` (None: all, in
     order), as a smooth d-DNNF whose variable k + 1 is projection[k]. `deadline` is a
-    `time.monotonic()` value; past it, CompileTimeout."""
-    return _Compiler(variables, clauses, range(1, variables + 1) if projection is None else projection, deadline).run()
+    `time.monotonic()` value; past it, or once `stop()` is true, CompileTimeout."""
+    given_up = _GivenUp(deadline, stop)
+    given_up.check()
+    order = decision_order(variables, clauses if isinstance(clauses, list) else list(clauses), given_up)
+    projected = range(1, variables + 1) if projection is None else projection
+    return _Compiler(variables, clauses, projected, given_up, order).run()
 
 
-def decision_order(variables: int, clauses: Sequence[Sequence[int]]) -> list[int]:
+class _GivenUp:
+    """When a compile is to end: past its deadline, or when told to stop."""
+
+    def __init__(self, deadline: float | None, stop: Callable[[], bool] | None) -> None:
+        self.deadline, self.stop = deadline, stop
+
+    def check(self) -> None:
+        if (self.deadline is not None and time.monotonic() > self.deadline) or (self.stop is not None and self.stop()):
+            raise CompileTimeout
+
+
+def decision_order(variables: int, clauses: Sequence[Sequence[int]], given_up: _GivenUp | None = None) -> list[int]:
     """Per variable, its rank in a min-degree elimination of the graph in which two
     variables are neighbours when a clause has both (the higher, the later eliminated: the
     compiler decides those first). An eliminated variable's neighbours become neighbours
@@ -138,6 +154,8 @@ def decision_order(variables: int, clauses: Sequence[Sequence[int]]) -> list[int
             continue  # (a stale entry: v's degree changed since)
         done[v] = 1
         place += 1
+        if given_up is not None and place % 1024 == 0:
+            given_up.check()
         rank[v] = place
         neighbours = around[v]
         for w in neighbours:
@@ -158,10 +176,15 @@ class _Compiler:
     assigned and undone), the nodes made and the components' cache."""
 
     def __init__(
-        self, variables: int, clauses: Iterable[Sequence[int]], projection: Sequence[int], deadline: float | None
+        self,
+        variables: int,
+        clauses: Iterable[Sequence[int]],
+        projection: Sequence[int],
+        given_up: _GivenUp,
+        order: list[int],
     ) -> None:
         self.variables = variables
-        self.deadline = deadline
+        self.given_up = given_up
         self.empty = False  # an empty clause: nothing satisfies the CNF
         kept: list[tuple[int, ...]] = []
         for clause in clauses:
@@ -186,7 +209,7 @@ class _Compiler:
         self.trail: list[int] = []
         self.true = [0] * len(kept)
         self.unassigned = [len(clause) for clause in kept]
-        self.rank = decision_order(variables, kept)
+        self.rank = order
         self.nodes: list[tuple[Any, ...]] = [(OR, 0, ()), (AND, ())]
         self.literal_node: dict[int, int] = {}
         self.either_node: dict[int, int] = {}
@@ -322,8 +345,8 @@ class _Compiler:
         if cached is not None:
             return cached
         self.decisions += 1
-        if self.deadline is not None and self.decisions % CHECK_EVERY == 0 and time.monotonic() > self.deadline:
-            raise CompileTimeout
+        if self.decisions % CHECK_EVERY == 0:
+            self.given_up.check()
         new, rank = self.new, self.rank
         projected = [v for v in found if new[v]]
         decided = max(projected or found, key=rank.__getitem__)

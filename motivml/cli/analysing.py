@@ -64,7 +64,7 @@ def analyse_command(
 
     try:
         model_path, _, _ = targets(target, None, None)
-        with ProgressBar(len(STEPS) + 1, shown=fmt != "json") as bar:
+        with ProgressBar(len(STEPS) + 2, shown=fmt != "json") as bar:
             bar.step("reading the model")
             checked = validate(model_path, [], partial=True, analyse=False).model
             model = checked.model
@@ -145,9 +145,10 @@ def compile_command(target: str, limit: float, kind: str, fmt: str) -> None:
 
     The forms are kept in .motivml/compiled beside the model (a cache: it may be deleted at
     any time, and a changed model gets new forms); a form already there is read, not made
-    again. A compile that passes --limit is given up, and the commands count with Ganak
-    instead. TARGET is a model.json or a robot folder. Exit 1 when the model has errors,
-    3 when a form was not compiled within --limit.
+    again. A compile that passes --limit is given up (and not tried again with the same
+    limit), and the commands count with Ganak instead. TARGET is a model.json or a robot
+    folder. Exit 1 when the model has errors, 3 when a form was not compiled within --limit
+    (now or before) or could not be kept.
     """
     from ..binding.compiled import Kind, NotCompiled, compiled_form
     from ..validate import validate
@@ -168,7 +169,7 @@ def compile_command(target: str, limit: float, kind: str, fmt: str) -> None:
                 results.append((each, form))
     except MotivmlError as exc:
         fail(exc)
-    missing = [each for each, form in results if isinstance(form, NotCompiled)]
+    missing = [each for each, form in results if isinstance(form, NotCompiled) or form.path is None]
     if fmt == "json":
         from ..documents.writing import indented_json
 
@@ -194,7 +195,7 @@ def compile_command(target: str, limit: float, kind: str, fmt: str) -> None:
             out.print(f"{each}: [bold red]not compiled[/]: {escape(form.reason)}")
             continue
         made = f"compiled in {form.seconds:.2f} s" if form.made_now else f"kept (compiled in {form.seconds:.2f} s)"
-        where = f"\n  {escape(str(form.path))}" if form.path is not None else " (could not be kept beside the model)"
+        where = f"\n  {escape(str(form.path))}" if form.path is not None else f" (not kept: {escape(form.not_kept)})"
         out.print(f"{each}: {made}, {form.nodes:,} nodes, counting {form.count()}{where}")
     if missing:
         sys.exit(3)
@@ -215,6 +216,7 @@ def _refuse(found: list[Diagnostic], fmt: str, why: str, void: bool = False) -> 
 
 
 GITHUB_MATRIX_JOBS = 256  # jobs one GitHub Actions matrix may have
+MAX_UNIFORM = 10_000  # variants `sample --uniform` draws at most (each is held, then written, as a file)
 
 
 @click.command("sample")
@@ -223,7 +225,7 @@ GITHUB_MATRIX_JOBS = 256  # jobs one GitHub Actions matrix may have
 @click.option("--bindings", is_flag=True, help="A selected feature's values are also Early, Late, Static and Dynamic.")
 @click.option(
     "--uniform",
-    type=click.IntRange(1, 1_000_000),
+    type=click.IntRange(1, MAX_UNIFORM),
     metavar="N",
     help="N variants drawn uniformly at random from the compiled form, instead of a t-wise sample.",
 )
@@ -304,7 +306,10 @@ def sample_command(
             from ..binding.check import analyse_model
 
             _refuse(analyse_model(model), "text", "the model has no valid variant", void=True)
-        files = {f"sample-{k:03d}.json": _decisions(model, variant, bindings) for k, variant in enumerate(variants, 1)}
+        width = max(3, len(str(len(variants))))  # (sample-001 ... sample-999, then sample-0001 ...)
+        files = {
+            f"sample-{k:0{width}d}.json": _decisions(model, variant, bindings) for k, variant in enumerate(variants, 1)
+        }
         folder = Path(output)
         if covered is not None:
             files.update(_matrices(folder, list(files), max_jobs, covered, uniform, seed))
@@ -364,7 +369,7 @@ def _say_sampled(
         if covered is not None:
             shown = 100 * covered.shown / covered.valid if covered.valid else 100.0
             out.print(f"  they cover {shown:.1f}% of {covered.valid:,} valid {t}-wise combinations")
-    written = sorted(name for name in files if name.startswith("sample-"))
+    written = [name for name in files if name.startswith("sample-")]  # (in their order)
     if written:
         out.print(f"  wrote {escape(str(output))}/{written[0]} ... {written[-1]}")
     else:
@@ -373,20 +378,23 @@ def _say_sampled(
     matrices = sorted(name for name in files if name.startswith("matrix-"))
     if matrices:
         out.print(f"  and {escape(str(output))}/{', '.join(matrices)} with coverage.json")
+    elif "coverage.json" in files:
+        out.print(f"  and {escape(str(output))}/coverage.json (no matrix: GitHub refuses an empty one)")
 
 
 def _uniform(
     model: FeatureModel, model_path: Path, bindings: bool, amount: int, seed: int, limit: float
 ) -> list[dict[int, Binding | None]]:
     """`amount` variants drawn uniformly from the model's compiled form (of variants with
-    `bindings`, else of selections), each that was drawn once, in the order drawn."""
+    `bindings`, else of the selections valid variants make), each that was drawn once, in
+    the order drawn."""
     from ..binding.compiled import Kind, NotCompiled, compiled_form
 
-    kind = Kind.VARIANTS if bindings else Kind.SELECTIONS
+    kind = Kind.VARIANTS if bindings else Kind.VALID_SELECTIONS
     form = compiled_form(model, model_path.parent, kind, None if math.isinf(limit) else limit)
     if isinstance(form, NotCompiled):
         raise EnvironmentProblem(
-            error(Location(str(model_path)), f"no compiled form of the {kind} to draw from: {form.reason}", "compile")
+            error(Location(str(model_path)), f"no compiled form of the {kind.words} to draw from: {form.reason}", "compile")
         )
     if form.count() == 0:
         from ..binding.check import analyse_model
@@ -431,13 +439,15 @@ def _matrices(
 
 def _write_sample(folder: Path, files: dict[str, str]) -> None:
     """Write the sample, and remove what an earlier, larger one left."""
+    import re
+
     from ..documents.writing import write_if_changed
 
     write_if_changed(folder, files)
-    for pattern in ("sample-[0-9][0-9][0-9].json", "matrix-[0-9][0-9][0-9].json", "coverage.json"):
-        for stale in folder.glob(pattern):
-            if stale.name not in files:
-                stale.unlink()
+    ours = re.compile(r"(sample|matrix)-[0-9]{3,}\.json|coverage\.json")
+    for stale in folder.iterdir():
+        if ours.fullmatch(stale.name) and stale.name not in files and stale.is_file():
+            stale.unlink()
 
 
 def _decisions(model: FeatureModel, variant: dict[int, Binding | None], bindings: bool) -> str:

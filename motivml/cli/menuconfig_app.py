@@ -164,6 +164,10 @@ class LiveCounts:
         self.app = app
         self.beside = beside
         self.said = "live counts: reading the compiled form..."
+        self.leaving = threading.Event()  # set when the application ends: a compile under way stops
+
+    def stop(self) -> None:
+        self.leaving.set()
 
     def start(self) -> None:
         self.app.run_worker(self._work, thread=True, group="compile")
@@ -180,14 +184,20 @@ class LiveCounts:
             self.app.call_from_thread(self._say, "live counts: compiling the model (motivml compile)...")
             installed = False
             for kind in (Kind.SELECTIONS, Kind.VARIANTS):
-                form = compiled_form(model, self.beside, kind, self.COMPILE_LIMIT)
+                form = compiled_form(model, self.beside, kind, self.COMPILE_LIMIT, stop=self.leaving.is_set)
+                if self.leaving.is_set():
+                    return
                 if isinstance(form, CompiledForm):
                     upgrade = " (compiling the variants...)" if kind is Kind.SELECTIONS else ""
                     self.app.call_from_thread(self._installed, form, upgrade)
                     installed = True
             if isinstance(form, NotCompiled):  # (the variants' compile, at least, was given up)
-                said = " (of selections: the variants' " if installed else "no live counts: no compiled form, "
-                self.app.call_from_thread(self._say, f"{said}{form.reason}{')' if installed else ''}")
+                said = (
+                    f" (of selections: no form of the variants, {form.reason})"
+                    if installed
+                    else f"no live counts: no compiled form, {form.reason}"
+                )
+                self.app.call_from_thread(self._say, said)
         except Exception as exc:  # noqa: BLE001 - (a bug: said; the configurator works on without counts)
             self.app.call_from_thread(self._say, f"no live counts: {type(exc).__name__}: {exc}")
 
@@ -203,6 +213,15 @@ class LiveCounts:
         else:
             self.app.session.refresh()
         self.app.redraw()
+
+
+def _with_share(text: Text, session: Configurator, i: int) -> Text:
+    """An open feature's label with its share of the variants left, when they are counted."""
+    left, shares = session.left, session.commonality
+    share = _share(shares[i], left) if left is not None and shares is not None else ""
+    if share:
+        text.append(f"  {share}", "cyan")
+    return text
 
 
 def _share(count: int, left: int) -> str:
@@ -256,6 +275,9 @@ class MenuConfigApp(App[None]):
         with VerticalScroll(id="detail"):
             yield Static(id="text")
         yield Footer()
+
+    def on_unmount(self) -> None:
+        self.counts.stop()  # (else leaving waits for a compile in the background to end)
 
     def on_mount(self) -> None:
         import asyncio
@@ -325,12 +347,7 @@ class MenuConfigApp(App[None]):
                     text.append(next(iter(values)).value[0], "dim")
                 else:
                     text.append("*")
-        left, shares = session.left, session.commonality
-        if decided.selected is None and left is not None and shares is not None:
-            share = _share(shares[i], left)
-            if share:
-                text.append(f"  {share}", "cyan")
-        return text
+        return _with_share(text, session, i) if decided.selected is None else text
 
     def redraw(self) -> None:
         for f in self.session.model.features:
