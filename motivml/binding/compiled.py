@@ -1,7 +1,7 @@
 """A model's compiled forms: its selections and its variants as d-DNNFs, made once and kept
 beside the model, then asked for counts, commonalities and uniform samples at once.
 
-Two forms per model (reference.md section 7):
+Three forms per model (reference.md section 7), each made when first asked for:
 
 * **selections**: the CNF of section 2 (`encoding.selection_cnf`), projected onto all its
   variables: the helper variables it adds (XOR counters, formula operators) are each
@@ -21,9 +21,10 @@ code of ours) answers from it. A form is kept in `.motivml/compiled/` beside the
 named by its kind and a hash of what was compiled (the compiler's format, the clauses and
 the projection): a changed model has another name, so a kept form is never stale, and
 `.motivml/compiled/` may be deleted at any time (MOTIVML_COMPILED_DIR, when set, names one
-folder to keep every model's forms in instead: a read-only checkout, a cache CI keeps). A compile that passes its time limit is
-given up and remembered (a `.gaveup` file), so that the next command does not wait for it
-again unless given a longer limit; the caller then counts with Ganak as before.
+folder to keep every model's forms in instead: a read-only checkout, a cache CI keeps). A
+compile that passes its time limit is given up and remembered (a `.gaveup` file), so that
+the next command does not wait for it again unless given a longer limit; the caller then
+counts with Ganak as before.
 """
 
 from __future__ import annotations
