@@ -173,8 +173,10 @@ def row(label: str, motivml: str, model: str, limit: float, timeout: float) -> N
             flush=True,
         )
     live = run_limited([sys.executable, "-c", LIVE, model, str(PARTIAL)], 4 * timeout)
-    found = json.loads(live[2].splitlines()[-1]) if live is not None and live[2].strip() else {"missing": "did not finish"}
-    if "missing" in found:
+    found = json.loads(live[2].splitlines()[-1]) if live is not None and live[2].strip() else {}
+    if not found:
+        print(f"  menuconfig's live count: {PARTIAL} decisions did not finish in {4 * timeout:g} s", flush=True)
+    elif "missing" in found:
         print(f"  menuconfig's live count: no compiled form ({found['missing']})", flush=True)
     else:
         met = "met" if found["p95"] <= LIVE_TARGET else "MISSED"

@@ -209,20 +209,16 @@ def analyse(
     return analysis
 
 
-SAMPLED = 24  # uniform variants whose selections split the atomic sets' candidates (`_from_form`)
-
-
 def _from_form(
     model: FeatureModel, form: Any, counts: bool, step: Progress, compiling: Compiling, timeout: float | None
 ) -> Analysis:
     """Section 7 from the compiled form of the variants (`compiled.CompiledForm`): one pass
     counts, for every feature, the variants that select it, make it Early and make it
     Static; core and dead features and impossible bindings are read off those counts.
-    Two live features are in one atomic set when as many variants select both as select
-    each: features are compared only within groups of the same count that SAMPLED
-    uniform variants select alike, one count per comparison. (Counts under conditions do
-    not split them as well: two independent features with as many variants each have
-    as many under any condition on a third.)"""
+    The atomic sets of the live features neither core nor dead are ddnnife's (which finds
+    them from counts, in Rust: 4 s for Automotive02's 14,010 features, where comparing
+    features by counts pair by pair in Python took minutes: groups of 2,000 features with the
+    same count that 24 uniform variants did not tell apart)."""
     step(STEPS[0])
     total = form.count()
     if total == 0:
@@ -237,22 +233,13 @@ def _from_form(
     alive = [c > 0 for c in selected]
     core = [i for i in range(n) if selected[i] == total]
     step(STEPS[2])
-    drawn = form.uniform(SAMPLED, seed=0)
-    groups: dict[tuple[int, tuple[bool, ...]], list[int]] = {}
-    for i in range(n):
-        if alive[i] and selected[i] != total:
-            groups.setdefault((selected[i], tuple(d[form.literal(i) - 1] > 0 for d in drawn)), []).append(i)
+    open_features = [i for i in range(n) if alive[i] and selected[i] != total]
     atomic: list[list[int]] = [core]
-    for members in groups.values():
-        sets: list[list[int]] = []
-        for i in members:
-            for found in sets:
-                if form.count([form.literal(i), form.literal(found[0])]) == selected[i]:
-                    found.append(i)
-                    break
-            else:
-                sets.append([i])
-        atomic += sets
+    together: set[int] = set()
+    for members in form.atomic_sets([form.literal(i) for i in open_features]) if open_features else []:
+        atomic.append([form.feature_of(literal) for literal in members])
+        together.update(atomic[-1])
+    atomic += [[i] for i in open_features if i not in together]
     atomic = sorted(sorted(members) for members in atomic)
     step(STEPS[3])
     impossible: list[tuple[int, str, Time | Mode]] = []

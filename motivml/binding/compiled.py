@@ -115,6 +115,16 @@ class CompiledForm:
             return [list(sample[: self.features]) for sample in drawn]
         return [list(sample) for sample in drawn]
 
+    def atomic_sets(self, candidates: Sequence[int]) -> list[list[int]]:
+        """The sets of two or more of the `candidates` (variables of features that are
+        neither core nor dead) that every selection (or variant) has all or none of, by
+        ddnnife; each set as its variables."""
+        return [sorted(found) for found in self._answers.atomic_sets(list(candidates), [], False)]
+
+    def feature_of(self, variable: int) -> int:
+        """The feature whose selection is `variable` (`literal`'s inverse)."""
+        return (variable - 1) // 3 if self.kind is Kind.VARIANTS else variable - 1
+
     def bindings(self, literals: Sequence[int]) -> list[Binding | None]:
         """A variant drawn from the variants form, per feature: its binding, None when off."""
         found: list[Binding | None] = []

@@ -133,10 +133,10 @@ def analyse_command(
 )
 @click.option(
     "--kind",
-    type=click.Choice(["both", "selections", "variants"]),
+    type=click.Choice(["both", "selections", "variants", "valid-selections"]),
     default="both",
     show_default=True,
-    help="Which compiled form to make.",
+    help="Which compiled form to make (both: selections and variants; valid-selections: what sample --uniform draws from).",
 )
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 def compile_command(target: str, limit: float, kind: str, fmt: str) -> None:
