@@ -173,27 +173,8 @@ def analyse(
         impossible = _for_each_member(
             same, impossible_bindings(hard, model, [alive[i] and i in at for i in range(n)])
         )
-    # s(f) -> s(parent) always holds, so f is selected whenever its parent is iff the two
-    # are selected together in every variant: iff they share an atomic set
     step(STEPS[4])
-    atomic_set_of = {i: k for k, members in enumerate(atomic) for i in members}
-    false_optional = [
-        f.index
-        for f in features
-        if f.parent is not None
-        and not f.mandatory
-        and alive[f.index]
-        and atomic_set_of[f.index] == atomic_set_of[f.parent]
-    ]
-
-    analysis = Analysis(
-        False,
-        core=[features[i].id for i in core],
-        dead=[f.id for f in features if not alive[f.index]],
-        false_optional=[features[i].id for i in false_optional],
-        atomic_sets=[[features[i].id for i in members] for members in atomic],
-        impossible=[(features[i].id, aspect, str(value)) for i, aspect, value in impossible],
-    )
+    analysis = _answered(model, core, alive, atomic, impossible)
     if counts:
         from .compiled import Kind
 
@@ -277,20 +258,7 @@ def _from_form(
                 (i, "mode", v) for v, c in ((Mode.STATIC, static[i]), (Mode.DYNAMIC, selected[i] - static[i])) if not c
             ]
     step(STEPS[4])
-    atomic_set_of = {i: k for k, members in enumerate(atomic) for i in members}
-    false_optional = [
-        f.index
-        for f in features
-        if f.parent is not None and not f.mandatory and alive[f.index] and atomic_set_of[f.index] == atomic_set_of[f.parent]
-    ]
-    analysis = Analysis(
-        False,
-        core=[features[i].id for i in core],
-        dead=[f.id for f in features if not alive[f.index]],
-        false_optional=[features[i].id for i in false_optional],
-        atomic_sets=[[features[i].id for i in members] for members in atomic],
-        impossible=[(features[i].id, aspect, str(value)) for i, aspect, value in impossible],
-    )
+    analysis = _answered(model, core, alive, atomic, impossible)
     if counts:
         from .compiled import Kind
 
@@ -301,6 +269,34 @@ def _from_form(
         analysis.counted_by["variant"] = "compiled form"
         analysis.uncounted = ["selection"] if analysis.selection_count is None else []
     return analysis
+
+
+def _answered(
+    model: FeatureModel,
+    core: list[int],
+    alive: Sequence[bool],
+    atomic: list[list[int]],
+    impossible: list[tuple[int, str, Time | Mode]],
+) -> Analysis:
+    """The analysis of a satisfiable model from its answers by feature index, with the
+    false-optional features derived: s(f) -> s(parent) always holds, so f is selected
+    whenever its parent is iff the two are selected together in every variant, iff they
+    share an atomic set."""
+    features = model.features
+    atomic_set_of = {i: k for k, members in enumerate(atomic) for i in members}
+    false_optional = [
+        f.index
+        for f in features
+        if f.parent is not None and not f.mandatory and alive[f.index] and atomic_set_of[f.index] == atomic_set_of[f.parent]
+    ]
+    return Analysis(
+        False,
+        core=[features[i].id for i in core],
+        dead=[f.id for f in features if not alive[f.index]],
+        false_optional=[features[i].id for i in false_optional],
+        atomic_sets=[[features[i].id for i in members] for members in atomic],
+        impossible=[(features[i].id, aspect, str(value)) for i, aspect, value in impossible],
+    )
 
 
 def _counted(

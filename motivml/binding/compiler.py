@@ -43,6 +43,7 @@ import heapq
 import time
 from collections.abc import Callable, Generator, Iterable, Sequence
 from dataclasses import dataclass
+from itertools import chain
 from typing import Any, TextIO
 
 FALSE, TRUE = 0, 1  # the nodes every d-DNNF here starts with: an empty OR, an empty AND
@@ -310,17 +311,7 @@ class _Compiler:
             met_variable[start] = stamp
             found, open_clauses = [start], []
             for v in found:  # (grows as it is walked)
-                for k in occurs[base + v]:
-                    if true[k] or met_clause[k] == stamp:
-                        continue
-                    met_clause[k] = stamp
-                    open_clauses.append(k)
-                    for literal in clauses[k]:
-                        w = literal if literal > 0 else -literal
-                        if not value[w] and met_variable[w] != stamp:
-                            met_variable[w] = stamp
-                            found.append(w)
-                for k in occurs[base - v]:
+                for k in chain(occurs[base + v], occurs[base - v]):
                     if true[k] or met_clause[k] == stamp:
                         continue
                     met_clause[k] = stamp

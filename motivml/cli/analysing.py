@@ -5,8 +5,9 @@ from __future__ import annotations
 import json
 import math
 import sys
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
 
 import click
 from rich.markup import escape
@@ -24,25 +25,22 @@ SHOWN = 20  # ids listed per line of the text output; --format json lists them a
 MAX_COUNT_SECONDS = 1e6  # the longest wait for a count that the system's poll takes is 24 days
 
 
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _seconds(name: str, help: str) -> Callable[[F], F]:
+    """An option of seconds, 60 by default, `inf` for no limit."""
+    kind = Number(min=0, min_open=True, max=MAX_COUNT_SECONDS, allow_inf=True)
+    return click.option(name, type=kind, default=60.0, show_default=True, help=help)
+
+
 @click.command("analyse")
 @click.argument("target", default=".", type=click.Path(readable=False))
 @click.option("--format", "fmt", type=click.Choice(["text", "json"]), default="text", show_default=True)
 @click.option("--no-counts", is_flag=True, help="Leave out the selection and variant counts.")
-@click.option(
-    "--count-timeout",
-    type=Number(min=0, min_open=True, max=MAX_COUNT_SECONDS, allow_inf=True),
-    default=60.0,
-    show_default=True,
-    help=f"Seconds each exact count by Ganak may take before it is given up (and reported as not counted),"
-    f" at most {MAX_COUNT_SECONDS:g}; inf: no limit.",
-)
-@click.option(
-    "--compile-limit",
-    type=Number(min=0, min_open=True, max=MAX_COUNT_SECONDS, allow_inf=True),
-    default=60.0,
-    show_default=True,
-    help="Seconds a missing compiled form may take to make before the count falls back to Ganak; inf: no limit.",
-)
+@_seconds("--count-timeout", f"Seconds each exact count by Ganak may take before it is given up (and reported as not counted),"
+    f" at most {MAX_COUNT_SECONDS:g}; inf: no limit.")
+@_seconds("--compile-limit", "Seconds a missing compiled form may take to make before the count falls back to Ganak; inf: no limit.")
 @click.option("--no-compiled", is_flag=True, help="Count with Ganak, neither reading nor making compiled forms.")
 def analyse_command(
     target: str, fmt: str, no_counts: bool, count_timeout: float, compile_limit: float, no_compiled: bool
@@ -124,13 +122,7 @@ def analyse_command(
 
 @click.command("compile")
 @click.argument("target", default=".", type=click.Path(readable=False))
-@click.option(
-    "--limit",
-    type=Number(min=0, min_open=True, max=MAX_COUNT_SECONDS, allow_inf=True),
-    default=60.0,
-    show_default=True,
-    help="Seconds each compile may take before it is given up; inf: no limit.",
-)
+@_seconds("--limit", "Seconds each compile may take before it is given up; inf: no limit.")
 @click.option(
     "--kind",
     type=click.Choice(["both", "selections", "variants", "valid-selections"]),
@@ -230,13 +222,7 @@ MAX_UNIFORM = 10_000  # variants `sample --uniform` draws at most (each is held,
     help="N variants drawn uniformly at random from the compiled form, instead of a t-wise sample.",
 )
 @click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True, help="The seed of --uniform.")
-@click.option(
-    "--compile-limit",
-    type=Number(min=0, min_open=True, max=MAX_COUNT_SECONDS, allow_inf=True),
-    default=60.0,
-    show_default=True,
-    help="Seconds --uniform may take to make a missing compiled form; inf: no limit.",
-)
+@_seconds("--compile-limit", "Seconds --uniform may take to make a missing compiled form; inf: no limit.")
 @click.option(
     "--format",
     "fmt",
