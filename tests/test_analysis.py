@@ -746,6 +746,45 @@ def test_cover_with_requirements_answers_as_without(raw: dict[str, Any]) -> None
     assert told == [plain[:n]] * 3
 
 
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=8), st.randoms(use_true_random=False))
+def test_cover_in_another_order_answers_as_in_the_targets_own(raw: dict[str, Any], rnd: Any) -> None:
+    """`order` changes which target is taken when, never an answer: any order of plain
+    targets, and the analyses' own (alternatives apart, each selection after its parent's,
+    the selections first) with requirements, implications and the first answers told."""
+    from motivml.binding import encoding as enc
+
+    model = read(raw)
+    with enc.Encoding(model) as hard:
+        if not hard.solve(with_config=False):
+            return
+        n = len(model.features)
+        targets: list[list[int]] = [[hard.s(i)] for i in range(n)]
+        requires: list[int | None] = [model.features[i].parent for i in range(n)]
+        for i in range(n):
+            for literal in (hard.E(i), -hard.E(i), hard.S(i), -hard.S(i), -hard.s((i + 1) % n)):
+                targets.append([hard.s(i), literal])
+                requires.append(i)
+        plain = hard.cover(targets, with_config=False)
+        shuffled = list(range(len(targets)))
+        rnd.shuffle(shuffled)
+        assert hard.cover(targets, with_config=False, batch=True, order=shuffled) == plain
+        later = list(range(n, len(targets)))
+        rnd.shuffle(later)
+        told: list[list[bool]] = []
+        ordered = hard.cover(
+            targets,
+            with_config=False,
+            batch=True,
+            requires=requires,
+            implied=requires,
+            settled=(n, told.append),
+            order=analysis_module._alternatives_apart(model, range(n)) + later,
+        )
+        assert ordered == plain
+        assert told == [plain[:n]]
+
+
 def test_the_first_answers_are_told_before_a_later_target_is_solved_for() -> None:
     """a is dead, but neither the first variant nor unit propagation says so (see the test
     of batches above); u is possible. With refute=False the answer for u is told, then a is

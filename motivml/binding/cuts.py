@@ -65,8 +65,14 @@ class Cuts:
             lengths = np.fromiter(map(len, clauses), dtype=np.int64, count=len(clauses))
             lits = np.fromiter(chain.from_iterable(clauses), dtype=np.int64, count=int(lengths.sum()))
         self.count = len(clauses)
+        lengths = np.asarray(lengths, dtype=np.int64)
+        if self.count and not lengths.all():  # (the encoding makes none; reduceat needs none)
+            raise ValueError("an empty clause has no model")
         self.owner = np.repeat(np.arange(len(clauses), dtype=np.int64), lengths)
+        self.ends_at = np.cumsum(lengths)  # each clause's literals are [starts, ends_at)
+        self.starts = self.ends_at - lengths
         self.var = np.abs(lits)
+        self.at = self.var - 1  # (where each literal's variable is in a variant)
         self.positive = lits > 0
         kind = (self.var - 1) % 4
         self.movable = (self.var <= 4 * n) & ((kind == 0) | (kind == 3))  # an s or an a variable
@@ -76,44 +82,44 @@ class Cuts:
         for i in range(1, n):
             depth[i] = depth[parent[i]] + 1
         self.depth = depth
+        self.parents = np.where(parent < 0, np.arange(n, dtype=np.int64), parent)  # (the root: itself)
         self.lca = _LowestCommonAncestors(depth, parent)
         self.ends = subtree_ends(model)
 
     def valid(self, values: Sequence[int]) -> np.ndarray:
-        """`valid_cuts` of the variant `values`."""
-        n, owner, feature = self.n, self.owner, self.feature
+        """`valid_cuts` of the variant `values`. (Per clause, over its literals, which are
+        consecutive: segment reductions, `reduceat`; `ufunc.at` took twice as long.)"""
+        n, owner, feature, starts = self.n, self.owner, self.feature, self.starts
         truth = np.asarray(values, dtype=np.int64) > 0  # truth[v - 1]: v is true in W
-        true_var = truth[self.var - 1]
+        true_var = truth[self.at]
         changing = self.movable & true_var  # s or a, true in W
         holds = true_var == self.positive
         supports = holds & self.positive & changing
         solid = holds & ~supports  # a true literal no cut can falsify
         frees = ~holds & ~self.positive & changing  # a false literal that a cut over its feature makes true
-        fragile = np.ones(self.count, dtype=bool)
-        fragile[owner[solid]] = False
+        solid_so_far = np.concatenate(([0], np.cumsum(solid, dtype=np.int32)))  # (reduceat: twice as long)
+        fragile = solid_so_far[self.ends_at] == solid_so_far[starts]  # no solid literal in the clause
 
-        picked = supports & fragile[owner]
-        low = np.full(self.count, n, dtype=np.int64)
-        high = np.full(self.count, -1, dtype=np.int64)
-        np.minimum.at(low, owner[picked], feature[picked])
-        np.maximum.at(high, owner[picked], feature[picked])
         broken_clauses = np.flatnonzero(fragile)
-        if np.any(high[broken_clauses] < 0):  # a clause W does not satisfy: W is not a model
+        in_fragile = fragile[owner]
+        picked = np.flatnonzero(supports & in_fragile)  # (few: grouped by clause, in order)
+        if len(np.unique(owner[picked])) < len(broken_clauses):  # a clause W does not satisfy
             raise ValueError("the assignment is not a model of the clauses")
+        first = np.flatnonzero(np.diff(owner[picked], prepend=-1))  # each broken clause's first
+        low = np.minimum.reduceat(feature[picked], first) if len(picked) else picked
+        high = np.maximum.reduceat(feature[picked], first) if len(picked) else picked
         lowest = np.full(self.count, -1, dtype=np.int64)  # L per fragile clause
-        lowest[broken_clauses] = self.lca(low[broken_clauses], high[broken_clauses])
+        lowest[broken_clauses] = self.lca(low, high)
 
-        freed = frees & fragile[owner]
-        deepest = np.full(self.count, -1, dtype=np.int64)  # depth * n + M, the deepest M per clause
-        if np.any(freed):
+        freed = np.flatnonzero(frees & in_fragile)
+        stops = np.zeros(0, dtype=np.int64)
+        if len(freed):
             k = owner[freed]
             meet = self.lca(lowest[k], feature[freed])
-            np.maximum.at(deepest, k, self.depth[meet] * n + meet)
-        marks = np.zeros(n + 1, dtype=np.int64)
-        np.add.at(marks, lowest[broken_clauses], 1)
-        stops = deepest[broken_clauses]
-        stops = stops[stops >= 0] % n
-        np.add.at(marks, stops, -1)
+            first = np.flatnonzero(np.diff(k, prepend=-1))  # (freed literals come grouped by clause)
+            stops = np.maximum.reduceat(self.depth[meet] * n + meet, first) % n  # the deepest M per clause
+        marks = np.bincount(lowest[broken_clauses], minlength=n + 1)[: n + 1]
+        marks -= np.bincount(stops, minlength=n + 1)[: n + 1]
         sums = np.concatenate(([0], np.cumsum(marks[:n])))
         broken = (sums[self.ends] - sums[np.arange(n)]) > 0
         selected = truth[np.arange(n, dtype=np.int64) * 4]
