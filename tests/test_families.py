@@ -151,6 +151,46 @@ def test_wide_groups_of_interchangeable_members_equal_brute_force(raw: dict[str,
     assert_live_features_and_impossible_bindings_equal_brute_force(raw)
 
 
+ROUNDS_CASES = [(name, n, seed) for name in FAMILIES for n in (7, 9) for seed in range(2) if n < 8 or name != "any"]
+
+
+@pytest.mark.parametrize("case", ROUNDS_CASES, ids=_id)
+@pytest.mark.parametrize("pays", [0, 10**6])
+def test_atomic_rounds_of_one_pair_split_by_cuts_equal_brute_force(case: tuple[str, int, int], pays: int) -> None:
+    """`_atomic_sets` from no variant known (so that its later rounds have work), with
+    rounds of one pair (ROUND_PAIRS) and the cuts of their variants always, sometimes or
+    never paying (CUT_PAYS): its classes are brute force's atomic sets."""
+    from motivml.binding import analysis
+    from motivml.binding.cuts import Cuts
+
+    raw = tiny(*case)
+    variants = [set(v) for v in ref.valid_variants(raw, None)]
+    if not variants:
+        return
+    model = read(raw)
+    ids = [f.id for f in model.features]
+    alive = [i for i, f in enumerate(ids) if any(f in v for v in variants)]
+    core = [i for i in alive if all(ids[i] in v for v in variants)]
+    expected: dict[tuple[bool, ...], list[int]] = {}
+    for i in alive:
+        expected.setdefault(tuple(ids[i] in v for v in variants), []).append(i)
+    with pytest.MonkeyPatch.context() as patch, enc.Encoding(model, record=True) as hard:
+        patch.setattr(analysis, "ROUND_PAIRS", 1)
+        patch.setattr(analysis, "CUT_PAYS", pays)
+        assert hard.recorded is not None
+        cuts = Cuts(model, hard.recorded)
+        selections: list[bytes] = []
+        found = analysis._atomic_sets(
+            hard,
+            alive,
+            core,
+            selections,
+            lambda values: selections.append(hard.selection_of(values)),
+            cut_key=lambda values: analysis._deepest_cuts(cuts, values),
+        )
+    assert sorted(found) == sorted(expected.values())
+
+
 def test_a_10000_member_group_is_a_handful_of_solves() -> None:
     """The members of a wide group that allow the same bindings are asked about once: the
     whole analysis of a 10,000-member group is a few dozen solves, not one per member."""

@@ -29,7 +29,7 @@ from collections.abc import Callable, Hashable, Iterable, Sequence
 from dataclasses import dataclass, field
 from operator import neg
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..language.model import FeatureModel, GroupKind, Mode, Time
 from ..process import no_gc
@@ -39,11 +39,17 @@ from .symmetry import Classes
 if TYPE_CHECKING:
     from .cuts import Cuts
 
+T = TypeVar("T")
 Progress = Callable[[str], None]  # told the name of each step as it begins
 # Variants whose cuts split the atomic-set candidates before the first round: at 10,000
 # generated features, 8 take the rounds from 407 solves to 130 (each costs a linear pass over
 # the clauses, 16 ms there; 64 save 9 more solves and cost a second)
 CUT_WITNESSES = 8
+# The atomic sets' later rounds, while the cuts of their variants pay (`_atomic_sets`): the
+# neighbours asked about in one round (at least ROUND_PAIRS, and at least a CUT_ROUNDS-th of
+# those open, so that there are few such rounds), and the classes its cuts must split per
+# variant (a cut costs some two solves' time) for the next round to be cut too
+ROUND_PAIRS, CUT_ROUNDS, CUT_PAYS = 128, 8, 8
 COUNT_TIMEOUT = 60.0  # seconds per count, by default: exact counting can take exponential time
 
 SAMPLED = 24  # uniform variants whose selections split the atomic sets' candidates (`_from_form`)
@@ -166,7 +172,9 @@ def analyse(
         first += _covering(hard, model, alive, selections, witness)
         key = list(zip(*(_deepest_cuts(cuts, values).tolist() for values in first), strict=True))
         live_asked = [i for i in asked if alive[i]]
-        atomic = _atomic_sets(hard, live_asked, core, selections, witness, key)
+        atomic = _atomic_sets(
+            hard, live_asked, core, selections, witness, key, cut_key=lambda values: _deepest_cuts(cuts, values)
+        )
         atomic = _atomic_classes(hard, atomic, same.members(), alive, is_core)
         # The bindings on the same solver: the variants the questions above left in its
         # saved phases select most live features, so few solves are left to do (at 10,000
@@ -495,6 +503,7 @@ def _atomic_sets(
     selections: list[bytes],
     witness: Callable[[list[int]], None],
     key: Sequence[Hashable] | None = None,
+    cut_key: Callable[[list[int]], Any] | None = None,
 ) -> list[list[int]]:
     """The classes of `alive` features selected together in every valid variant, pre-order.
 
@@ -534,19 +543,31 @@ def _atomic_sets(
     final: list[list[int]] = [core] if core else []
     seen = 0  # the variants already used to split
     star = True
+    cut_rows: list[Any] = []  # per variant of the last round: the deepest cut keys of `watched`
+    watched: dict[int, int] = {}  # the features whose keys are kept: feature -> its column
     while candidates:
         if len(selections) > seen:
             # split every candidate class by what the variants found since the last split
             # select (per feature, its column of the variants' selections, packed to bits;
-            # the members of a group have the same column)
+            # the members of a group have the same column), and by their cuts
             rows = np.frombuffer(b"".join(selections[seen:]), dtype=np.uint8).reshape(len(selections) - seen, -1)
             columns = np.ascontiguousarray(np.packbits(rows, axis=0).T)
+            cut_columns = np.ascontiguousarray(np.stack(cut_rows).T) if cut_rows else None
             split: list[list[list[int]]] = []
+            by_cuts = 0  # classes that the cuts split further than the selections
             for groups in candidates:
                 by_pattern: dict[bytes, list[list[int]]] = {}
+                plain: set[bytes] = set()
                 for group in groups:
-                    by_pattern.setdefault(columns[group[0]].tobytes(), []).append(group)
+                    pattern = columns[group[0]].tobytes()
+                    plain.add(pattern)
+                    if cut_columns is not None and group[0] in watched:
+                        pattern += cut_columns[watched[group[0]]].tobytes()
+                    by_pattern.setdefault(pattern, []).append(group)
+                by_cuts += len(by_pattern) - len(plain)
                 split += by_pattern.values()
+            if cut_rows and by_cuts < CUT_PAYS * len(cut_rows):
+                cut_key = None  # (from here, rounds without cuts and of every pair)
             seen = len(selections)
             candidates = split
         final += [sorted(groups[0]) for groups in candidates if len(groups) == 1]
@@ -554,6 +575,30 @@ def _atomic_sets(
         targets: list[list[int]] = []
         asked: list[tuple[int, int]] = []  # per target: (its class, the later group compared)
         chained: list[tuple[list[int], tuple[int, int]]] = []
+        unasked: set[tuple[int, int]] = set()  # neighbours left for the next round
+        round_witness = witness
+        if not star and cut_key is not None:
+            # A variant that shows x without y, its cuts valid along x's path, shows x apart
+            # from each feature it selects below them too: the neighbours of a class of a
+            # chain of optional sub-features (selected together in every variant known,
+            # as a formula elsewhere asks of one of them) are one solve each, but the first
+            # variant that shows a pair of them apart cuts the chain above at every level.
+            # So while the cuts pay, a round asks about few pairs (ROUND_PAIRS, each
+            # class's deepest first, across classes) and the next round is split by the
+            # cuts of its variants too (at 10,000 features of the dense family: 1,656
+            # pairs took 317 solves in one round, and 87 in four rounds of 128 pairs).
+            watched = {g[0]: j for j, g in enumerate(g for groups in open_classes for g in groups)}
+            at = np.fromiter(watched, dtype=np.int64, count=len(watched))
+            cut_rows = []
+
+            def round_witness(
+                values: list[int], rows: list[Any] = cut_rows, at: Any = at, cut: Callable[..., Any] = cut_key
+            ) -> None:
+                witness(values)
+                rows.append(cut(values)[at].astype(np.int32))
+
+            pairs = _round_robin([[(k, j) for j in range(len(groups) - 1, 0, -1)] for k, groups in enumerate(open_classes)])
+            unasked = set(pairs[max(ROUND_PAIRS, len(pairs) // CUT_ROUNDS) :])
         for k, groups in enumerate(open_classes):
             if star:
                 first = s(groups[0][0])
@@ -569,6 +614,8 @@ def _atomic_sets(
                         asked.append((k, j))
             else:
                 for j in range(1, len(groups)):
+                    if (k, j) in unasked:
+                        continue
                     one, other = s(groups[j - 1][0]), s(groups[j][0])
                     chained += [([one, -other], (k, j)), ([-one, other], (k, j))]
         # neighbours' pairs share a feature: in an order that puts every other pair first,
@@ -580,8 +627,8 @@ def _atomic_sets(
                         targets.append(target)
                         asked.append(owner)
         # (the first round's pairs are what propagating each first member did not settle)
-        possible = hard.cover(targets, with_config=False, witness=witness, batch=True, refute=not star)
-        differs = {asked[t] for t, can in enumerate(possible) if can}
+        possible = hard.cover(targets, with_config=False, witness=round_witness, batch=True, refute=not star)
+        differs = {asked[t] for t, can in enumerate(possible) if can} | unasked  # (unasked: kept apart)
         candidates = []
         for k, groups in enumerate(open_classes):
             if star:  # the first group and those that cannot differ from it are a class
@@ -603,6 +650,14 @@ def _atomic_sets(
                 candidates.append(merged)
         star = False
     return sorted(final)
+
+
+def _round_robin(lists: list[list[T]]) -> list[T]:
+    """The first item of each list, then the second of each, and so on."""
+    out: list[T] = []
+    for k in range(max(map(len, lists), default=0)):
+        out += [items[k] for items in lists if k < len(items)]
+    return out
 
 
 def _implied_both_ways(clauses: enc.Clauses, classes: list[list[int]], n: int, np: Any) -> list[list[list[int]]]:
