@@ -490,6 +490,50 @@ def test_every_literal_counted_at_once_equals_brute_force(raw: dict[str, Any], d
         assert through.get(-form.literal(i, "static"), 0) == sum(1 for v in valid if not (f in v and v[f][1]))
 
 
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=7), st.data(), st.sampled_from([Kind.SELECTIONS, Kind.VARIANTS]))
+def test_shares_equal_brute_force_and_forced_ones_are_exact(raw: dict[str, Any], data: Any, kind: Kind) -> None:
+    """What menuconfig shows beside each feature: the share of the selections (or
+    variants) left that select it, in floating point, 0.0 and 1.0 exactly when none or
+    all do; None when the decisions leave none."""
+    model = read(raw)
+    form = compiled_form(model, None, kind)
+    assert not isinstance(form, NotCompiled)
+    ids = [f.id for f in model.features]
+    chosen = data.draw(st.dictionaries(st.sampled_from(ids), st.booleans(), max_size=2))
+    assumed = [form.literal(ids.index(f)) * (1 if on else -1) for f, on in chosen.items()]
+    every = ref.valid_variants(raw, None) if kind is Kind.VARIANTS else ref.section_2_selections(raw)
+    left = [set(v) for v in every if all((f in v) == on for f, on in chosen.items())]
+    shares = form.shares(assumed, [form.literal(i) for i in range(len(ids))])
+    if not left:
+        assert shares is None
+        return
+    assert shares is not None
+    for f, share in zip(ids, shares, strict=True):
+        expected = sum(1 for v in left if f in v) / len(left)
+        assert share == expected if expected in (0.0, 1.0) else 0.0 < share < 1.0 and share == pytest.approx(expected)
+
+
+def test_a_share_next_to_one_or_zero_is_not_rounded_to_either() -> None:
+    """One model in 2^1100 + 1 lacks `a`: a's share is 1 - 10^-331, which a float rounds to
+    1.0 and ¬a's to 0.0; both stay strictly between, so that neither looks forced."""
+    free = 1100
+    lines = [f"L {v}" for v in range(1, free + 2)] + [f"L -{v}" for v in range(1, free + 2)]
+    # node v - 1: literal v; node free + v: literal -v (a is variable 1)
+    ors = [f"O {v} 2 {v - 1} {free + v}" for v in range(2, free + 2)]  # b free: b or not b
+    first_or = len(lines)
+    lines += ors
+    lines.append("A " + str(free + 1) + " 0 " + " ".join(str(first_or + k) for k in range(free)))  # a, every b free
+    lines.append("A " + str(free + 1) + f" {free + 1} " + " ".join(str(v - 1) for v in range(2, free + 2)))  # not a, every b
+    lines.append(f"O 1 2 {len(lines) - 2} {len(lines) - 1}")
+    text = f"nnf {len(lines)} 0 {free + 1}\n" + "\n".join(lines) + "\n"
+    shares = compiled.Shares(compiled.Circuit(text)).of([], [1, -1])
+    assert shares is not None
+    a, not_a = shares
+    assert 0.99 < a < 1.0 and 0.0 < not_a < 1e-300
+    assert compiled.Shares(compiled.Circuit(text)).of([-1], [1, 2]) == [0.0, 1.0]  # (not a: only every b)
+
+
 def test_forms_are_kept_where_motivml_compiled_dir_says(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     elsewhere = tmp_path / "cache"
     monkeypatch.setenv(compiled.ELSEWHERE, str(elsewhere))

@@ -9,9 +9,9 @@ from them on the one encoding:
 * `problems`: when the decisions have no valid variant, the conflicts, each with the
   configuration's minimal repairs (section 6); `apply` makes one of them;
 * `why(feature)`: the located reasons, as `show --why` gives them;
-* `left` and `commonality`: with a compiled form of the model (`form`, compiled.py), how
-  many variants (or selections) the decisions leave, and in how many of them each feature
-  is selected, counted at once after every change.
+* `left` and `shares`: with a compiled form of the model (`form`, compiled.py), how many
+  variants (or selections) the decisions leave, exactly, and the share of them that
+  selects each feature, counted at once after every change.
 
 The decisions are kept as the decisions file they will be saved as (reference.md section
 1, `"partial": true`): after each change that text is read back by the same reader as a file
@@ -68,7 +68,7 @@ class Propagated:
     problems: list[Diagnostic]  # errors, or conflicts with their repairs ([]: valid)
     states: list[set[FeatureState]]  # per feature, what valid variants can make of it ([] while invalid)
     left: int | None = None  # with a compiled form: the variants (or selections) the decisions leave
-    commonality: list[int] | None = None  # with it: per feature, how many of those select it
+    shares: list[float] | None = None  # with it: per feature, the share of those that select it
 
 
 class Configurator:
@@ -104,7 +104,7 @@ class Configurator:
         self.form: Any = None  # a compiled.CompiledForm of the model, once one is at hand
         self.beside: Path | None = None  # the model's folder, where its compiled forms are kept
         self.left: int | None = None
-        self.commonality: list[int] | None = None
+        self.shares: list[float] | None = None
         self.saved_text: str | None = None
         self._encoding: enc.Encoding | None = None  # the model's, kept for every decision
         self._asking = threading.Lock()  # (propagations of two threads ask it in turn)
@@ -142,12 +142,12 @@ class Configurator:
             problems = [] if kept.solve() else check_variant(self.model, config)
             if problems:
                 return Propagated(config, problems, [])
-            left, commonality = self._counted(config)
-            return Propagated(config, problems, binding_states(self.model, config, kept), left, commonality)
+            left, shares = self._counted(config)
+            return Propagated(config, problems, binding_states(self.model, config, kept), left, shares)
 
-    def _counted(self, config: Configuration) -> tuple[int | None, list[int] | None]:
-        """With a compiled form: the variants `config` leaves, and per feature how many of
-        them select it."""
+    def _counted(self, config: Configuration) -> tuple[int | None, list[float] | None]:
+        """With a compiled form: the variants `config` leaves (ddnnife's exact count), and
+        per feature the share of them that select it (`CompiledForm.shares`)."""
         form = self.form
         if form is None:
             return None, None
@@ -162,13 +162,15 @@ class Configurator:
                     assumed.append(form.literal(i, "early") * (1 if entry.time is Time.EARLY else -1))
                 if entry.mode is not None:
                     assumed.append(form.literal(i, "static") * (1 if entry.mode is Mode.STATIC else -1))
-        left, through = form.every_literal(assumed)
-        return left, [through.get(form.literal(i), 0) for i in range(len(self.model.features))]
+        left = form.count(assumed)
+        if not left:
+            return 0, [0.0] * len(self.model.features)
+        return left, form.shares(assumed, [form.literal(i) for i in range(len(self.model.features))])
 
     def install(self, propagated: Propagated) -> None:
         """Take what `propagate` worked out as the session's."""
         self.config, self.problems, self.states = propagated.config, propagated.problems, propagated.states
-        self.left, self.commonality = propagated.left, propagated.commonality
+        self.left, self.shares = propagated.left, propagated.shares
 
     def _kept(self) -> enc.Encoding:
         if self._encoding is None:

@@ -217,18 +217,18 @@ class LiveCounts:
 
 def _with_share(text: Text, session: Configurator, i: int) -> Text:
     """An open feature's label with its share of the variants left, when they are counted."""
-    left, shares = session.left, session.commonality
-    share = _share(shares[i], left) if left is not None and shares is not None else ""
+    shares = session.shares
+    share = _share(shares[i]) if session.left and shares is not None else ""
     if share:
         text.append(f"  {share}", "cyan")
     return text
 
 
-def _share(count: int, left: int) -> str:
+def _share(share: float) -> str:
     """A feature's share of the variants left, as a percentage ('' when forced either way)."""
-    if count in (0, left) or left == 0:
+    if share in (0.0, 1.0):
         return ""
-    percent = 100 * count / left
+    percent = 100 * share
     return "<1%" if percent < 1 else ">99%" if percent > 99 else f"{percent:.0f}%"
 
 
