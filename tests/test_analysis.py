@@ -779,7 +779,7 @@ def test_cover_in_another_order_answers_as_in_the_targets_own(raw: dict[str, Any
             requires=requires,
             implied=requires,
             settled=(n, told.append),
-            order=analysis_module._alternatives_apart(model, range(n)) + later,
+            order=analysis_module.alternatives_apart(model, range(n)) + later,
         )
         assert ordered == plain
         assert told == [plain[:n]]

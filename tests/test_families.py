@@ -91,6 +91,39 @@ def test_shows_states_on_every_family_equal_brute_force(case: tuple[str, int, in
         assert {f.id: states for f, states in zip(model.features, binding_states(model, config), strict=True)} == expected
 
 
+@pytest.mark.parametrize("case", [c for c in CASES if c[1] < 8], ids=_id)
+def test_states_asked_again_of_one_kept_encoding_equal_brute_force(case: tuple[str, int, int]) -> None:
+    """As menuconfig asks them: one kept encoding, the configuration changed decision by
+    decision (some as the last valid variant has it, some against it, some taken back),
+    so that the variants kept from the last question hold or not (`Encoding.recent`)."""
+    raw = tiny(*case)
+    variants = list(ref.valid_variants(raw, None))
+    if not variants:
+        return
+    model = read(raw)
+    ids = [f.id for f in model.features]
+    entries: dict[str, dict[str, Any]] = {}
+    with enc.Encoding(model) as kept:
+        for step, f in enumerate(ids[1:] + ids[1:3]):
+            last = variants[-1 - step % len(variants)]
+            if step % 3 == 2:
+                entries.pop(f, None)  # (taken back)
+            elif f in last and step % 2:
+                entries[f] = {"id": f, "props": {"time": "Early" if last[f][0] else "Late"}}
+            else:
+                entries[f] = {"id": f, "selected": f not in last}
+            document = {"partial": True, "properties": list(entries.values())}
+            expected = _states_by_brute_force(raw, document)
+            if not any(len(states) for states in expected.values()) or not list(ref.valid_variants(raw, document)):
+                entries.pop(f, None)
+                continue
+            config, _ = read_configuration(parse(json.dumps(document), "v.json"), model, partial=True)
+            assert config is not None
+            kept.set_configuration(config)
+            found = binding_states(model, config, kept)
+            assert {g: states for g, states in zip(ids, found, strict=True)} == expected, document
+
+
 def _wide_group(members: int, time: str = "Any", mode: str = "Any", others: int = 0) -> dict[str, Any]:
     """A root with one XOR group of `members` leaves allowing `time` and `mode`, and `others`
     members of their own kind: one with a sub-feature, one included by the root's first

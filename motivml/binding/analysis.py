@@ -141,7 +141,7 @@ def analyse(
         asked, at = same.asked, same.position  # (a parent is never in a class: it has sub-features)
         s = [hard.s(i) for i in range(n)]
         parents = [f.parent for f in features]
-        apart = _alternatives_apart(model, asked)
+        apart = alternatives_apart(model, asked)
         possible = hard.cover(
             [[s[i]] for i in asked] + [[-s[i]] for i in asked],
             with_config=False,
@@ -463,7 +463,7 @@ def _atomic_classes(
     return sorted(atomic)
 
 
-def _alternatives_apart(model: FeatureModel, features: Sequence[int]) -> list[int]:
+def alternatives_apart(model: FeatureModel, features: Sequence[int]) -> list[int]:
     """An order of questions about `features` (their positions, a question per feature,
     or several in a row) in which alternatives are asked about far apart: the first
     member of every XOR group, then the second of every group, and so on, each feature
@@ -800,7 +800,7 @@ def live_features_and_impossible_bindings(
         + [position[question.owners[k][0]] for k in asked],
         settled=(m, lambda selected: on_alive(same.spread(selected))) if on_alive is not None else None,
         start_empty=True,
-        order=_alternatives_apart(model, features) + [m + k for k in question.order],
+        order=alternatives_apart(model, features) + [m + k for k in question.order],
     )
     alive = same.spread(possible[:m])
     return alive, _for_each_member(same, [b for b in question.impossible(possible[m:]) if alive[b[0]]])
@@ -822,7 +822,7 @@ class _Bindings:
         ]
         self.asked = asked = [k for k in range(len(targets)) if not self.inherited[k]]
         self.asked_targets = [targets[k] for k in asked]
-        self.order = _alternatives_apart(model, [owners[k][0] for k in asked])  # (for `cover`)
+        self.order = alternatives_apart(model, [owners[k][0] for k in asked])  # (for `cover`)
         # Late and Static first: its solve is the one that searches (at 100,000 generated
         # features 0.7 s as the third hint, 0.4 s as the first, while the saved phases still
         # select everything). The four took 1.2 s in the order ES, ED, LS, LD and 0.8 s in

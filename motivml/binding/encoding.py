@@ -275,6 +275,7 @@ class Work:
 FLUSH_EVERY = 1 << 16  # clauses made before they are handed to the solver (`Encoding.__init__`)
 ONE_HINTED_FROM = 32  # members: a larger XOR group has one member hinted selected at most (`hint`)
 SELECTION_IN_NUMPY = 1000  # features: from here `selection_of` reads a variant in numpy
+RECENT_VARIANTS = 512  # valid variants an encoding keeps for the next configuration (`Encoding.recent`)
 HINT_WINDOW = 256  # open targets that a target's own solve is hinted towards (`_Cover`)
 DIFF_IN_NUMPY = 4096  # the targets' variables: from here a new witness is compared with the last in numpy
 
@@ -599,6 +600,10 @@ class Encoding:
         self._xor_member: dict[int, int] | None = None  # s(member) -> its XOR group (`hint`)
         self._xor_group_of: Any = None  # the same as a numpy table by variable (`_hint_in_numpy`)
         self._unhinted: list[int] | None = None  # (`unhint`)
+        # valid variants found by the last questions asked of this encoding, as `binding_states`
+        # keeps them (each feature's selection, time and mode, a byte each): under the next
+        # configuration, those that still hold answer at once
+        self.recent: list[bytes] = []
         self.solver_name = solver
         # The clauses go to the solver FLUSH_EVERY at a time while they are made: held all
         # at once as Python lists, they were a third of `validate`'s peak memory at
@@ -1167,6 +1172,7 @@ class Encoding:
         settled: tuple[int, Callable[[list[bool]], None]] | None = None,
         start_empty: bool = False,
         order: Sequence[int] | None = None,
+        shown: Sequence[bool] | None = None,
     ) -> list[bool]:
         """Which conjunctions of literals hold in some valid variant.
 
@@ -1187,6 +1193,8 @@ class Encoding:
         of selections alone do better from the last variant (it selects much, and a
         witness shows more): at 100,000 features of mostly fixed bindings, the first round
         of atomic sets took 2,075 solves from the emptiest variant and 463 from the last.
+        `shown`, if given, says for each target whether the caller knows already that it
+        holds (in a variant found before); those are settled without a question.
         `order`: the order in which the targets are taken (a permutation of their indices;
         by default theirs), in which `implied` and `requires` name earlier targets and,
         with `settled`, the first m targets come first. Targets that no variant shows together (alternatives of one
@@ -1216,6 +1224,9 @@ class Encoding:
         changed. `work` counts what the calls did (a test checks that it grows linearly).
         """
         state = _Cover(self, targets, order)
+        if shown is not None:
+            for known in compress(range(len(targets)), shown):
+                state.close(known, True)
         first, tell = settled if settled is not None else (0, None)
 
         def answered() -> list[bool]:  # (the first ones too, if not told yet)
@@ -1258,10 +1269,10 @@ class Encoding:
             if start_empty:
                 self.unhint()
             state.prefer(HINT_WINDOW)
-            shown = self._solve_batch(targets, base, [k, *state.open_after(BATCH_TRIED - 1)]) if batch else None
-            if shown is None:
-                shown = self._solve([*base, *targets[k]])
-            if shown:
+            found = self._solve_batch(targets, base, [k, *state.open_after(BATCH_TRIED - 1)]) if batch else None
+            if found is None:
+                found = self._solve([*base, *targets[k]])
+            if found:
                 state.mark(witness)  # (k among them)
             else:
                 state.close(k, False)
