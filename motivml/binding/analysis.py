@@ -828,19 +828,7 @@ class _Bindings:
         # select everything). The four took 1.2 s in the order ES, ED, LS, LD and 0.8 s in
         # this one, and left fewer targets open: the whole analysis went from 10.5 to 10.1 s
         # and from 12.1 to 10.1 s on the models of seeds 1 and 0 (the answers are the same).
-        features = range(len(model.features))
-        selected, early, static = list(map(hard.s, features)), list(map(hard.E, features)), list(map(hard.S, features))
-        late, dynamic = list(map(neg, early)), list(map(neg, static))
-        self.hints: list[Sequence[int]] = []  # (C ints: four Python lists were 58 MB at 100,000 features)
-        # Each feature active too: a selected Early feature is active at start, and a
-        # feature fixed Early whose activity the solver decided (inactive) before its
-        # selection is a conflict that undoes every decision since; at 100,000 features of
-        # a flat tree, the first hint took 12,489 such conflicts and 7.3 s, 0.05 s so.
-        active = list(map(hard.a, features))
-        for times, modes in ((late, static), (early, static), (early, dynamic), (late, dynamic)):
-            hint = [0] * (4 * len(features))  # per feature: s(f), its time's literal, its mode's, a(f)
-            hint[0::4], hint[1::4], hint[2::4], hint[3::4] = selected, times, modes, active
-            self.hints.append(array("i", hint))
+        self.hints = binding_hints(hard, len(model.features))
         # s(f) and E(f) propagate to s(parent) and E(parent) (the sub-feature time); the same
         # for Static (the sub-feature mode)
         position = {owners[k]: at for at, k in enumerate(asked)}
@@ -854,6 +842,26 @@ class _Bindings:
         """The bindings never taken, given which of those asked are `possible`."""
         ruled_out = set(k for k, can in zip(self.asked, possible, strict=True) if not can)
         return [owner for k, owner in enumerate(self.owners) if self.inherited[k] or k in ruled_out]
+
+
+def binding_hints(hard: enc.Encoding, n: int) -> list[Sequence[int]]:
+    """Four polarity hints, each towards a variant that selects every feature with one
+    time and one mode: Late and Static, Early and Static, Early and Dynamic, Late and
+    Dynamic (C ints: four Python lists were 58 MB at 100,000 features)."""
+    features = range(n)
+    selected, early, static = list(map(hard.s, features)), list(map(hard.E, features)), list(map(hard.S, features))
+    late, dynamic = list(map(neg, early)), list(map(neg, static))
+    # Each feature active too: a selected Early feature is active at start, and a
+    # feature fixed Early whose activity the solver decided (inactive) before its
+    # selection is a conflict that undoes every decision since; at 100,000 features of
+    # a flat tree, the first hint took 12,489 such conflicts and 7.3 s, 0.05 s so.
+    active = list(map(hard.a, features))
+    hints: list[Sequence[int]] = []
+    for times, modes in ((late, static), (early, static), (early, dynamic), (late, dynamic)):
+        hint = [0] * (4 * n)  # per feature: s(f), its time's literal, its mode's, a(f)
+        hint[0::4], hint[1::4], hint[2::4], hint[3::4] = selected, times, modes, active
+        hints.append(array("i", hint))
+    return hints
 
 
 _UPWARD = (Time.EARLY, Mode.STATIC)  # the values a feature can take only if its parent does
