@@ -504,14 +504,18 @@ def test_shares_equal_brute_force_and_forced_ones_are_exact(raw: dict[str, Any],
     assumed = [form.literal(ids.index(f)) * (1 if on else -1) for f, on in chosen.items()]
     every = ref.valid_variants(raw, None) if kind is Kind.VARIANTS else ref.section_2_selections(raw)
     left = [set(v) for v in every if all((f in v) == on for f, on in chosen.items())]
-    shares = form.shares(assumed, [form.literal(i) for i in range(len(ids))])
-    if not left:
-        assert shares is None
-        return
-    assert shares is not None
-    for f, share in zip(ids, shares, strict=True):
-        expected = sum(1 for v in left if f in v) / len(left)
-        assert share == expected if expected in (0.0, 1.0) else 0.0 < share < 1.0 and share == pytest.approx(expected)
+    literals = [form.literal(i) for i in range(len(ids))]
+    both = compiled.Shares(form.circuit())
+    for exact in (None, True, False):  # (the first call times both passes; then each alone)
+        both.exact = exact
+        shares = both.of(assumed, literals) if exact is not None else form.shares(assumed, literals)
+        if not left:
+            assert shares is None
+            continue
+        assert shares is not None
+        for f, share in zip(ids, shares, strict=True):
+            expected = sum(1 for v in left if f in v) / len(left)
+            assert share == expected if expected in (0.0, 1.0) else 0.0 < share < 1.0 and share == pytest.approx(expected)
 
 
 def test_a_share_next_to_one_or_zero_is_not_rounded_to_either() -> None:
@@ -527,11 +531,24 @@ def test_a_share_next_to_one_or_zero_is_not_rounded_to_either() -> None:
     lines.append("A " + str(free + 1) + f" {free + 1} " + " ".join(str(v - 1) for v in range(2, free + 2)))  # not a, every b
     lines.append(f"O 1 2 {len(lines) - 2} {len(lines) - 1}")
     text = f"nnf {len(lines)} 0 {free + 1}\n" + "\n".join(lines) + "\n"
-    shares = compiled.Shares(compiled.Circuit(text)).of([], [1, -1])
-    assert shares is not None
-    a, not_a = shares
-    assert 0.99 < a < 1.0 and 0.0 < not_a < 1e-300
-    assert compiled.Shares(compiled.Circuit(text)).of([-1], [1, 2]) == [0.0, 1.0]  # (not a: only every b)
+    for exact in (True, False):
+        form = compiled.Shares(compiled.Circuit(text))
+        form.exact = exact
+        shares = form.of([], [1, -1])
+        assert shares is not None
+        a, not_a = shares
+        assert 0.99 < a < 1.0 and 0.0 < not_a < 1e-300
+        assert form.of([-1], [1, 2]) == [0.0, 1.0]  # (not a: only every b)
+
+
+@pytest.mark.parametrize("exact", [True, False])
+def test_shares_of_a_form_that_is_one_leaf_or_nothing(exact: bool) -> None:
+    """A model of its root alone compiles its selections to one leaf: the root's share is 1
+    (none when the decisions rule it out); a form of no nodes has no model."""
+    leaf = compiled.Shares(compiled.Circuit("nnf 1 0 1\nL 1\n"))
+    leaf.exact = exact
+    assert leaf.of([], [1, -1]) == [1.0, 0.0] and leaf.of([-1], [1]) is None
+    assert compiled.Shares(compiled.Circuit("")).of([], [1]) is None
 
 
 def test_forms_are_kept_where_motivml_compiled_dir_says(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

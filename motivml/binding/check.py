@@ -31,7 +31,7 @@ from ..process import no_gc
 from ..process.forked import InChild, can_fork
 from . import encoding as enc
 from .analysis import alternatives_apart, binding_hints, live_features_and_impossible_bindings
-from .encoding import RECENT_VARIANTS
+from .encoding import RECENT_BYTES, RECENT_VARIANTS
 from .explain import Explainer
 from .repair import configuration_repairs
 from .symmetry import Classes
@@ -308,8 +308,9 @@ class _Known:
             self.rows = rows[(rows[:, at] == wanted).all(axis=1)] if len(at) else rows
 
     def remember(self, values: list[int]) -> None:
-        """Keep a variant found now (a `cover` witness) for the next configuration."""
-        if len(self.hard.recent) < RECENT_VARIANTS:
+        """Keep a variant found now (a `cover` witness) for the next configuration: up to
+        RECENT_VARIANTS, and RECENT_BYTES in all (at 100,000 features 512 would be 153 MB)."""
+        if len(self.hard.recent) < min(RECENT_VARIANTS, max(16, RECENT_BYTES // (3 * self.hard.n + 1))):
             n = self.hard.n
             self.hard.recent.append((self.np.asarray(values[: 4 * n]).reshape(n, 4)[:, :3] > 0).tobytes())
 

@@ -275,7 +275,7 @@ class Work:
 FLUSH_EVERY = 1 << 16  # clauses made before they are handed to the solver (`Encoding.__init__`)
 ONE_HINTED_FROM = 32  # members: a larger XOR group has one member hinted selected at most (`hint`)
 SELECTION_IN_NUMPY = 1000  # features: from here `selection_of` reads a variant in numpy
-RECENT_VARIANTS = 512  # valid variants an encoding keeps for the next configuration (`Encoding.recent`)
+RECENT_VARIANTS, RECENT_BYTES = 512, 16 << 20  # valid variants an encoding keeps for the next configuration, at most (`Encoding.recent`)
 HINT_WINDOW = 256  # open targets that a target's own solve is hinted towards (`_Cover`)
 DIFF_IN_NUMPY = 4096  # the targets' variables: from here a new witness is compared with the last in numpy
 
