@@ -372,7 +372,7 @@ def binding_states(
             implied=[*[None] * m, *up],
             requires=[*[None] * m, *up],
             batch=True,
-            refute=[True] * m + [False] * m,  # (selections: batches settle them)
+            refute=True,
             order=apart + [m + k for k in apart],  # (each selection after its parent's still)
             hints=[[hard.s(i) for i in range(len(model.features))], [-hard.s(i) for i in range(len(model.features))]],
             witness=known.remember if known is not None else None,

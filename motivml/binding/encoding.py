@@ -1254,6 +1254,15 @@ class Encoding:
                 for k in state.open_targets()
                 if (refute is True or refute[k]) and (requires is None or (r := requires[k]) is None or state.possible[r])
             ]
+            # what the assumptions alone propagate refutes some targets at once (under a
+            # configuration of many decisions each propagation repeats theirs: 0.2 ms apiece)
+            ok, forced = self.solver.propagate(assumptions=base)
+            if ok:
+                against = {-literal for literal in forced}
+                refuted = [j for j in asked if not against.isdisjoint(targets[j])]
+                for j in refuted:
+                    state.close(j, False)
+                asked = [j for j in asked if state.is_open[j]]
             consistent = set(self._propagating(targets, base, asked, implied))
             for j in asked:
                 if j not in consistent:
