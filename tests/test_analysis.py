@@ -717,6 +717,23 @@ def assert_live_features_and_impossible_bindings_equal_brute_force(raw: dict[str
     }
 
 
+def _selections_then_bindings(
+    hard: Any, parents: list[int | None], apart: bool = False
+) -> tuple[list[list[int]], list[int | None]]:
+    """Each feature selected (requiring its `parents` entry's target), then each selected
+    with each time and mode (and, with `apart`, without the next feature), each of those
+    requiring its feature's selection."""
+    n = len(parents)
+    targets: list[list[int]] = [[hard.s(i)] for i in range(n)]
+    requires: list[int | None] = list(parents)
+    for i in range(n):
+        others = (-hard.s((i + 1) % n),) if apart else ()
+        for literal in (hard.E(i), -hard.E(i), hard.S(i), -hard.S(i), *others):
+            targets.append([hard.s(i), literal])
+            requires.append(i)
+    return targets, requires
+
+
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(models(max_features=8))
 def test_cover_with_requirements_answers_as_without(raw: dict[str, Any]) -> None:
@@ -730,12 +747,7 @@ def test_cover_with_requirements_answers_as_without(raw: dict[str, Any]) -> None
         if not hard.solve(with_config=False):
             return
         n = len(model.features)
-        targets: list[list[int]] = [[hard.s(i)] for i in range(n)]
-        requires: list[int | None] = [None] * n
-        for i in range(n):
-            for literal in (hard.E(i), -hard.E(i), hard.S(i), -hard.S(i)):
-                targets.append([hard.s(i), literal])
-                requires.append(i)
+        targets, requires = _selections_then_bindings(hard, [None] * n)
         plain = hard.cover(targets, with_config=False)
         told: list[list[bool]] = []
         for refute in (True, False, [k >= n for k in range(len(targets))]):
@@ -759,12 +771,7 @@ def test_cover_in_another_order_answers_as_in_the_targets_own(raw: dict[str, Any
         if not hard.solve(with_config=False):
             return
         n = len(model.features)
-        targets: list[list[int]] = [[hard.s(i)] for i in range(n)]
-        requires: list[int | None] = [model.features[i].parent for i in range(n)]
-        for i in range(n):
-            for literal in (hard.E(i), -hard.E(i), hard.S(i), -hard.S(i), -hard.s((i + 1) % n)):
-                targets.append([hard.s(i), literal])
-                requires.append(i)
+        targets, requires = _selections_then_bindings(hard, [f.parent for f in model.features], apart=True)
         plain = hard.cover(targets, with_config=False)
         shuffled = list(range(len(targets)))
         rnd.shuffle(shuffled)

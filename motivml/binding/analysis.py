@@ -568,6 +568,7 @@ def _atomic_sets(
                 split += by_pattern.values()
             if cut_rows and by_cuts < CUT_PAYS * len(cut_rows):
                 cut_key = None  # (from here, rounds without cuts and of every pair)
+            cut_rows = []  # (used: a round without cuts must not split by them again)
             seen = len(selections)
             candidates = split
         final += [sorted(groups[0]) for groups in candidates if len(groups) == 1]
@@ -653,11 +654,10 @@ def _atomic_sets(
 
 
 def _round_robin(lists: list[list[T]]) -> list[T]:
-    """The first item of each list, then the second of each, and so on."""
-    out: list[T] = []
-    for k in range(max(map(len, lists), default=0)):
-        out += [items[k] for items in lists if k < len(items)]
-    return out
+    """The first item of each list, then the second of each, and so on (by sorting: a
+    pass per place over every list would cost the longest list times their number)."""
+    places = sorted((j, k) for k, items in enumerate(lists) for j in range(len(items)))
+    return [lists[k][j] for j, k in places]
 
 
 def _implied_both_ways(clauses: enc.Clauses, classes: list[list[int]], n: int, np: Any) -> list[list[list[int]]]:

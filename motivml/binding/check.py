@@ -31,12 +31,14 @@ from ..process import no_gc
 from ..process.forked import InChild, can_fork
 from . import encoding as enc
 from .analysis import alternatives_apart, binding_hints, live_features_and_impossible_bindings
-from .encoding import RECENT_BYTES, RECENT_VARIANTS
 from .explain import Explainer
 from .repair import configuration_repairs
 from .symmetry import Classes
 
 HINTED_FROM = 64  # binding targets from which binding_states hints towards every binding first
+# the variants binding_states keeps on a kept encoding for its next configuration, at most
+# (`_Known`; 512 of them at 100,000 features would be 153 MB)
+RECENT_VARIANTS, RECENT_BYTES = 512, 16 << 20
 EXPLAINED_WARNINGS = 20  # per kind: dead features and bindings explained one by one
 LISTED_WARNINGS = 100  # per kind: located one by one; the rest are summed up in one warning
 
@@ -306,10 +308,11 @@ class _Known:
             at = np.asarray([3 * ((abs(lit) - 1) // 4) + (abs(lit) - 1) % 4 for lit in config], dtype=np.int64)
             wanted = np.asarray([lit > 0 for lit in config], dtype=np.uint8)
             self.rows = rows[(rows[:, at] == wanted).all(axis=1)] if len(at) else rows
+        self._columns: dict[tuple[int, ...], list[bool]] | None = None  # (`shown`'s tables, made once)
 
     def remember(self, values: list[int]) -> None:
         """Keep a variant found now (a `cover` witness) for the next configuration: up to
-        RECENT_VARIANTS, and RECENT_BYTES in all (at 100,000 features 512 would be 153 MB)."""
+        RECENT_VARIANTS, and RECENT_BYTES in all."""
         if len(self.hard.recent) < min(RECENT_VARIANTS, max(16, RECENT_BYTES // (3 * self.hard.n + 1))):
             n = self.hard.n
             self.hard.recent.append((self.np.asarray(values[: 4 * n]).reshape(n, 4)[:, :3] > 0).tobytes())
@@ -320,19 +323,20 @@ class _Known:
         from per-feature tables of what those variants do (one pass over them)."""
         if not len(self.rows) or not targets:
             return None
-        n = self.hard.n
-        rows = self.rows.reshape(len(self.rows), n, 3).astype(bool)
-        on = rows[:, :, 0]
-        table: dict[tuple[int, ...], Any] = {  # (the target's signs: s, then E and S) -> per feature: shown
-            (1,): on.any(axis=0),
-            (-1,): (~on).any(axis=0),
-            **{
-                (1, te, ts): (on & (rows[:, :, 1] == (te > 0)) & (rows[:, :, 2] == (ts > 0))).any(axis=0)
-                for te in (1, -1)
-                for ts in (1, -1)
-            },
-        }
-        columns = {key: value.tolist() for key, value in table.items()}
+        if self._columns is None:
+            rows = self.rows.reshape(len(self.rows), self.hard.n, 3).astype(bool)
+            on = rows[:, :, 0]
+            table: dict[tuple[int, ...], Any] = {  # (the target's signs: s, then E and S) -> per feature: shown
+                (1,): on.any(axis=0),
+                (-1,): (~on).any(axis=0),
+                **{
+                    (1, te, ts): (on & (rows[:, :, 1] == (te > 0)) & (rows[:, :, 2] == (ts > 0))).any(axis=0)
+                    for te in (1, -1)
+                    for ts in (1, -1)
+                },
+            }
+            self._columns = {key: value.tolist() for key, value in table.items()}
+        columns = self._columns
         return [columns[tuple(1 if lit > 0 else -1 for lit in t)][(abs(t[0]) - 1) // 4] for t in targets]
 
 
@@ -372,7 +376,7 @@ def binding_states(
             implied=[*[None] * m, *up],
             requires=[*[None] * m, *up],
             batch=True,
-            refute=True,
+            refute=True,  # (under many decisions most that no variant shows, their propagation refutes)
             order=apart + [m + k for k in apart],  # (each selection after its parent's still)
             hints=[[hard.s(i) for i in range(len(model.features))], [-hard.s(i) for i in range(len(model.features))]],
             witness=known.remember if known is not None else None,

@@ -275,7 +275,6 @@ class Work:
 FLUSH_EVERY = 1 << 16  # clauses made before they are handed to the solver (`Encoding.__init__`)
 ONE_HINTED_FROM = 32  # members: a larger XOR group has one member hinted selected at most (`hint`)
 SELECTION_IN_NUMPY = 1000  # features: from here `selection_of` reads a variant in numpy
-RECENT_VARIANTS, RECENT_BYTES = 512, 16 << 20  # valid variants an encoding keeps for the next configuration, at most (`Encoding.recent`)
 HINT_WINDOW = 256  # open targets that a target's own solve is hinted towards (`_Cover`)
 DIFF_IN_NUMPY = 4096  # the targets' variables: from here a new witness is compared with the last in numpy
 
@@ -1197,9 +1196,9 @@ class Encoding:
         holds (in a variant found before); those are settled without a question.
         `order`: the order in which the targets are taken (a permutation of their indices;
         by default theirs), in which `implied` and `requires` name earlier targets and,
-        with `settled`, the first m targets come first. Targets that no variant shows together (alternatives of one
-        XOR group) are best far apart in it: a batch of them fails, and a solve hinted
-        towards the next ones shows one of them only.
+        with `settled`, the first m targets come first. Targets that no variant shows
+        together (alternatives of one XOR group) are best far apart in it: a batch of
+        them fails, and a solve hinted towards the next ones shows one of them only.
         `batch`: solve for several open targets at once in step 3 (where most of what is
         left is possible, as for bindings; where most is not, the batches mostly fail).
         `refute=False` (or False for a target) skips step 2, where it would refute almost
@@ -1256,7 +1255,7 @@ class Encoding:
             ]
             # what the assumptions alone propagate refutes some targets at once (under a
             # configuration of many decisions each propagation repeats theirs: 0.2 ms apiece)
-            ok, forced = self.solver.propagate(assumptions=base)
+            ok, forced = self.solver.propagate(assumptions=base) if asked else (False, [])
             if ok:
                 against = {-literal for literal in forced}
                 refuted = [j for j in asked if not against.isdisjoint(targets[j])]
