@@ -134,7 +134,7 @@ def test_a_plan_says_per_robot_what_moves_or_why_not_touching_nothing(tmp_path: 
         robots=[robot("bay1"), robot("bay2", groups=["bays"]), robot("yard")],
     )
     before = path.read_bytes()
-    result = CliRunner().invoke(main, ["fleet", "plan", str(path), "swap", "hectorslam", "kartoslam"])
+    result = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(path), "swap", "hectorslam", "kartoslam"])
     assert result.exit_code == 1, result.output
     lines = [" ".join(line.split()) for line in result.output.splitlines()]
     assert lines[0] == "/bay1: accepted: loads kartoslam; unloads hectorslam"
@@ -157,14 +157,14 @@ def test_robots_are_selected_by_a_namespace_glob_or_a_group(tmp_path: Path, sele
 
 def test_a_plan_refuses_a_robot_whose_configuration_has_errors_and_a_change_that_is_not_one(tmp_path: Path) -> None:
     path = fleet(tmp_path, robots=[robot("a"), robot("b", overrides=[{"id": "slam", "selected": False}])])
-    result = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation"])
+    result = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(path), "unload", "navigation"])
     assert result.exit_code == 1
     text = " ".join(result.output.split())
     assert "/a: accepted: unloads navigation" in text
     assert "$.robots[1]: error: robot /b: its configuration has errors (validate the fleet file): nothing planned" in text
-    usage = CliRunner().invoke(main, ["fleet", "plan", str(path), "swap", "hectorslam"])
+    usage = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(path), "swap", "hectorslam"])
     assert usage.exit_code == 2 and "swap needs two features" in usage.output
-    nobody = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation", "--robots", "/nobody*"])
+    nobody = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(path), "unload", "navigation", "--robots", "/nobody*"])
     assert nobody.exit_code == 1 and "no robot" in nobody.output
 
 
@@ -228,12 +228,14 @@ def test_a_folder_without_a_model_is_said_at_the_robot_key(tmp_path: Path) -> No
 
 def test_an_unknown_group_selector_or_a_set_is_a_usage_error_and_a_group_is_listed_once(tmp_path: Path) -> None:
     path = fleet(tmp_path, groups={"bays": {}}, robots=[robot("a")])
-    unknown = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation", "--robots", "@nosuch"])
+    unknown = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(path), "unload", "navigation", "--robots", "@nosuch"])
     assert unknown.exit_code == 2 and "no group 'nosuch' in the fleet file (groups: bays)" in unknown.output
-    empty = CliRunner().invoke(main, ["fleet", "plan", str(path), "unload", "navigation", "--robots", "@bays"])
+    empty = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(path), "unload", "navigation", "--robots", "@bays"])
     assert empty.exit_code == 1 and "no robot" in empty.output
-    settled = CliRunner().invoke(main, ["fleet", "plan", str(path), "set", "navigation"])
-    assert settled.exit_code == 2 and "set is not planned for a fleet" in settled.output
+    settled = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(path), "set", "navigation"])
+    assert settled.exit_code == 2 and "set takes +FEATURE and -FEATURE words" in settled.output
+    event = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(path), "event", "go"])
+    assert event.exit_code == 2 and "event is not a change for a fleet" in event.output
     twice = fleet(tmp_path, groups={"g": {}}, robots=[robot("a", groups=["g", "g"])])
     problems, _ = validate_fleet(twice)
     assert problems and problems[0].location.path == "$.robots[0].groups"
@@ -241,7 +243,7 @@ def test_an_unknown_group_selector_or_a_set_is_a_usage_error_and_a_group_is_list
 
 def test_plan_on_a_fleet_file_with_errors_or_none_plans_nothing(tmp_path: Path) -> None:
     broken = fleet(tmp_path, robots=[robot("a", groups=["night"])])
-    result = CliRunner().invoke(main, ["fleet", "plan", str(broken), "unload", "navigation"])
+    result = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(broken), "unload", "navigation"])
     assert result.exit_code == 1 and "error in the fleet file: nothing planned" in " ".join(result.output.split())
-    missing = CliRunner().invoke(main, ["fleet", "plan", str(tmp_path / "nowhere.json"), "unload", "navigation"])
+    missing = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(tmp_path / "nowhere.json"), "unload", "navigation"])
     assert missing.exit_code == 3 and "nowhere.json" in missing.output

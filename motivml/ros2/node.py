@@ -16,7 +16,8 @@
   else;
 * the active set on `~/active_features` (`std_msgs/String`, JSON, transient-local: a late
   subscriber gets the current set) at start and after every commit, whoever asked for it
-  (`ctl`, a fault's unload, this node);
+  (`ctl`, a fault's unload, this node), with the robot's and the variant's names (what
+  `motivml fleet list` shows of each robot);
 * every accepted and refused change in the node's log (rosout);
 * the loop's health on `/diagnostics` once a second: rate, missed deadlines (WARN when more
   than 1% of the last second's were missed), faults, and one status per selected feature.
@@ -261,7 +262,7 @@ class FrontDoor:
                 self._internal = False
 
     def _publish_active(self, active: list[str], tick: int, request: str | None) -> None:
-        message = {"active": active, "tick": tick, "request": request}
+        message = {"robot": self.robot, "variant": self.variant, "active": active, "tick": tick, "request": request}
         self._active_topic.publish(self._string(data=json.dumps(message)))
 
     # ------------------------------------------------------------ diagnostics

@@ -1,6 +1,10 @@
-"""The UV disinfection robot's features as ROS 2 lifecycle nodes: one named node per process.
+"""The UV disinfection robot's features as ROS 2 lifecycle nodes: the nodes named, in one process.
 
     python plugins/ros2/uv_nodes.py lamp [--ros-args -r __ns:=/uv --params-file ros2_params.yaml]
+    python plugins/ros2/uv_nodes.py irradiation low_intensity high_intensity [--ros-args ...]
+
+(One node a process is how a node is killed on its own, as a fault; several in one process
+spare a small machine that runs many robots, as the fleet guide does.)
 
 Nodes: `lamp` (UVLampControl), `dosimeter` (DoseMonitoring), `person_detection`
 (CameraPersonDetection), `thermal_detection` (ThermalPresenceDetection), `irradiation`
@@ -231,8 +235,8 @@ NODES: dict[str, type[FeatureNode]] = {
 def main(argv: list[str]) -> int:
     names = ", ".join(NODES)
     own = remove_ros_args(argv)[1:]
-    if len(own) != 1 or own[0] not in NODES:
-        print(f"usage: uv_nodes.py NODE [--ros-args ...] (NODE: one of {names})", file=sys.stderr)
+    if not own or any(name not in NODES for name in own) or len(set(own)) != len(own):
+        print(f"usage: uv_nodes.py NODE... [--ros-args ...] (each NODE once, of: {names})", file=sys.stderr)
         return 2
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     # SIGINT and SIGTERM only ask the loop below to end, between two callbacks: a
@@ -240,20 +244,20 @@ def main(argv: list[str]) -> int:
     ending = threading.Event()
     for number in (signal.SIGINT, signal.SIGTERM):
         signal.signal(number, lambda *_: ending.set())
-    node = NODES[own[0]](own[0])
-    if node.get_parameter("fail_on").value not in ("", *TRANSITIONS):
-        print(f"uv_nodes.py: fail_on names a transition: one of {', '.join(TRANSITIONS)}", file=sys.stderr)
-        node.destroy_node()
-        rclpy.try_shutdown()
-        return 2
+    nodes = [NODES[name](name) for name in own]
     executor = SingleThreadedExecutor()
-    executor.add_node(node)
     try:
+        for node in nodes:
+            if node.get_parameter("fail_on").value not in ("", *TRANSITIONS):
+                print(f"uv_nodes.py: fail_on names a transition: one of {', '.join(TRANSITIONS)}", file=sys.stderr)
+                return 2
+            executor.add_node(node)
         while not ending.is_set():
             executor.spin_once(timeout_sec=0.1)
     finally:
         executor.shutdown()
-        node.destroy_node()
+        for node in nodes:
+            node.destroy_node()
         rclpy.try_shutdown()
     return 0
 

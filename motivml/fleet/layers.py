@@ -15,20 +15,21 @@ from __future__ import annotations
 import fnmatch
 import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .binding.check import check_variant
-from .documents.loader import Document, parse
-from .documents.robot_folder import RobotFolder, UnknownVariant
-from .documents.schema import FLEET, check_configuration, check_document, read_with_problems
-from .errors import Diagnostic, Judged, Location, MotivmlError, Severity, error
-from .language.model import Configuration, FeatureModel
-from .language.reader import load_model, read_configuration
+from ..binding.check import check_variant
+from ..documents.loader import Document, parse
+from ..documents.robot_folder import RobotFolder, UnknownVariant
+from ..documents.schema import FLEET, check_configuration, check_document, read_with_problems
+from ..errors import Diagnostic, Judged, Location, MotivmlError, Severity, error
+from ..language.model import Configuration, FeatureModel
+from ..language.reader import load_model, read_configuration
 
 if TYPE_CHECKING:
-    from .runtime.requests import Request
+    from ..runtime.requests import Request
 
 
 @dataclass(frozen=True)
@@ -224,6 +225,7 @@ class RobotPlan:
     loads: tuple[str, ...] = ()
     unloads: tuple[str, ...] = ()
     diagnostics: list[Diagnostic] = field(default_factory=list)  # why not, with the repairs
+    against: tuple[str, ...] = ()  # the active set it was planned against
 
 
 def selected(robots: list[RobotReport], groups: dict[str, list[str]], selector: str | None) -> list[RobotReport]:
@@ -240,37 +242,77 @@ def selected(robots: list[RobotReport], groups: dict[str, list[str]], selector: 
     return [r for r in robots if fnmatch.fnmatchcase(r.namespace, pattern)]
 
 
+@dataclass(frozen=True)
+class Running:
+    """What a running robot's node says of itself (its latched active-set message)."""
+
+    namespace: str
+    robot: str
+    variant: str
+    active: tuple[str, ...]
+    tick: int
+
+
+def groups_of(doc: Document) -> dict[str, list[str]]:
+    """Each group of the fleet file and its robots' namespaces, in the file's order."""
+    groups: dict[str, list[str]] = {name: [] for name in doc.root.get("groups", {})}
+    for robot in doc.root["robots"]:
+        for name in robot.get("groups", []):
+            groups.setdefault(name, []).append("/" + robot["namespace"].strip("/"))
+    return groups
+
+
 def plan_fleet(
-    path: str | Path, request: Request, selector: str | None = None
+    path: str | Path,
+    request: Request,
+    selector: str | None = None,
+    ask: Callable[[list[str]], dict[str, Running]] | None = None,
 ) -> tuple[list[Diagnostic], list[RobotPlan]]:
     """The change checked for each selected robot as `ctl` checks it on a running robot,
-    against the active set its variant starts with (no running robot is asked), touching
-    nothing: the fleet file's errors (then no plan), or one plan per selected robot."""
+    touching nothing: the fleet file's errors (then no plan), or one plan per selected
+    robot. Without `ask`, against the active set each robot's variant starts with; with it,
+    against the active set each running robot reports (`ask` is given the selected robots'
+    namespaces and answers for those it found): a robot not found, or running another
+    variant than the fleet file gives it, is not planned for."""
     problems, robots = validate_fleet(path)
     if problems:
         return problems, []
     doc, _ = read_with_problems(path, lambda d: [])
     assert doc is not None
-    groups: dict[str, list[str]] = {name: [] for name in doc.root.get("groups", {})}
-    for robot in doc.root["robots"]:
-        for name in robot.get("groups", []):
-            groups.setdefault(name, []).append("/" + robot["namespace"].strip("/"))
-    return [], [_plan(r, request) for r in selected(robots, groups, selector)]
+    chosen = selected(robots, groups_of(doc), selector)
+    if ask is None:
+        return [], [_plan(r, request) for r in chosen]
+    running = ask([r.namespace for r in chosen])
+    return [], [_plan_running(r, request, running.get(r.namespace)) for r in chosen]
 
 
-def _plan(robot: RobotReport, request: Request) -> RobotPlan:
-    from .binding.resolve import resolve, start_state
-    from .runtime.reconfigure import Reconfigurer, Refused
+def _plan_running(robot: RobotReport, request: Request, running: Running | None) -> RobotPlan:
+    where = robot.entry or Location(robot.folder)
+    if running is None:
+        why = f"robot {robot.namespace}: not running (no node {robot.namespace.rstrip('/')}/motivml on the graph)"
+        return RobotPlan(robot.namespace, False, diagnostics=[error(where, why, "fleet.absent")])
+    if running.variant != robot.variant:
+        why = (
+            f"robot {robot.namespace}: runs variant {running.variant}, the fleet file gives it {robot.variant}: "
+            "nothing planned (restart it with its fleet variant, or correct the fleet file)"
+        )
+        return RobotPlan(robot.namespace, False, diagnostics=[error(where, why, "fleet.variant")])
+    return _plan(robot, request, running.active)
+
+
+def _plan(robot: RobotReport, request: Request, active: tuple[str, ...] | None = None) -> RobotPlan:
+    from ..binding.resolve import resolve, start_state
+    from ..runtime.reconfigure import Reconfigurer, Refused
 
     if not robot.valid or robot.model is None or robot.config is None:
         why = f"robot {robot.namespace}: its configuration has errors (validate the fleet file): nothing planned"
         where = robot.entry or Location(robot.folder)
         return RobotPlan(robot.namespace, False, diagnostics=[error(where, why, "fleet.invalid")])
     variant = resolve(robot.model, robot.config)
-    active = [f.id for f in start_state(variant)]
+    now = list(active) if active is not None else [f.id for f in start_state(variant)]
     try:
-        plan = Reconfigurer(variant, robot.config).plan(active, request)
+        plan = Reconfigurer(variant, robot.config).plan(now, request)
     except Refused as refused:
         said = [_about(robot.namespace, _moved(d, robot.origins, robot.variant_layer)) for d in refused.diagnostics]
-        return RobotPlan(robot.namespace, False, diagnostics=said)
-    return RobotPlan(robot.namespace, True, plan.loads, plan.unloads)
+        return RobotPlan(robot.namespace, False, diagnostics=said, against=tuple(now))
+    return RobotPlan(robot.namespace, True, plan.loads, plan.unloads, against=tuple(now))

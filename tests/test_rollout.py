@@ -1,0 +1,398 @@
+"""A rollout in waves (motivml.fleet.rollout, reference.md section 9), on a fake graph of
+robots: the plan before anything moves, canary and waves, health watched after each wave,
+the rollback (last first, each robot by the inverse call), Ctrl-C between two robots, the
+record and its resumption (issue 35). The same rollout on a real ROS 2 graph is
+tests/test_fleet_ros2.py's."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+from click.testing import CliRunner
+from hypothesis import given
+from hypothesis import strategies as st
+from paths import SIMPLEBOT
+
+from motivml.cli import main
+from motivml.fleet import plan_fleet
+from motivml.fleet.rollout import (
+    Options,
+    Record,
+    RecordError,
+    Rollout,
+    describe,
+    read_record,
+    resumed,
+    wanted,
+    waves_of,
+)
+from motivml.runtime.requests import Load, Set, Swap, Unload
+
+CHANGE = Swap("hectorslam", "kartoslam")
+
+
+class Said:
+    def __init__(self, namespace: str, state: dict[str, Any], statuses: list[dict[str, Any]]) -> None:
+        self.namespace = namespace
+        self.state = state
+        self.state_at = time.monotonic()
+        self.statuses = statuses
+        self.statuses_at = time.monotonic()
+        self.reports = 1
+
+
+class Log:
+    def __init__(self) -> None:
+        self.lines: list[tuple[str, str]] = []
+
+    def info(self, message: str) -> None:
+        self.lines.append(("info", message))
+
+    def warning(self, message: str) -> None:
+        self.lines.append(("warning", message))
+
+    def error(self, message: str) -> None:
+        self.lines.append(("error", message))
+
+
+class FakeRobot:
+    def __init__(self, namespace: str, active: tuple[str, ...], variant: str = "field") -> None:
+        self.namespace = namespace
+        self.active = list(active)
+        self.variant = variant
+        self.tick = 0
+        self.faults = 0
+        self.missed = 0
+        self.ticks = 1000
+        self.alive = True
+        self.dies: int | None = None  # it leaves the graph after this many more looks
+        self.refuse: str | None = None  # the node refuses every call, saying this
+        self.after_change: Any = None  # called on the robot after an accepted call
+        self.calls: list[dict[str, bool]] = []
+
+    def said(self) -> Said:
+        if self.dies is not None:
+            self.dies -= 1
+            self.alive = self.dies > 0
+        self.ticks += 100  # (every look is a report made since the last)
+        loop = {
+            "name": "motivml: simplebot loop",
+            "level": "ERROR" if self.faults > 5 else "OK",
+            "message": "running",
+            "values": {"rate": "100", "achieved rate": "100.0", "ticks": str(self.ticks),
+                       "missed deadlines": str(self.missed), "faults": str(self.faults)},
+        }
+        state = {"robot": "simplebot", "variant": self.variant, "active": list(self.active), "tick": self.tick}
+        return Said(self.namespace, state, [loop])
+
+
+class FakeGraph:
+    """Robots that answer as a running robot's node does (the change is not checked here:
+    the plan before it is; `refuse` makes a node refuse)."""
+
+    def __init__(self, robots: list[FakeRobot]) -> None:
+        self.robots = {r.namespace: r for r in robots}
+        self.log = Log()
+        self.order: list[str] = []  # the robots called, in order
+
+    def discover(self, wait: float, expected: list[str] | None = None) -> list[str]:
+        return self.namespaces()
+
+    def namespaces(self) -> list[str]:
+        return sorted(ns for ns, r in self.robots.items() if r.alive)
+
+    def snapshot(self, namespace: str) -> Said | None:
+        robot = self.robots.get(namespace)
+        if robot is None or not robot.alive:
+            return None
+        said = robot.said()
+        return said if robot.alive else None
+
+    def alive(self, namespace: str) -> bool:
+        return namespace in self.robots and self.robots[namespace].alive
+
+    def wait_reports(self, namespaces: list[str], wait: float) -> None:
+        pass
+
+    def set(self, namespace: str, wanted: dict[str, bool], timeout: float) -> tuple[bool, str]:
+        robot = self.robots[namespace]
+        robot.calls.append(dict(wanted))
+        self.order.append(namespace)
+        if not robot.alive:
+            return False, f"no answer: {namespace}/motivml/set_parameters_atomically is not on the graph"
+        if robot.refuse is not None:
+            return False, robot.refuse
+        for feature, on in wanted.items():
+            if on and feature not in robot.active:
+                robot.active.append(feature)
+            if not on and feature in robot.active:
+                robot.active.remove(feature)
+        robot.tick += 1
+        if robot.after_change is not None:
+            robot.after_change(robot)
+        return True, ""
+
+
+def fleet_of(tmp_path: Path, names: list[str], variant: str = "field") -> Path:
+    path = tmp_path / "fleet.json"
+    robots = [{"namespace": n, "robot": str(SIMPLEBOT), "variant": variant} for n in names]
+    path.write_text(json.dumps({"robots": robots}))
+    return path
+
+
+def start_state(path: Path) -> tuple[str, ...]:
+    _, plans = plan_fleet(path, CHANGE)
+    return plans[0].against
+
+
+def setup(tmp_path: Path, count: int) -> tuple[Path, FakeGraph]:
+    names = [f"/r{k}" for k in range(1, count + 1)]
+    path = fleet_of(tmp_path, names)
+    active = start_state(path)
+    return path, FakeGraph([FakeRobot(n, active) for n in names])
+
+
+def rollout(path: Path, graph: FakeGraph, record: Path, **options: Any) -> Rollout:
+    settings = {"canary": 1, "waves": 2, "healthy": 0.05, "timeout": 1.0, "discover": 0.0, **options}
+    return Rollout(path, CHANGE, None, graph, Options(**settings), Record(record))
+
+
+def steps_of(record: Path) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in record.read_text().splitlines()]
+
+
+# ---------------------------------------------------------------------- waves
+@given(st.integers(0, 40), st.integers(0, 45), st.integers(1, 10))
+def test_waves_take_every_robot_once_in_order_canary_first_sizes_even(count: int, canary: int, waves: int) -> None:
+    robots = [f"/r{k}" for k in range(count)]
+    out = waves_of(robots, canary, waves)
+    assert [r for wave in out for r in wave] == robots
+    assert all(out) and (not canary or not robots or out[0] == robots[:canary])
+    rest = out[1:] if canary and robots else out
+    assert len(rest) <= waves
+    if rest:
+        sizes = [len(w) for w in rest]
+        assert max(sizes) - min(sizes) <= 1 and sizes == sorted(sizes, reverse=True)
+
+
+def test_each_change_is_one_call_of_features_on_and_off() -> None:
+    assert wanted(Swap("a", "b")) == {"a": False, "b": True}
+    assert wanted(Load(("a", "b"))) == {"a": True, "b": True}
+    assert wanted(Unload(("a",))) == {"a": False}
+    assert wanted(Set(("a",), ("b",))) == {"a": True, "b": False}
+
+
+# ---------------------------------------------------------------------- rollouts
+def test_an_applied_rollout_changes_every_robot_in_waves_and_records_each_step(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 5)
+    record = tmp_path / "r.jsonl"
+    outcome = rollout(path, graph, record).run()
+    assert outcome.result == "applied" and outcome.exit_code == 0
+    assert graph.order == ["/r1", "/r2", "/r3", "/r4", "/r5"]
+    assert all(r.calls == [{"hectorslam": False, "kartoslam": True}] for r in graph.robots.values())
+    assert all("kartoslam" in r.active and "hectorslam" not in r.active for r in graph.robots.values())
+    steps = steps_of(record)
+    kinds = [s["step"] for s in steps]
+    assert kinds[0] == "start" and steps[0]["waves"] == [["/r1"], ["/r2", "/r3"], ["/r4", "/r5"]]
+    assert kinds.count("planned") == 5 and kinds.count("changed") == 5 and kinds.count("healthy") == 3
+    assert kinds[-1] == "end" and steps[-1]["result"] == "applied"
+    changed = next(s for s in steps if s["step"] == "changed")
+    assert changed["loads"] == ["kartoslam"] and changed["unloads"] == ["hectorslam"]
+    # every step is on the graph's log too, in words
+    assert len(graph.log.lines) == len(steps)
+    assert ("info", "rollout of swap hectorslam kartoslam: /r1: changed: loads kartoslam; unloads hectorslam") in graph.log.lines
+
+
+def test_a_plan_refused_by_one_robot_touches_none(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 3)
+    graph.robots["/r2"].variant = "lab"  # (it runs another variant than the fleet file says)
+    del graph.robots["/r3"]  # (and this one is not running)
+    outcome = rollout(path, graph, tmp_path / "r.jsonl").run()
+    assert outcome.result == "refused" and outcome.exit_code == 1 and graph.order == []
+    assert outcome.robots == {"/r1": "unchanged", "/r2": "refused in the plan", "/r3": "refused in the plan"}
+    why = {s["robot"]: s["why"] for s in steps_of(tmp_path / "r.jsonl") if s["step"] == "planned"}
+    assert "runs variant lab, the fleet file gives it field" in why["/r2"][0]
+    assert "not running (no node /r3/motivml on the graph)" in why["/r3"][0]
+
+
+def test_a_robot_that_refuses_the_call_stops_the_rollout_and_the_others_are_changed_back(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 5)
+    before = {ns: list(r.active) for ns, r in graph.robots.items()}
+    graph.robots["/r3"].refuse = "the robot's run has ended: nothing changed"
+    outcome = rollout(path, graph, tmp_path / "r.jsonl").run()
+    assert outcome.result == "rolled back" and outcome.exit_code == 1
+    # r1, r2 changed, r3 refused; then r2 and r1 changed back, last first, each by the inverse call
+    assert graph.order == ["/r1", "/r2", "/r3", "/r2", "/r1"]
+    assert graph.robots["/r1"].calls[1] == {"hectorslam": True, "kartoslam": False}
+    assert {ns: sorted(r.active) for ns, r in graph.robots.items()} == {ns: sorted(a) for ns, a in before.items()}
+    assert outcome.robots["/r3"] == "refused: the robot's run has ended: nothing changed"
+    assert outcome.robots["/r1"] == outcome.robots["/r2"] == "rolled back"
+
+
+@pytest.mark.parametrize(
+    ("harm", "said"),
+    [
+        (lambda r: setattr(r, "faults", r.faults + 1), "1 new fault(s) since the change"),
+        (lambda r: setattr(r, "faults", 9), "ERROR on /diagnostics: loop: running"),
+        (lambda r: setattr(r, "dies", 2), "its node has left the graph"),
+        (lambda r: setattr(r, "missed", r.missed + 50), "missed "),
+    ],
+)
+def test_a_robot_unhealthy_in_the_second_wave_rolls_every_changed_robot_back(tmp_path: Path, harm: Any, said: str) -> None:
+    path, graph = setup(tmp_path, 5)  # waves: /r1 (the canary), /r2 /r3, /r4 /r5
+    graph.robots["/r3"].after_change = harm
+    outcome = rollout(path, graph, tmp_path / "r.jsonl").run()
+    assert outcome.result in ("rolled back", "failed") and outcome.exit_code == 1
+    assert outcome.robots["/r3"].startswith("unhealthy: " + said)
+    assert "/r4" not in graph.order  # (the third wave never started)
+    if said.startswith("missed"):
+        assert "of its deadlines since the change, against 0.0% before it (allowed: 1.0%)" in outcome.robots["/r3"]
+    assert graph.order[3:] == ["/r3", "/r2", "/r1"]
+    if said.startswith("its node"):  # (asked, and it cannot answer)
+        assert outcome.robots["/r3"].endswith("NOT rolled back: no answer: /r3/motivml/set_parameters_atomically is not on the graph")
+    for ns in ("/r1", "/r2"):
+        assert "hectorslam" in graph.robots[ns].active and "kartoslam" not in graph.robots[ns].active
+
+
+def test_a_robot_that_misses_as_many_deadlines_as_before_stays_healthy(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 2)
+    for robot in graph.robots.values():
+        robot.after_change = None
+    busy = graph.robots["/r2"]
+    # it missed 10% of its deadlines before the change, and goes on so after it
+    original = busy.said
+
+    def said() -> Said:
+        report = original()
+        busy.missed = busy.ticks // 10
+        report.statuses[0]["values"]["missed deadlines"] = str(busy.missed)
+        return report
+
+    busy.said = said  # type: ignore[method-assign]
+    assert rollout(path, graph, tmp_path / "r.jsonl").run().result == "applied"
+
+
+def test_ctrl_c_stops_between_robots_and_a_kept_rollout_resumes_from_its_record(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 5)
+    record = tmp_path / "r.jsonl"
+    first = rollout(path, graph, record)
+    graph.robots["/r2"].after_change = lambda _: first.interrupt.set()
+    outcome = first.run()
+    assert outcome.result == "stopped" and outcome.exit_code == 130 and graph.order == ["/r1", "/r2"]
+    first.keep()
+    first.record.close()
+    start, done, waves = resumed(read_record(record))
+    assert sorted(done) == ["/r1", "/r2"] and start["change"] == "swap hectorslam kartoslam"
+    again = rollout(path, graph, record)
+    assert again.run(done, waves).result == "applied"
+    assert graph.order == ["/r1", "/r2", "/r3", "/r4", "/r5"]  # (no robot changed twice)
+    again.record.close()
+    with pytest.raises(RecordError, match="the rollout ended: applied"):
+        resumed(read_record(record))
+
+
+def test_ctrl_c_and_a_rollback_changes_back_what_was_changed(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 3)
+    first = rollout(path, graph, tmp_path / "r.jsonl")
+    graph.robots["/r1"].after_change = lambda _: first.interrupt.set()
+    assert first.run().result == "stopped"
+    outcome = first.roll_back()
+    assert outcome.result == "rolled back" and graph.order == ["/r1", "/r1"]
+    assert "hectorslam" in graph.robots["/r1"].active
+
+
+def test_a_robot_that_cannot_be_changed_back_is_said_and_the_rollout_failed(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 3)
+    r1 = graph.robots["/r1"]
+
+    def harm(robot: FakeRobot) -> None:
+        robot.faults += 1
+        r1.refuse = "refused: no"
+
+    graph.robots["/r2"].after_change = harm
+    outcome = rollout(path, graph, tmp_path / "r.jsonl").run()
+    assert outcome.result == "failed" and "1 robot(s) could not be rolled back" in outcome.why
+    assert outcome.robots["/r1"] == "NOT rolled back: refused: no"
+
+
+def test_a_defect_in_the_middle_still_rolls_back(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 3)
+
+    def broken(robot: FakeRobot) -> None:
+        graph.snapshot = None  # type: ignore[method-assign,assignment]
+
+    graph.robots["/r2"].after_change = broken
+    job = rollout(path, graph, tmp_path / "r.jsonl")
+    with pytest.raises(TypeError):
+        job.run()
+    outcome = job.failed(TypeError("'NoneType' object is not callable"))
+    assert outcome.result == "failed" and graph.order[-2:] == ["/r2", "/r1"]
+
+
+# ---------------------------------------------------------------------- the record
+def test_a_record_cut_short_is_read_to_its_last_whole_line_and_garbage_is_refused(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 2)
+    record = tmp_path / "r.jsonl"
+    job = rollout(path, graph, record)
+    job.run()
+    job.record.close()
+    whole = record.read_text()
+    record.write_text(whole + '{"at": "2026", "step": "cha')  # (a writer killed mid-line)
+    assert read_record(record) == [json.loads(line) for line in whole.splitlines()]
+    (tmp_path / "bad.jsonl").write_text("no\n{}\n")
+    with pytest.raises(RecordError, match="bad.jsonl:1: not a JSON line"):
+        read_record(tmp_path / "bad.jsonl")
+    (tmp_path / "nostart.jsonl").write_text('{"step": "wave"}\n')
+    with pytest.raises(RecordError, match="starts with its start step"):
+        read_record(tmp_path / "nostart.jsonl")
+
+
+def test_every_step_has_words() -> None:
+    steps = [
+        {"step": "start", "change": "swap a b", "waves": [["/a"], ["/b"]], "healthy": 0},
+        {"step": "resume", "done": ["/a"], "waves": [["/b"]]},
+        {"step": "planned", "robot": "/a", "accepted": False, "why": ["no"]},
+        {"step": "interrupted", "changed": ["/a"]},
+        {"step": "end", "result": "stopped", "why": "interrupted"},
+    ]
+    assert [describe(s) for s in steps] == [
+        "start: swap a b to 2 robot(s) in 2 wave(s), no health waits",
+        "resume: 1 robot(s) changed before, 1 wave(s) left",
+        "/a: planned: refused: no",
+        "interrupted: stopped between two robots (1 changed)",
+        "end: stopped: interrupted",
+    ]
+
+
+# ---------------------------------------------------------------------- the command line
+def test_apply_and_list_say_what_they_need_without_ros2(tmp_path: Path) -> None:
+    pytest.importorskip("click")
+    import importlib.util
+
+    if importlib.util.find_spec("rclpy") is not None:
+        pytest.skip("ROS 2 is installed here: tests/test_fleet_ros2.py runs these commands on a graph")
+    path = fleet_of(tmp_path, ["/a"])
+    for args in (["list"], ["apply", str(path), "swap", "hectorslam", "kartoslam"], ["plan", str(path), "unload", "slam"]):
+        result = CliRunner().invoke(main, ["fleet", *args])
+        assert result.exit_code == 3, result.output
+        assert "ROS 2 is not available in this Python" in result.output and "make ros2" in result.output
+    assert not (tmp_path / "build").exists()
+
+
+def test_apply_refuses_a_reload_a_broken_record_and_a_fleet_file_with_errors(tmp_path: Path) -> None:
+    path = fleet_of(tmp_path, ["/a"])
+    reload = CliRunner().invoke(main, ["fleet", "apply", str(path), "reload", "slam"])
+    assert reload.exit_code == 2 and "reload is not a change for a fleet: load, unload, swap, set" in reload.output
+    (tmp_path / "r.jsonl").write_text("{}\n")
+    broken = CliRunner().invoke(main, ["fleet", "apply", "--resume", str(tmp_path / "r.jsonl")])
+    assert broken.exit_code == 2 and "not a step of a rollout record" in broken.output
+    nothing = CliRunner().invoke(main, ["fleet", "apply"])
+    assert nothing.exit_code == 2 and "needs FLEET and CHANGE (or --resume RECORD)" in nothing.output
+    bad = tmp_path / "bad.fleet.json"
+    bad.write_text(json.dumps({"robots": [{"namespace": "a", "robot": str(SIMPLEBOT), "variant": "field", "groups": ["x"]}]}))
+    invalid = CliRunner().invoke(main, ["fleet", "apply", str(bad), "unload", "slam"])
+    assert invalid.exit_code == 1 and "no group 'x' in the fleet file" in invalid.output
