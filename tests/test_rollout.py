@@ -396,3 +396,87 @@ def test_apply_refuses_a_reload_a_broken_record_and_a_fleet_file_with_errors(tmp
     bad.write_text(json.dumps({"robots": [{"namespace": "a", "robot": str(SIMPLEBOT), "variant": "field", "groups": ["x"]}]}))
     invalid = CliRunner().invoke(main, ["fleet", "apply", str(bad), "unload", "slam"])
     assert invalid.exit_code == 1 and "no group 'x' in the fleet file" in invalid.output
+
+
+# ---------------------------------------------------------------------- the command, on a fake graph
+@pytest.fixture
+def fake_graph(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> tuple[Path, FakeGraph]:
+    """`fleet apply` and `fleet list` as a user runs them, on a fake graph instead of ROS 2."""
+    from contextlib import contextmanager
+
+    import motivml.cli.fleeting as fleeting
+
+    path, graph = setup(tmp_path, 4)
+
+    @contextmanager
+    def fake(prefix: str = "/") -> Any:
+        yield graph
+
+    monkeypatch.setattr(fleeting, "_graph", fake)
+    monkeypatch.chdir(tmp_path)
+    return path, graph
+
+
+def test_apply_on_the_command_line_writes_its_record_under_build_and_reports_every_robot(
+    fake_graph: tuple[Path, FakeGraph],
+) -> None:
+    path, graph = fake_graph
+    result = CliRunner().invoke(main, ["fleet", "apply", str(path), "swap", "hectorslam", "kartoslam", "--healthy", "0.05"])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    record = Path(lines[0].removeprefix("record: "))
+    assert record.parent == Path("build", "rollouts") and record.suffix == ".jsonl"
+    assert lines[1] == "start: swap hectorslam kartoslam to 4 robot(s) in 2 wave(s), each then healthy for 0.05 s"
+    assert "/r4: changed: loads kartoslam; unloads hectorslam" in lines
+    assert lines[-1] == f"applied (record: {record})"
+    assert [s["step"] for s in read_record(record)][-1] == "end"
+    listing = CliRunner().invoke(main, ["fleet", "list", "--record", str(record)])
+    assert listing.exit_code == 0, listing.output
+    rows = listing.output.splitlines()
+    assert rows[0].split() == ["namespace", "robot", "variant", "active", "rate", "missed", "faults", "health", "rollout"]
+    assert rows[1].split()[:4] == ["/r1", "simplebot", "field", str(len(graph.robots["/r1"].active))]
+    assert rows[1].split()[-2] == "changed"
+
+
+def test_ctrl_c_on_the_command_line_rolls_back_off_a_terminal_and_keep_lets_it_resume(
+    fake_graph: tuple[Path, FakeGraph],
+) -> None:
+    import os
+    import signal
+
+    path, graph = fake_graph
+    graph.robots["/r2"].after_change = lambda _: os.kill(os.getpid(), signal.SIGINT)  # (Ctrl-C, in the middle)
+    args = ["fleet", "apply", str(path), "swap", "hectorslam", "kartoslam", "--healthy", "0", "--record", "r.jsonl"]
+    back = CliRunner().invoke(main, args)
+    assert back.exit_code == 1, back.output
+    assert "interrupted: rolling back (not a terminal to ask on" in back.output
+    assert graph.order == ["/r1", "/r2", "/r2", "/r1"] and "rolled back: interrupted" in back.output
+    graph.order.clear()
+    kept = CliRunner().invoke(main, [*args[:-1], "kept.jsonl", "--on-interrupt", "keep"])
+    assert kept.exit_code == 130 and graph.order == ["/r1", "/r2"], kept.output
+    graph.robots["/r2"].after_change = None
+    resumed_ = CliRunner().invoke(main, ["fleet", "apply", "--resume", "kept.jsonl"])
+    assert resumed_.exit_code == 0, resumed_.output
+    assert "resume: 2 robot(s) changed before, 1 wave(s) left" in resumed_.output
+    assert graph.order == ["/r1", "/r2", "/r3", "/r4"]
+    again = CliRunner().invoke(main, ["fleet", "apply", "--resume", "kept.jsonl"])
+    assert again.exit_code == 2 and "the rollout ended: applied: nothing to resume" in again.output
+    ended = CliRunner().invoke(main, ["fleet", "apply", "--resume", "r.jsonl"])
+    assert ended.exit_code == 2 and "the rollout ended: rolled back: nothing to resume" in ended.output
+    lines = Path("kept.jsonl").read_text().splitlines()
+    Path("cut.jsonl").write_text("\n".join(lines[:4]) + "\n")  # (a rollout killed in its first wave)
+    other = CliRunner().invoke(main, ["fleet", "apply", str(path), "unload", "slam", "--resume", "cut.jsonl"])
+    assert other.exit_code == 2 and "continues the rollout of swap hectorslam kartoslam" in other.output
+
+
+def test_a_robot_with_a_conflicting_override_is_refused_in_the_plan_with_its_layer(tmp_path: Path) -> None:
+    path, graph = setup(tmp_path, 2)
+    document = json.loads(path.read_text())
+    document["robots"][1]["overrides"] = [{"id": "slam", "selected": False}]  # (navigation needs it)
+    path.write_text(json.dumps(document))
+    result = CliRunner().invoke(main, ["validate", str(path)])
+    assert result.exit_code == 1 and "(set by: robot /r2" in result.output
+    outcome = rollout(path, graph, tmp_path / "r.jsonl").run()
+    assert outcome.result == "refused" and graph.order == []
+    why = {s["robot"]: s["why"] for s in steps_of(tmp_path / "r.jsonl") if s["step"] == "planned"}
+    assert why["/r2"] == ["robot /r2: its configuration has errors (validate the fleet file): nothing planned"]

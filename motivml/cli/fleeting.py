@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import signal
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -414,7 +415,9 @@ def apply_command(
                 except Exception as exc:  # (a defect, or rclpy failing under it: never leave robots half changed)
                     outcome = rollout.failed(exc)
             if outcome.result == "stopped":
-                outcome = rollout.roll_back() if _roll_back(on_interrupt, len(rollout.changed)) else rollout.keep()
+                back = _roll_back(on_interrupt, len(rollout.changed))
+                with _interruptible(threading.Event()):  # (a rollback is not cut short by another Ctrl-C)
+                    outcome = rollout.roll_back() if back else rollout.keep()
         finally:
             book.close()
     _report(outcome, path)
@@ -423,7 +426,11 @@ def apply_command(
 
 @contextmanager
 def _interruptible(flag: Any) -> Iterator[None]:
-    """Ctrl-C sets `flag` (the rollout stops between two robots) instead of raising."""
+    """Ctrl-C sets `flag` (the rollout stops between two robots) instead of raising (in the
+    main thread: only it gets signals)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
     before = signal.signal(signal.SIGINT, lambda *_: flag.set())
     try:
         yield

@@ -107,7 +107,7 @@ class Watch:
                 String, topic, lambda message, ns=namespace: self._state(ns, message.data), latched
             )
 
-    def discover(self, wait: float, expected: list[str] | None = None, quiet: float = 1.0) -> list[str]:
+    def discover(self, wait: float, expected: list[str] | None = None, quiet: float = 1.5) -> list[str]:
         """Follow the robots' nodes as they appear, for at most `wait` seconds, and return
         the namespaces of those that have said their active set. Without `expected`, the
         search ends `quiet` seconds after the last new node (DDS discovery on loopback
