@@ -70,3 +70,4 @@ bench: setup cpp-plugins ros2
 	$(ROS_BIN)/python bench/ros2_bench.py
 	$(ROS_BIN)/python bench/ros2_bench.py --priority 0
 	$(ROS_BIN)/python bench/ros2_bench.py --pinned
+	$(ROS_BIN)/python bench/fleet_bench.py

@@ -247,3 +247,26 @@ def test_plan_on_a_fleet_file_with_errors_or_none_plans_nothing(tmp_path: Path) 
     assert result.exit_code == 1 and "error in the fleet file: nothing planned" in " ".join(result.output.split())
     missing = CliRunner().invoke(main, ["fleet", "plan", "--offline", str(tmp_path / "nowhere.json"), "unload", "navigation"])
     assert missing.exit_code == 3 and "nowhere.json" in missing.output
+
+
+# ------------------------------------------------------------------ run FLEET --ros-namespace NS
+def test_a_fleet_robot_runs_its_variant_with_the_fleets_layers(tmp_path: Path) -> None:
+    path = fleet(
+        tmp_path,
+        overrides=[{"id": "orbslam", "selected": False}],
+        robots=[robot("a", overrides=[{"id": "hectorslam", "selected": False}]), robot("b", overrides=[{"id": "slam", "selected": False}])],
+    )
+    run = ["run", str(path), "--duration", "0.1", "--rate", "50", "--no-live", "--no-control"]
+    a = CliRunner().invoke(main, [*run, "--ros-namespace", "/a"])
+    assert a.exit_code == 0, a.output
+    (said,) = [line for line in a.output.splitlines() if line.startswith("running simplebot variant field:")]
+    assert "kartoslam" in said and "hectorslam" not in said  # (the robot's own layer, over its variant)
+    b = CliRunner().invoke(main, [*run, "--ros-namespace", "b"])
+    assert b.exit_code == 1 and f"cannot run: robot /b of {path}: its configuration has errors" in b.output
+    assert f"{path}:" in b.output and "(set by: robot /b" in b.output
+    nobody = CliRunner().invoke(main, [*run, "--ros-namespace", "/c"])
+    assert nobody.exit_code == 2 and f"no robot of {path} has the namespace /c" in nobody.output
+    both = CliRunner().invoke(main, [*run, "--ros-namespace", "/a", "--variant", "lab"])
+    assert both.exit_code == 2 and "no --variant or --config with it" in both.output
+    bare = CliRunner().invoke(main, run)
+    assert bare.exit_code == 2 and "a fleet file needs --ros-namespace NS" in bare.output

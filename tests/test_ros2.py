@@ -348,8 +348,12 @@ def test_diagnostics_report_the_loop_and_every_feature(ward: Callable[..., Runni
     arrays = robot.client.subscribe(DiagnosticArray, "/diagnostics")
     array = until(lambda: arrays and arrays[-1], what="/diagnostics")
     statuses = {s.name: s for s in array.status}
-    # issue 31: levels given as ints arrived as garbage bytes in another process
-    assert {s.level for s in array.status} == {DiagnosticStatus.OK} == {b"\x00"}
+    # issue 31: levels given as ints arrived as garbage bytes in another process. (The loop
+    # may say WARN: its first second includes the nodes' activation, and on a loaded
+    # machine a 500 Hz loop misses more than 1% of that second's deadlines.)
+    assert {s.level for s in array.status if s.name != "motivml: ward loop"} == {DiagnosticStatus.OK} == {b"\x00"}
+    assert (DiagnosticStatus.OK, DiagnosticStatus.WARN) == (b"\x00", b"\x01")
+    assert statuses["motivml: ward loop"].level in (b"\x00", b"\x01")
     loop = statuses["motivml: ward loop"]
     values = {v.key: v.value for v in loop.values}
     assert values["rate"] == "500" and int(values["ticks"]) > 0 and values["faults"] == "0"

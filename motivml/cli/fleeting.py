@@ -28,12 +28,13 @@ APPLIED = ("load", "unload", "swap", "set")  # (a reload is no parameter call)
 
 @click.group("fleet")
 def fleet_group() -> None:
-    """Many robots of one fleet file (FLEET.json), running or not.
+    """Many robots of one fleet file (FLEET.json), running or not (guidelines/a-fleet.md).
 
     `fleet list` shows the motivml robots running on the ROS 2 graph; `fleet plan` checks
     a change for every robot of a fleet file, touching none; `fleet apply` rolls it out to
     the running robots in waves, watching their health, and takes it back when one refuses
     or goes unhealthy. list, apply and a plan of running robots need ROS 2 (`make ros2`).
+    A fleet's robot runs with `motivml run FLEET.json --ros2 --ros-namespace NS`.
     """
 
 
@@ -71,10 +72,10 @@ def _graph(prefix: str = "/") -> Iterator[Graph]:
 
 
 SELECTOR_HELP = "The robots: a glob over namespaces (/bay*; * also crosses /), or @GROUP for a group's robots (default: all)."
-WAIT_HELP = "Seconds to find the running robots on the graph (discovery) [default: 5]."
+WAIT_HELP = "Seconds at most to find the running robots on the graph (discovery) [default: 10]."
 
 
-@fleet_group.command("plan")
+@fleet_group.command("plan", context_settings={"ignore_unknown_options": True, "help_option_names": ["--help"]})
 @click.argument("fleet", type=click.Path(dir_okay=False, readable=False))
 @click.argument("change", nargs=-1, required=True)
 @click.option("--robots", "selector", metavar="SELECTOR", help=SELECTOR_HELP)
@@ -83,7 +84,7 @@ WAIT_HELP = "Seconds to find the running robots on the graph (discovery) [defaul
     is_flag=True,
     help="Plan against the active set each robot's variant starts with; ask no running robot (needs no ROS 2).",
 )
-@click.option("--wait", type=Number(min=0.0), default=5.0, metavar="SECONDS", help=WAIT_HELP)
+@click.option("--wait", type=Number(min=0.0), default=10.0, metavar="SECONDS", help=WAIT_HELP)
 def plan_command(fleet: str, change: tuple[str, ...], selector: str | None, offline: bool, wait: float) -> None:
     """Check CHANGE (load F..., unload F..., reload F..., swap OUT IN, set +F -G...) for
     each robot of FLEET as `ctl` checks it on a running robot, without touching anything:
@@ -162,7 +163,7 @@ def _plan(fleet: str, change: tuple[str, ...], request: Request, selector: str |
     type=click.Path(dir_okay=False, exists=True),
     help="A rollout record (fleet apply's): each robot's latest step in it, in a column of its own.",
 )
-@click.option("--wait", type=Number(min=0.0), default=5.0, metavar="SECONDS", help=WAIT_HELP)
+@click.option("--wait", type=Number(min=0.0), default=10.0, metavar="SECONDS", help=WAIT_HELP)
 def list_command(fleet: str | None, prefix: str, fmt: str, watch: bool, record: str | None, wait: float) -> None:
     """The motivml robots running on the ROS 2 graph (each `motivml run --ros2`'s node
     NS/motivml): namespace, robot, variant, active features, rate, missed deadlines, faults
@@ -308,7 +309,7 @@ def _watch(graph: Graph, expected: list[str] | None, steps: list[dict[str, Any]]
 
 
 # ---------------------------------------------------------------------- apply
-@fleet_group.command("apply")
+@fleet_group.command("apply", context_settings={"ignore_unknown_options": True, "help_option_names": ["--help"]})
 @click.argument("fleet", type=click.Path(dir_okay=False, readable=False), required=False)
 @click.argument("change", nargs=-1)
 @click.option("--robots", "selector", metavar="SELECTOR", help=SELECTOR_HELP)
@@ -323,7 +324,7 @@ def _watch(graph: Graph, expected: list[str] | None, steps: list[dict[str, Any]]
     help="Seconds every changed robot must stay healthy before the next wave (0: no health waits).",
 )
 @click.option("--timeout", type=Number(min=0.1), default=20.0, show_default=True, metavar="SECONDS", help="Seconds one robot's call may take.")
-@click.option("--wait", type=Number(min=0.0), default=5.0, metavar="SECONDS", help=WAIT_HELP)
+@click.option("--wait", type=Number(min=0.0), default=10.0, metavar="SECONDS", help=WAIT_HELP)
 @click.option(
     "--record",
     type=click.Path(dir_okay=False),
@@ -462,7 +463,8 @@ def _say(step: dict[str, Any]) -> None:
 
 def _report(outcome: Any, path: Path) -> None:
     colour = {"applied": "green", "stopped": "yellow"}.get(outcome.result, "bold red")
-    for namespace, what in outcome.robots.items():
+    order = {p.namespace: k for k, p in enumerate(outcome.plans)}  # (the fleet file's order)
+    for namespace, what in sorted(outcome.robots.items(), key=lambda item: order.get(item[0], len(order))):
         out.print(f"  {escape(namespace)}: {escape(what)}")
     why = f": {outcome.why}" if outcome.why else ""
     out.print(f"[{colour}]{outcome.result}[/]{escape(why)} (record: {escape(str(path))})")

@@ -162,11 +162,12 @@ def run_command(
 
     The variant is --variant NAME (variants/NAME.json) or --config FILE, a configuration
     document anywhere; a run of FILE goes by FILE's stem (its run folder, ctl --variant).
+    TARGET may be a fleet file with --ros-namespace NS: its robot there, with the fleet's layers.
 
     With --record FILE.csv, one row per tick: tick, time, every number of every space the
-    variant may run, and the tick's events; the file appears complete when the run ends,
-    however it ends.
+    variant may run, and the tick's events; the file appears whole when the run ends.
     """
+    target, variant, config = _fleet_robot(target, variant, config, ros_namespace)
     name = one_variant(config, variant)
     ros_namespace = _ros_options(ros2, ros_namespace)
     priority, insist, scheduling = _scheduling(clock, priority)
@@ -286,6 +287,47 @@ def _plan(scheduled: tuple[tuple[float, str], ...], duration: float) -> list[tup
             )
     plan.sort(key=lambda item: item[0])
     return plan
+
+
+_FLEET_CONFIGS: list[Any] = []  # the temporary folders of a fleet robot's configuration (removed at exit)
+
+
+def _fleet_robot(
+    fleet: str, variant: str | None, config: str | None, namespace: str
+) -> tuple[str, str | None, str | None]:
+    """TARGET, --variant and --config as they are, or, when TARGET is a fleet file, its
+    robot's folder and configuration file in `namespace` (its variant with the fleet's
+    layers, written to a temporary file named as the variant; reference.md section 9)."""
+    import tempfile
+
+    from ..fleet import fleet_robot, is_fleet_file
+
+    if not is_fleet_file(fleet):
+        return fleet, variant, config
+
+    if variant is not None or config is not None:
+        raise click.UsageError("a fleet file names each robot's variant: no --variant or --config with it")
+    if namespace.strip("/") == "":
+        raise click.UsageError("a fleet file needs --ros-namespace NS: the robot of the file to run")
+    try:
+        problems, robot = fleet_robot(fleet, namespace)
+    except MotivmlError as exc:
+        fail(exc)
+    if problems:
+        print_diagnostics(problems)
+        out.print(f"[bold red]cannot run[/]: {escape(fleet)} has errors")
+        sys.exit(1)
+    if robot is None:
+        raise click.UsageError(f"no robot of {fleet} has the namespace {'/' + namespace.strip('/')}")
+    if not robot.valid or robot.document is None:
+        print_diagnostics(robot.errors)
+        out.print(f"[bold red]cannot run[/]: robot {escape(robot.namespace)} of {escape(fleet)}: its configuration has errors")
+        sys.exit(1)
+    folder = tempfile.TemporaryDirectory(prefix="motivml-fleet-")
+    _FLEET_CONFIGS.append(folder)
+    path = Path(folder.name) / f"{robot.variant}.json"
+    path.write_text(json.dumps(robot.document))
+    return robot.folder, None, str(path)
 
 
 def _launched(

@@ -55,6 +55,7 @@ class RobotReport(Judged):
     origins: list[tuple[Layer, int]] = field(default_factory=list)  # where each entry of `config` was written
     entry: Location | None = None  # the robot's entry in the fleet file
     variant_layer: Layer | None = None  # its variant file, where the configuration as a whole is said
+    document: dict[str, Any] | None = None  # its configuration as one decisions document (run FLEET runs it)
 
 
 def is_fleet_file(path: str | Path) -> bool:
@@ -133,13 +134,24 @@ def _robot(doc: Document, k: int, base: Path, partial: bool) -> RobotReport:
         report.diagnostics = [_about(namespace, d) for d in twice]
         return report
     partial = partial or variant_doc.root.get("partial") is True
-    merged = parse(json.dumps({"partial": partial, "properties": entries}), f"{namespace} (merged)")
+    report.document = {"partial": partial, "properties": entries}
+    merged = parse(json.dumps(report.document), f"{namespace} (merged)")
     config, diagnostics = read_configuration(merged, model, partial=partial)
     report.config, report.origins = config, origins
     if not [d for d in diagnostics if d.severity is Severity.ERROR]:
         diagnostics += check_variant(model, config)
     report.diagnostics = [_about(namespace, _moved(d, origins, layers[0])) for d in diagnostics]
     return report
+
+
+def fleet_robot(path: str | Path, namespace: str) -> tuple[list[Diagnostic], RobotReport | None]:
+    """The robot of the fleet file in `namespace`, checked (`run FLEET --ros-namespace NS`):
+    the fleet file's errors, or its report (None: no robot of the file has that namespace)."""
+    problems, robots = validate_fleet(path)
+    if problems:
+        return problems, None
+    wanted = "/" + namespace.strip("/")
+    return [], next((r for r in robots if r.namespace == wanted), None)
 
 
 def _entries(layer: Layer) -> list[Any]:

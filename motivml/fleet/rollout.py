@@ -231,7 +231,7 @@ class Options:
     waves: int = 1
     healthy: float = 10.0  # s every changed robot stays healthy after a wave
     timeout: float = 20.0  # s for one call to a robot's node
-    discover: float = 5.0  # s to find the robots on the graph
+    discover: float = 10.0  # s at most to find the robots on the graph
 
 
 @dataclass

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import threading
 import time
 from dataclasses import dataclass, field
@@ -28,6 +29,11 @@ from .node import LEVELS, parameter_name
 NODE_NAME = "motivml"
 LEVEL_WORDS = {value: word for word, value in LEVELS.items()}
 POLL = 0.02  # s between two looks at the graph while waiting for discovery
+
+
+def natural(namespace: str) -> list[Any]:
+    """A sort key that puts /uv2 before /uv10."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", namespace)]
 
 
 @dataclass
@@ -86,7 +92,7 @@ class Watch:
         for name, namespace in self.node.get_node_names_and_namespaces():
             if name == NODE_NAME and self._under(namespace):
                 found.add(namespace)
-        return sorted(found)
+        return sorted(found, key=natural)
 
     def _under(self, namespace: str) -> bool:
         return self.prefix == "/" or namespace == self.prefix or namespace.startswith(self.prefix + "/")

@@ -236,7 +236,7 @@ def main(argv: list[str]) -> int:
     names = ", ".join(NODES)
     own = remove_ros_args(argv)[1:]
     if not own or any(name not in NODES for name in own) or len(set(own)) != len(own):
-        print(f"usage: uv_nodes.py NODE... [--ros-args ...] (each NODE once, of: {names})", file=sys.stderr)
+        print(f"usage: uv_nodes.py NODE... [--ros-args ...] (NODE: one of {names}; each once)", file=sys.stderr)
         return 2
     rclpy.init(args=argv, signal_handler_options=SignalHandlerOptions.NO)
     # SIGINT and SIGTERM only ask the loop below to end, between two callbacks: a
