@@ -103,6 +103,42 @@ def active(fleets: Fleets) -> dict[str, list[str]]:
 
 
 # ---------------------------------------------------------------------- tests
+def test_the_watch_keeps_what_nodes_say_and_ignores_what_is_not_theirs() -> None:
+    """motivml.ros2.fleet.Watch on a graph of its own with no robot: what it does with
+    messages that are not a robot's, a call to a robot that is not there, waits that end."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+    from motivml.ros2.fleet import Watch, natural
+
+    domain()
+    watch = Watch("/x")
+    try:
+        assert watch.discover(0.1) == [] and watch.namespaces() == [] and not watch.alive("/x/uv1")
+        watch.follow(["/x/uv1"])
+        for data in ("not json", "[1, 2]"):
+            watch._state("/x/uv1", data)  # (another publisher on the topic: ignored)
+        assert watch.heard() == []
+        watch._state("/x/uv1", json.dumps({"robot": "r", "variant": "v", "active": ["a"], "tick": 3}))
+        assert watch.heard() == ["/x/uv1"]
+        watch.wait_reports(["/x/uv1"], 0.05)  # (none comes: the wait ends)
+        statuses = [
+            DiagnosticStatus(level=b"\x01", name="motivml: r loop", message="slow", hardware_id="/x/uv1/motivml",
+                             values=[KeyValue(key="ticks", value="10")]),
+            DiagnosticStatus(level=b"\x00", name="other", message="ok", hardware_id="/x/uv1/camera"),
+            DiagnosticStatus(level=b"\x00", name="motivml: q loop", message="ok", hardware_id="/y/motivml"),
+        ]
+        watch._diagnostics(DiagnosticArray(status=statuses))
+        seen = watch.snapshot("/x/uv1")
+        assert seen is not None and seen.reports == 1 and seen.state == {"robot": "r", "variant": "v", "active": ["a"], "tick": 3}
+        assert [(s["name"], s["level"], s["values"]) for s in seen.statuses] == [("motivml: r loop", "WARN", {"ticks": "10"})]
+        assert watch.snapshot("/y") is None  # (not followed)
+        accepted, reason = watch.set("/x/uv1", {"a": False}, 0.2)
+        assert accepted is False and reason == "/x/uv1/motivml/set_parameters_atomically is not on the graph"
+        assert sorted(["/a/uv10", "/a/uv9", "/a/uv1"], key=natural) == ["/a/uv1", "/a/uv9", "/a/uv10"]
+    finally:
+        watch.close()
+
+
 def test_list_shows_each_fleet_under_its_prefix_and_no_other(fleets: Fleets) -> None:
     rows = listed(fleets, "--fleet", str(fleets.fleet_a))
     assert [r["namespace"] for r in rows] == A
@@ -143,10 +179,17 @@ def test_an_apply_that_one_robot_would_refuse_touches_no_robot(fleets: Fleets) -
 
 
 def test_an_apply_in_waves_changes_every_robot_and_its_nodes(fleets: Fleets, tmp_path: Path) -> None:
+    from rcl_interfaces.msg import Log
+
+    logs = fleets.client.subscribe(Log, "/rosout")
     record = tmp_path / "r.jsonl"
     result = fleet(fleets, "apply", str(fleets.fleet_a), *SWAP, "--canary", "1", "--waves", "2",
                    "--healthy", "1", "--record", str(record))
     assert result.exit_code == 0, result.output
+    # each step in words on rosout too, from the command's own node (the first ones may go
+    # out before this client has matched the new node's rosout publisher)
+    said = f"rollout of {' '.join(SWAP)}: wave 3: every robot changed so far healthy for 1 s"
+    until(lambda: any(m.msg == said and m.name.startswith("motivml_fleet_") for m in logs), what="rosout")
     steps = [json.loads(line) for line in record.read_text().splitlines()]
     assert steps[0]["waves"] == [A[:1], A[1:4], A[4:]]
     assert [s["robot"] for s in steps if s["step"] == "changed"] == A

@@ -352,7 +352,6 @@ def test_diagnostics_report_the_loop_and_every_feature(ward: Callable[..., Runni
     # may say WARN: its first second includes the nodes' activation, and on a loaded
     # machine a 500 Hz loop misses more than 1% of that second's deadlines.)
     assert {s.level for s in array.status if s.name != "motivml: ward loop"} == {DiagnosticStatus.OK} == {b"\x00"}
-    assert (DiagnosticStatus.OK, DiagnosticStatus.WARN) == (b"\x00", b"\x01")
     assert statuses["motivml: ward loop"].level in (b"\x00", b"\x01")
     loop = statuses["motivml: ward loop"]
     values = {v.key: v.value for v in loop.values}

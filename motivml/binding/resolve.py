@@ -57,6 +57,18 @@ class Variant:
     def selected(self) -> list[Decision]:
         return [d for d in self.decisions if d.selected]
 
+    def digest(self) -> str:
+        """A fingerprint of what the variant selects and how each selected feature is bound
+        (16 hex digits): two runs of one model with equal digests run the same variant, so
+        a fleet's plan can tell a robot that runs its variant without the fleet's layers."""
+        import hashlib
+
+        fingerprint = hashlib.sha256()
+        for d in self.decisions:
+            if d.selected:
+                fingerprint.update(f"{d.feature.id}\0{d.binding.words}\n".encode())
+        return fingerprint.hexdigest()[:16]
+
 
 def resolve(
     model: FeatureModel, config: Configuration, prefer: Collection[str] = (), start: bool = True

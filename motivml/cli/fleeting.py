@@ -45,6 +45,9 @@ def _request(change: tuple[str, ...], verbs: tuple[str, ...]) -> Request:
 
     if change[0] not in verbs:
         raise click.UsageError(f"{change[0]} is not a change for a fleet: {', '.join(verbs)}")
+    options = [w for w in change if w.startswith("--")]
+    if options:  # (the change's words may start with -, so unknown options come here: said as such)
+        raise click.UsageError(f"no such option: {options[0]}")
     if change[0] == "set":
         signs = [w for w in change[1:] if w[:1] not in "+-" or len(w) < 2]
         if signs or len(change) < 2:
@@ -224,10 +227,11 @@ def _rows(graph: Graph, names: list[str], steps: list[dict[str, Any]] | None) ->
         report = health(said) if said is not None else None
         row: dict[str, Any] = {"namespace": namespace}
         if state is None:
-            row.update(robot=None, variant=None, active=[], rate=None, achieved=None, missed=None, faults=None,
+            row.update(robot=None, variant=None, configuration=None, active=[], rate=None, achieved=None, missed=None, faults=None,
                        health="not running", status="no node on the graph")
         else:
-            row.update(robot=state.robot, variant=state.variant, active=list(state.active), tick=state.tick)
+            row.update(robot=state.robot, variant=state.variant, configuration=state.configuration,
+                       active=list(state.active), tick=state.tick)
             if report is None:
                 row.update(rate=None, achieved=None, missed=None, faults=None, health="unknown", status="no /diagnostics yet")
             else:
@@ -371,48 +375,43 @@ def apply_command(
 
     Exit 0 applied, 1 refused, unhealthy or rolled back, 2 usage, 3 without ROS 2, 130 stopped by Ctrl-C.
     """
-    from ..fleet.rollout import Options, Record, RecordError, read_record, resumed
+    from ..fleet.rollout import Options, Record, Rollout
 
-    done = None
-    planned_waves = None
-    if resume is not None:
-        try:
-            steps = read_record(Path(resume))
-            start, done, planned_waves = resumed(steps)
-        except RecordError as exc:
-            raise click.BadParameter(str(exc), param_hint="'--resume'") from None
-        except UnicodeDecodeError:
-            raise click.BadParameter(f"{resume}: not a rollout record (not text)", param_hint="'--resume'") from None
-        if fleet is not None and (Path(fleet) != Path(start["fleet"]) or (change and " ".join(change) != start["change"])):
-            raise click.UsageError(f"--resume {resume} continues the rollout of {start['change']} to {start['fleet']}: give no FLEET and CHANGE, or those")
-        fleet, change = start["fleet"], tuple(start["change"].split())
-        selector, canary, healthy = start.get("robots"), int(start["canary"]), float(start["healthy"])
-        record = resume
+    resuming = _resumed(resume, fleet, change) if resume is not None else None
+    if resuming is not None:
+        fleet, change = resuming.fleet, tuple(resuming.change.split())
+        selector, canary, healthy = resuming.selector, resuming.canary, resuming.healthy
     if fleet is None or not change:
         raise click.UsageError("fleet apply needs FLEET and CHANGE (or --resume RECORD)")
     request = _request(change, APPLIED)
     _expected(fleet)  # (the fleet file's own errors: said, and nothing is asked of any robot)
+    _some_robot(fleet, selector)
     if dry_run:
         with _graph() as graph:
             from ..fleet.rollout import ask
 
             _plan(fleet, change, request, selector, graph, ask(graph, wait))
-    path = Path(record) if record else Path("build", "rollouts", time.strftime("%Y%m%dT%H%M%SZ", time.gmtime()) + ".jsonl")
+    try:
+        if resume is not None:
+            book = Record(Path(resume), resume=True)
+        elif record is not None:
+            book = Record(Path(record))
+        else:
+            book = Record.new(Path("build", "rollouts"))
+    except FileExistsError:
+        raise click.BadParameter(f"{record} exists: a new rollout writes a new record (--resume goes on with one)",
+                                 param_hint="'--record'") from None
+    except OSError as exc:
+        from .common import environment_problem
+
+        fail(environment_problem(exc))
+    out.print(f"record: {escape(str(book.path))}")
     with _graph() as graph:
-        from ..fleet.rollout import Rollout
-
-        try:
-            book = Record(path)
-        except OSError as exc:
-            from .common import environment_problem
-
-            fail(environment_problem(exc))
-        out.print(f"record: {escape(str(path))}")
         rollout = Rollout(Path(fleet), request, selector, graph, Options(canary, waves, healthy, timeout, wait), book, _say)
         try:
             with _interruptible(rollout.interrupt):
                 try:
-                    outcome = rollout.run(done, planned_waves)
+                    outcome = rollout.run(resuming)
                 except Exception as exc:  # (a defect, or rclpy failing under it: never leave robots half changed)
                     outcome = rollout.failed(exc)
             if outcome.result == "stopped":
@@ -421,8 +420,45 @@ def apply_command(
                     outcome = rollout.roll_back() if back else rollout.keep()
         finally:
             book.close()
-    _report(outcome, path)
+    _report(outcome, book)
     sys.exit(outcome.exit_code)
+
+
+def _resumed(resume: str, fleet: str | None, change: tuple[str, ...]) -> Any:
+    """The record's rollout to go on with (usage errors for one that cannot be, or for a
+    FLEET and CHANGE that are not its own)."""
+    from ..fleet.rollout import RecordError, read_record, resumed
+
+    try:
+        steps = read_record(Path(resume))
+        resuming = resumed(Path(resume), steps)
+    except RecordError as exc:
+        raise click.BadParameter(str(exc), param_hint="'--resume'") from None
+    except UnicodeDecodeError:
+        raise click.BadParameter(f"{resume}: not a rollout record (not text)", param_hint="'--resume'") from None
+    if fleet is not None:
+        same = Path(fleet) == Path(resuming.fleet)
+        if change:
+            same = same and str(_request(change, APPLIED)) == resuming.change
+        if not same:
+            raise click.UsageError(
+                f"--resume {resume} goes on with the rollout of {resuming.change} to {resuming.fleet}: "
+                "give no FLEET and CHANGE, or those"
+            )
+    return resuming
+
+
+def _some_robot(fleet: str, selector: str | None) -> None:
+    """A selector that names no group of the file is a usage error; one that selects no robot, exit 1."""
+    from ..fleet import UnknownGroup, selected_namespaces
+
+    try:
+        chosen = selected_namespaces(fleet, selector)
+    except UnknownGroup as unknown:
+        raise click.BadParameter(str(unknown), param_hint="'--robots'") from None
+    if not chosen:
+        out.print(f"[yellow]no robot[/] of {escape(fleet)} is selected by {escape(str(selector))}")
+        sys.exit(1)
 
 
 @contextmanager
@@ -444,10 +480,19 @@ def _roll_back(choice: str, changed: int) -> bool:
         return choice == "rollback"
     if not changed:
         return True
-    if not sys.stdin.isatty():
+    if not _terminal():
         err.print("interrupted: rolling back (not a terminal to ask on; --on-interrupt keep keeps the changes)")
         return True
-    return click.confirm(f"interrupted: roll back the {plural(changed, 'robot')} changed?", default=True, err=True)
+    try:
+        return click.confirm(f"interrupted: roll back the {plural(changed, 'robot')} changed?", default=True, err=True)
+    except click.Abort:  # (Ctrl-C or the end of input at the question: the changes are kept, the record resumable)
+        err.print("kept: the robots changed keep the change (fleet apply --resume goes on with it)")
+        return False
+
+
+def _terminal() -> bool:
+    """Whether a person can be asked (standard input is a terminal)."""
+    return sys.stdin.isatty()
 
 
 def _say(step: dict[str, Any]) -> None:
@@ -461,10 +506,13 @@ def _say(step: dict[str, Any]) -> None:
     out.print(f"[{colour}]{text}[/]" if colour else text)
 
 
-def _report(outcome: Any, path: Path) -> None:
+def _report(outcome: Any, book: Any) -> None:
+    path = book.path
     colour = {"applied": "green", "stopped": "yellow"}.get(outcome.result, "bold red")
-    order = {p.namespace: k for k, p in enumerate(outcome.plans)}  # (the fleet file's order)
+    order = {namespace: k for k, namespace in enumerate(outcome.order)}  # (the order of the waves)
     for namespace, what in sorted(outcome.robots.items(), key=lambda item: order.get(item[0], len(order))):
         out.print(f"  {escape(namespace)}: {escape(what)}")
     why = f": {outcome.why}" if outcome.why else ""
     out.print(f"[{colour}]{outcome.result}[/]{escape(why)} (record: {escape(str(path))})")
+    if book.failure is not None:
+        err.print(f"[bold red]the record is incomplete[/]: {escape(book.failure)} (every step went to rosout)")

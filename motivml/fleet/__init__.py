@@ -18,6 +18,7 @@ from .layers import (
     is_fleet_file,
     plan_fleet,
     selected,
+    selected_namespaces,
     validate_fleet,
 )
 
@@ -30,5 +31,6 @@ __all__ = [
     "is_fleet_file",
     "plan_fleet",
     "selected",
+    "selected_namespaces",
     "validate_fleet",
 ]

@@ -243,15 +243,28 @@ class RobotPlan:
 def selected(robots: list[RobotReport], groups: dict[str, list[str]], selector: str | None) -> list[RobotReport]:
     """The robots a selector names: a glob over namespaces ("/bay*"), or "@GROUP" for the
     robots of a group; None: every robot."""
+    chosen = set(_chosen([r.namespace for r in robots], groups, selector))
+    return [r for r in robots if r.namespace in chosen]
+
+
+def selected_namespaces(path: str | Path, selector: str | None) -> list[str]:
+    """The namespaces of the robots of a fleet file (one with no errors of its own) that a
+    selector names, in the file's order; UnknownGroup for a group it does not define."""
+    doc, _ = read_with_problems(path, lambda d: [])
+    assert doc is not None
+    return _chosen(["/" + r["namespace"].strip("/") for r in doc.root["robots"]], groups_of(doc), selector)
+
+
+def _chosen(namespaces: list[str], groups: dict[str, list[str]], selector: str | None) -> list[str]:
     if selector is None:
-        return robots
+        return namespaces
     if selector.startswith("@"):
         if selector[1:] not in groups:
             raise UnknownGroup(f"no group {selector[1:]!r} in the fleet file (groups: {', '.join(groups) or 'none'})")
         members = set(groups[selector[1:]])
-        return [r for r in robots if r.namespace in members]
+        return [ns for ns in namespaces if ns in members]
     pattern = "/" + selector.strip("/")
-    return [r for r in robots if fnmatch.fnmatchcase(r.namespace, pattern)]
+    return [ns for ns in namespaces if fnmatch.fnmatchcase(ns, pattern)]
 
 
 @dataclass(frozen=True)
@@ -263,6 +276,7 @@ class Running:
     variant: str
     active: tuple[str, ...]
     tick: int
+    configuration: str = ""  # the digest of the variant it runs (Variant.digest; "": not said)
 
 
 def groups_of(doc: Document) -> dict[str, list[str]]:
@@ -303,16 +317,24 @@ def _plan_running(robot: RobotReport, request: Request, running: Running | None)
     if running is None:
         why = f"robot {robot.namespace}: not running (no node {robot.namespace.rstrip('/')}/motivml on the graph)"
         return RobotPlan(robot.namespace, False, diagnostics=[error(where, why, "fleet.absent")])
+    if running.robot != Path(robot.folder).name:
+        why = (
+            f"robot {robot.namespace}: runs the robot {running.robot}, the fleet file gives it "
+            f"{Path(robot.folder).name}: nothing planned"
+        )
+        return RobotPlan(robot.namespace, False, diagnostics=[error(where, why, "fleet.robot")])
     if running.variant != robot.variant:
         why = (
             f"robot {robot.namespace}: runs variant {running.variant}, the fleet file gives it {robot.variant}: "
             "nothing planned (restart it with its fleet variant, or correct the fleet file)"
         )
         return RobotPlan(robot.namespace, False, diagnostics=[error(where, why, "fleet.variant")])
-    return _plan(robot, request, running.active)
+    return _plan(robot, request, running.active, running.configuration)
 
 
-def _plan(robot: RobotReport, request: Request, active: tuple[str, ...] | None = None) -> RobotPlan:
+def _plan(
+    robot: RobotReport, request: Request, active: tuple[str, ...] | None = None, configuration: str = ""
+) -> RobotPlan:
     from ..binding.resolve import resolve, start_state
     from ..runtime.reconfigure import Reconfigurer, Refused
 
@@ -321,6 +343,12 @@ def _plan(robot: RobotReport, request: Request, active: tuple[str, ...] | None =
         where = robot.entry or Location(robot.folder)
         return RobotPlan(robot.namespace, False, diagnostics=[error(where, why, "fleet.invalid")])
     variant = resolve(robot.model, robot.config)
+    if configuration and configuration != variant.digest():
+        why = (
+            f"robot {robot.namespace}: runs variant {robot.variant} in another configuration than the fleet file "
+            f"gives it (its layers): nothing planned (run it as motivml run FLEET --ros-namespace {robot.namespace})"
+        )
+        return RobotPlan(robot.namespace, False, diagnostics=[error(robot.entry or Location(robot.folder), why, "fleet.layers")])
     now = list(active) if active is not None else [f.id for f in start_state(variant)]
     try:
         plan = Reconfigurer(variant, robot.config).plan(now, request)

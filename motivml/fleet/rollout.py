@@ -22,6 +22,7 @@ starts, and one line of the graph's log (rosout, through the `Graph`'s logger).
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import threading
@@ -68,7 +69,8 @@ class Graph(Protocol):
     def namespaces(self) -> list[str]: ...
     def snapshot(self, namespace: str) -> Said | None: ...
     def alive(self, namespace: str) -> bool: ...
-    def set(self, namespace: str, wanted: dict[str, bool], timeout: float) -> tuple[bool, str]: ...
+    def set(self, namespace: str, wanted: dict[str, bool], timeout: float) -> tuple[bool | None, str]: ...
+    # (accepted; refused; None: no answer in time, it may have taken the change)
     def wait_reports(self, namespaces: list[str], wait: float) -> None: ...
 
 
@@ -120,14 +122,16 @@ def running(said: Said | None) -> Running | None:
         return None
     state = said.state
     active = state.get("active")
-    if not isinstance(active, list):
+    tick = state.get("tick") or 0
+    if not isinstance(active, list) or not isinstance(tick, int):
         return None
     return Running(
         said.namespace,
         str(state.get("robot", "")),
         str(state.get("variant", "")),
         tuple(str(f) for f in active),
-        int(state.get("tick") or 0),
+        tick,
+        str(state.get("configuration") or ""),
     )
 
 
@@ -176,24 +180,61 @@ def waves_of(robots: list[str], canary: int, waves: int) -> list[list[str]]:
 
 # ------------------------------------------------------------------ the record
 class Record:
-    """The rollout's record: one JSON object per line, appended and flushed step by step."""
+    """The rollout's record: one JSON object per line, each written whole and flushed.
 
-    def __init__(self, path: Path) -> None:
+    A new record is a new file (an existing one is never appended to by a new rollout:
+    `resume` would take the first rollout's start for its own); a resumed one is appended
+    to, after its last whole line (a line cut short by a killed writer is cut off). A
+    record that cannot be written (a full disk) does not stop the rollout, nor its
+    rollback: `failure` says why, and the rest goes to the log only."""
+
+    def __init__(self, path: Path, resume: bool = False) -> None:
         self.path = path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        self._file = path.open("a", encoding="utf-8")
+        self.failure: str | None = None
+        if resume:
+            whole = path.read_bytes()
+            cut = whole.rfind(b"\n") + 1
+            if cut != len(whole):
+                with path.open("r+b") as file:
+                    file.truncate(cut)
+            self._file = path.open("a", encoding="utf-8")
+        else:
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+            except FileExistsError:  # (a file where a folder of the path should be)
+                raise NotADirectoryError(errno.ENOTDIR, "not a folder", str(path.parent)) from None
+            self._file = path.open("x", encoding="utf-8")
+
+    @classmethod
+    def new(cls, folder: Path) -> Record:
+        """A new record in `folder`, named by the UTC time (-2, -3 ... when taken)."""
+        stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
+        for k in range(1, 1000):
+            try:
+                return cls(folder / (stamp + (f"-{k}" if k > 1 else "") + ".jsonl"))
+            except FileExistsError:
+                continue
+        raise FileExistsError(f"{folder}: no free record name for {stamp}")
 
     def write(self, step: dict[str, Any]) -> None:
+        if self.failure is not None:
+            return
         line = json.dumps({"at": datetime.now(UTC).isoformat(timespec="milliseconds"), **step})
-        self._file.write(line + "\n")
-        self._file.flush()
+        try:
+            self._file.write(line + "\n")
+            self._file.flush()
+        except OSError as exc:
+            self.failure = f"{self.path}: {exc.strerror or exc}"
 
     def close(self) -> None:
-        self._file.close()
+        try:
+            self._file.close()
+        except OSError as exc:
+            self.failure = self.failure or f"{self.path}: {exc.strerror or exc}"
 
 
 class RecordError(ValueError):
-    """A record that cannot be resumed; the message says why, with its line."""
+    """A record that cannot be read or resumed; the message says why, with its line."""
 
 
 def read_record(path: Path) -> list[dict[str, Any]]:
@@ -207,7 +248,7 @@ def read_record(path: Path) -> list[dict[str, Any]]:
             if number == len(lines):
                 break
             raise RecordError(f"{path}:{number}: not a JSON line of a rollout record") from None
-        if not isinstance(step, dict) or "step" not in step:
+        if not isinstance(step, dict) or not isinstance(step.get("step"), str):
             raise RecordError(f"{path}:{number}: not a step of a rollout record")
         steps.append(step)
     if not steps or steps[0]["step"] != "start":
@@ -219,9 +260,57 @@ def last_steps(steps: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     """Each robot's latest step in a record."""
     latest: dict[str, dict[str, Any]] = {}
     for step in steps:
-        if "robot" in step:
+        if isinstance(step.get("robot"), str):
             latest[step["robot"]] = step
     return latest
+
+
+@dataclass
+class Resumed:
+    """What a record says of a rollout stopped and kept."""
+
+    fleet: str
+    change: str
+    selector: str | None
+    canary: int
+    healthy: float
+    waves: list[list[str]]  # the rollout's waves, as it started
+    done: dict[str, tuple[int, tuple[str, ...], tuple[str, ...]]]  # robot -> (wave, before, after)
+
+
+def resumed(path: Path, steps: list[dict[str, Any]]) -> Resumed:
+    """A record's rollout to go on with; RecordError when there is nothing to resume, or a
+    step is not as a rollout writes it (said with its line)."""
+
+    def strings(value: Any) -> bool:
+        return isinstance(value, list) and all(isinstance(v, str) for v in value)
+
+    start = steps[0]
+    ends = [s for s in steps if s["step"] == "end"]
+    if ends and ends[-1].get("result") != "stopped":
+        raise RecordError(f"{path}: the rollout ended: {ends[-1].get('result')}: nothing to resume (start a new one)")
+    waves = start.get("waves")
+    if not (
+        isinstance(start.get("fleet"), str)
+        and isinstance(start.get("change"), str)
+        and isinstance(start.get("canary"), int)
+        and isinstance(start.get("healthy"), int | float)
+        and isinstance(start.get("robots"), str | None)
+        and isinstance(waves, list)
+        and all(strings(w) for w in waves)
+    ):
+        raise RecordError(f"{path}:1: not the start of a rollout as fleet apply writes it")
+    done: dict[str, tuple[int, tuple[str, ...], tuple[str, ...]]] = {}
+    for number, s in enumerate(steps, 1):
+        if s["step"] == "changed":
+            if not (isinstance(s.get("robot"), str) and isinstance(s.get("wave"), int)
+                    and strings(s.get("before")) and strings(s.get("after"))):
+                raise RecordError(f"{path}:{number}: not a changed step as fleet apply writes it")
+            done[s["robot"]] = (s["wave"], tuple(s["before"]), tuple(s["after"]))
+        elif s["step"] == "rolled back" and isinstance(s.get("robot"), str):
+            done.pop(s["robot"], None)
+    return Resumed(start["fleet"], start["change"], start["robots"], start["canary"], float(start["healthy"]),
+                   [list(w) for w in waves], done)
 
 
 # ------------------------------------------------------------------ the rollout
@@ -255,6 +344,7 @@ class Outcome:
     why: str = ""
     robots: dict[str, str] = field(default_factory=dict)  # namespace -> what happened to it
     plans: list[RobotPlan] = field(default_factory=list)
+    order: list[str] = field(default_factory=list)  # the robots in the order they are changed
 
     @property
     def exit_code(self) -> int:
@@ -285,6 +375,8 @@ class Rollout:
         self.changed: list[Changed] = []
         self.outcome = Outcome("applied")
         self._first: dict[str, Health] = {}
+        self._plans: dict[str, RobotPlan] = {}
+        self._back_done: set[str] = set()  # robots rolled back (a second rollback skips them)
 
     # ------------------------------------------------------------ steps
     def step(self, kind: str, level: str = "info", **said: Any) -> None:
@@ -304,17 +396,19 @@ class Rollout:
         self.say(step)
 
     # ------------------------------------------------------------ running
-    def run(self, done: dict[str, Changed] | None = None, waves: list[list[str]] | None = None) -> Outcome:
-        """The rollout. Resuming: `done`, the robots a record says were changed (they are
-        not planned for again, and are watched first), and `waves`, the record's."""
+    def run(self, resume: Resumed | None = None) -> Outcome:
+        """The rollout; with `resume`, the rest of a rollout stopped and kept (its robots
+        changed before are not planned for again: they are watched first)."""
         problems, plans = plan_fleet(self.fleet, self.request, self.selector, ask(self.graph, self.options.discover))
         if problems:
             self.outcome = Outcome("failed", "the fleet file has errors: nothing changed")
             self.step("end", "error", result="failed", why=self.outcome.why)
             return self.outcome
-        done = done or {}
+        done = resume.done if resume is not None else {}
         plans = [p for p in plans if p.namespace not in done]
-        if waves is None:
+        self.outcome.plans = plans
+        self._plans = {p.namespace: p for p in plans}
+        if resume is None:
             waves = waves_of([p.namespace for p in plans], self.options.canary, self.options.waves)
             self.step(
                 "start",
@@ -325,10 +419,14 @@ class Rollout:
                 waves=waves,
                 healthy=self.options.healthy,
             )
-        else:
-            waves = [left for left in ([ns for ns in wave if ns not in done] for wave in waves) if left]
-            self.step("resume", waves=waves, done=sorted(done))
-        self.outcome.plans = plans
+        else:  # (the record's waves, less the robots changed; a robot the file no longer selects is
+            # left out, and one it selects now and no wave has goes last)
+            waves = [[ns for ns in w if ns in self._plans or ns in done] for w in resume.waves]
+            placed = {ns for w in waves for ns in w}
+            waves.append([p.namespace for p in plans if p.namespace not in placed])
+            left = [[ns for ns in w if ns not in done] for w in waves]
+            self.step("resume", waves=[w for w in left if w], done=sorted(done))
+        self.outcome.order = [ns for w in waves for ns in w]
         for p in plans:
             self.step(
                 "planned",
@@ -338,13 +436,6 @@ class Rollout:
                 unloads=list(p.unloads),
                 why=[d.message for d in p.diagnostics],
             )
-        refused = [p for p in plans if not p.accepted]
-        if refused:
-            self.outcome.result = "refused"
-            self.outcome.why = f"{len(refused)} of {len(plans)} robots refuse it in the plan: nothing changed"
-            self.outcome.robots = {p.namespace: "refused in the plan" if not p.accepted else "unchanged" for p in plans}
-            self.step("end", "warning", result="refused", why=self.outcome.why)
-            return self.outcome
         # each robot's first report: its recent share of missed deadlines is measured from it
         everyone = [p.namespace for p in plans] + list(done)
         self.graph.wait_reports(everyone, 1.5)
@@ -353,10 +444,26 @@ class Rollout:
             report = health(said) if said is not None else None
             if report is not None:
                 self._first[namespace] = report
-        self.changed = list(done.values())
+        now = time.monotonic()  # (the robots changed before: judged from their first report here)
+        self.changed = [
+            Changed(ns, wave, before, after, self._first.get(ns), 0.0, now) for ns, (wave, before, after) in done.items()
+        ]
+        refused = [p for p in plans if not p.accepted]
+        if refused:
+            self.outcome.why = f"{len(refused)} of {len(plans)} robots refuse it in the plan"
+            self.outcome.robots = {p.namespace: "refused in the plan" if not p.accepted else "unchanged" for p in plans}
+            if self.changed:  # (resuming: the robots changed before are changed back)
+                return self._back(self.outcome.why)
+            self.outcome.result = "refused"
+            self.outcome.why += ": nothing changed"
+            self.step("end", "warning", result="refused", why=self.outcome.why)
+            return self.outcome
         if self.changed and not self._healthy(0):  # resuming: the robots changed before, watched first
             return self._interrupted() if self.interrupt.is_set() else self._back("unhealthy")
         for number, wave in enumerate(waves, 1):
+            wave = [ns for ns in wave if ns not in done]
+            if not wave:
+                continue
             self.step("wave", wave=number, robots=wave)
             for namespace in wave:
                 if self.interrupt.is_set():
@@ -372,38 +479,54 @@ class Rollout:
         return self.outcome
 
     def _change(self, namespace: str, wave: int) -> bool:
-        """One robot changed by one call; False: refused, or no answer."""
+        """One robot changed by one call; False: refused, or no answer (then it is rolled
+        back too: it may have taken the change)."""
         said = self.graph.snapshot(namespace)
         now = running(said)
-        before = now.active if now is not None else ()
+        before = now.active if now is not None else self._plans[namespace].against
         baseline = health(said) if said is not None else None
         recent = 0.0
         first = self._first.get(namespace)
         if baseline is not None and first is not None and baseline.ticks > first.ticks:
             recent = (baseline.missed - first.missed) / (baseline.ticks - first.ticks)
-        elif baseline is not None and baseline.ticks > 0:
+        elif baseline is not None and baseline.ticks > 0:  # (no report between: its whole run's share)
             recent = baseline.missed / baseline.ticks
         accepted, reason = self.graph.set(namespace, wanted(self.request), self.options.timeout)
-        if not accepted:
+        if accepted is False:
             self.outcome.robots[namespace] = f"refused: {reason}"
             self.step("refused", "error", robot=namespace, wave=wave, why=reason)
             return False
         after = self._settled(namespace, now)
+        settled = after is not None
+        if after is None:  # (no news of it in time: what the plan said it would do)
+            after = self._planned_after(namespace, before)
         self.changed.append(Changed(namespace, wave, before, after, baseline, recent, time.monotonic()))
         loads = [f for f in after if f not in before]
         unloads = [f for f in before if f not in after]
-        self.step("changed", robot=namespace, wave=wave, loads=loads, unloads=unloads, before=list(before), after=list(after))
+        extra: dict[str, Any] = {} if settled else {"settled": False}
+        if accepted is None:
+            self.outcome.robots[namespace] = f"no answer: {reason}"
+            self.step("no answer", "error", robot=namespace, wave=wave, why=reason, loads=loads, unloads=unloads,
+                      before=list(before), after=list(after))
+            return False
+        self.step("changed", robot=namespace, wave=wave, loads=loads, unloads=unloads, before=list(before),
+                  after=list(after), **extra)
         return True
 
-    def _settled(self, namespace: str, before: Running | None) -> tuple[str, ...]:
-        """The robot's active set once its node has said the change (at most SETTLE s)."""
+    def _planned_after(self, namespace: str, before: tuple[str, ...]) -> tuple[str, ...]:
+        plan = self._plans[namespace]
+        kept = [f for f in before if f not in plan.unloads]
+        return tuple(kept + [f for f in plan.loads if f not in kept])
+
+    def _settled(self, namespace: str, before: Running | None) -> tuple[str, ...] | None:
+        """The robot's active set once its node has said the change (None: not within SETTLE s)."""
         deadline = time.monotonic() + SETTLE
         while True:
             now = running(self.graph.snapshot(namespace))
             if now is not None and (before is None or now.tick != before.tick or now.active != before.active):
                 return now.active
             if time.monotonic() >= deadline:
-                return now.active if now is not None else ()
+                return None
             time.sleep(0.01)
 
     # ------------------------------------------------------------ health
@@ -423,17 +546,10 @@ class Rollout:
                     return False
             if self.interrupt.is_set():
                 return False
-            now = time.monotonic()
-            if now >= end:
-                late = [c for c in self.changed if self._last_report(c) <= c.changed_at]
-                if not late:
-                    break
-                if now >= end + STALE:
-                    c = late[0]
-                    why = f"no /diagnostics report since the change ({STALE:g} s after the wait)"
-                    self.outcome.robots[c.namespace] = f"unhealthy: {why}"
-                    self.step("unhealthy", "error", robot=c.namespace, wave=wave, why=why)
-                    return False
+            # the wait ends once every robot has reported since its change: one that does
+            # not is stale STALE s after its last report (its health says so, above)
+            if time.monotonic() >= end and all(self._last_report(c) > c.changed_at for c in self.changed):
+                break
             self.interrupt.wait(WATCH_STEP)
         self.step("healthy", wave=wave, seconds=self.options.healthy, robots=[c.namespace for c in self.changed])
         return True
@@ -482,27 +598,38 @@ class Rollout:
         return self.roll_back()
 
     def roll_back(self) -> Outcome:
-        """Every robot changed, changed back (last first); the outcome says how each went."""
+        """Every robot changed, changed back (last first); the outcome says how each went.
+        A robot whose inverse call is refused, unanswered or fails is said, and the others
+        are still changed back."""
         failed = 0
         for c in reversed(self.changed):
+            if c.namespace in self._back_done:
+                continue
+            said = self.outcome.robots.get(c.namespace, "")
+            said = (said + "; ") if said and said != "changed" else ""
             moved = sorted(set(c.before) ^ set(c.after))
             inverse = {f: f in c.before for f in moved}
             if not inverse:
-                self.outcome.robots.setdefault(c.namespace, "rolled back (nothing had moved)")
+                self._back_done.add(c.namespace)
+                self.outcome.robots[c.namespace] = said + "rolled back (nothing had moved)"
                 continue
-            accepted, reason = self.graph.set(c.namespace, inverse, self.options.timeout)
-            said = self.outcome.robots.get(c.namespace, "")
+            try:
+                accepted, reason = self.graph.set(c.namespace, inverse, self.options.timeout)
+            except Exception as exc:  # (rclpy failing under the call: the others are still changed back)
+                from ..errors import describe_exception
+
+                accepted, reason = False, describe_exception(exc)
             if accepted:
-                self.outcome.robots[c.namespace] = ((said + "; ") if said and said != "changed" else "") + "rolled back"
+                self._back_done.add(c.namespace)
+                self.outcome.robots[c.namespace] = said + "rolled back"
                 loads = [f for f in moved if inverse[f]]
                 unloads = [f for f in moved if not inverse[f]]
                 self.step("rolled back", robot=c.namespace, loads=loads, unloads=unloads)
             else:
                 failed += 1
-                self.outcome.robots[c.namespace] = ((said + "; ") if said and said != "changed" else "") + (
-                    f"NOT rolled back: {reason}"
-                )
-                self.step("not rolled back", "error", robot=c.namespace, why=reason)
+                why = reason if accepted is False else f"no answer: {reason}"
+                self.outcome.robots[c.namespace] = said + f"NOT rolled back: {why}"
+                self.step("not rolled back", "error", robot=c.namespace, why=why)
         self.outcome.result = "rolled back" if not failed else "failed"
         if failed:
             self.outcome.why += f"; {failed} robot(s) could not be rolled back"
@@ -523,27 +650,6 @@ class Rollout:
         """Ctrl-C, and the changes kept: the record can be resumed."""
         self.step("end", "warning", result="stopped", why="interrupted; the robots changed keep the change")
         return self.outcome
-
-
-def resumed(steps: list[dict[str, Any]]) -> tuple[dict[str, Any], dict[str, Changed], list[list[str]]]:
-    """From a record: its start step, the robots it changed and did not take back, its waves.
-    RecordError when there is nothing to resume."""
-    start = steps[0]
-    ends = [s for s in steps if s["step"] == "end"]
-    if ends and ends[-1].get("result") != "stopped":
-        raise RecordError(f"the rollout ended: {ends[-1].get('result')}: nothing to resume (start a new one)")
-    done: dict[str, Changed] = {}
-    for s in steps:
-        if s["step"] == "changed":
-            done[s["robot"]] = Changed(
-                s["robot"], int(s["wave"]), tuple(s["before"]), tuple(s["after"]), None, 0.0, time.monotonic()
-            )
-        elif s["step"] == "rolled back":
-            done.pop(s["robot"], None)
-    resumes = [s for s in steps if s["step"] == "resume"]
-    waves = resumes[-1]["waves"] if resumes else start["waves"]
-    # a resume lists only the waves left: the robots of the earlier ones are in `done`
-    return start, done, [list(w) for w in waves]
 
 
 def _moves(step: dict[str, Any]) -> str:
@@ -572,6 +678,12 @@ def describe(step: dict[str, Any]) -> str:
         return f"{robot}: {kind}: {_moves(step)}"
     if kind in ("refused", "unhealthy", "not rolled back"):
         return f"{robot}: {kind}: {step['why']}"
+    if kind == "no answer":
+        return f"{robot}: no answer: {step['why']} (it may have taken the change: it is rolled back too)"
+    if kind == "failed":
+        return f"failed: {step['why']}"
+    if kind == "healthy" and step["wave"] == 0:
+        return f"the robots changed before: every one healthy for {step['seconds']:g} s"
     if kind == "healthy":
         return f"wave {step['wave']}: every robot changed so far healthy for {step['seconds']:g} s"
     if kind == "interrupted":

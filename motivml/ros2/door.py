@@ -54,6 +54,7 @@ class Door:
                 bridges.START_TIMEOUT,
                 robot=robot.folder.name,
                 variant=robot.variant.name,
+                configuration=robot.variant.digest(),
                 timeout=timeout,
                 features=[
                     {

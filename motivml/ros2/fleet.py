@@ -200,28 +200,39 @@ class Watch:
         return namespace in self.namespaces()
 
     # ----------------------------------------------------------------- calls
-    def set(self, namespace: str, wanted: dict[str, bool], timeout: float) -> tuple[bool, str]:
-        """One atomic parameter call: features on and off. (accepted, the node's reason)."""
+    def set(self, namespace: str, wanted: dict[str, bool], timeout: float) -> tuple[bool | None, str]:
+        """One atomic parameter call: features on and off. (True: accepted; False: refused,
+        or the node is not there; None: no answer within `timeout`, the node may have taken
+        it), and the node's reason.
+
+        A new client's first request may be lost while discovery has not matched it with
+        the node's service: it is sent again each second until answered. That is safe, as
+        the call says what each feature must be: a second one moves nothing."""
         from rcl_interfaces.srv import SetParametersAtomically
         from rclpy.parameter import Parameter
 
         service = f"{namespace.rstrip('/')}/{NODE_NAME}/set_parameters_atomically"
         client = self._clients.get(service)
+        fresh = client is None
         if client is None:
             client = self._clients[service] = self.node.create_client(SetParametersAtomically, service)
         if not client.wait_for_service(timeout_sec=timeout):
-            return False, f"no answer: {service} is not on the graph"
+            return False, f"{service} is not on the graph"
         request = SetParametersAtomically.Request(
             parameters=[Parameter(parameter_name(f), value=on).to_parameter_msg() for f, on in wanted.items()]
         )
-        done = threading.Event()
-        future = client.call_async(request)
-        future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout):
+        deadline = time.monotonic() + timeout
+        while True:
+            done = threading.Event()
+            future = client.call_async(request)
+            future.add_done_callback(lambda _, done=done: done.set())
+            left = deadline - time.monotonic()
+            if done.wait(max(0.0, min(1.0, left) if fresh else left)):
+                result = future.result().result
+                return bool(result.successful), str(result.reason)
             client.remove_pending_request(future)
-            return False, f"{service} did not answer within {timeout:g} s"
-        result = future.result().result
-        return bool(result.successful), str(result.reason)
+            if time.monotonic() >= deadline:
+                return None, f"{service} did not answer within {timeout:g} s"
 
     def close(self) -> None:
         """Leave the graph: the spinning thread ended before the node and the context go."""

@@ -16,8 +16,9 @@
   else;
 * the active set on `~/active_features` (`std_msgs/String`, JSON, transient-local: a late
   subscriber gets the current set) at start and after every commit, whoever asked for it
-  (`ctl`, a fault's unload, this node), with the robot's and the variant's names (what
-  `motivml fleet list` shows of each robot);
+  (`ctl`, a fault's unload, this node), with the robot's and the variant's names and the
+  variant's digest (what `motivml fleet list` shows of each robot, and how `fleet plan`
+  tells a robot that runs its variant without its fleet's layers);
 * every accepted and refused change in the node's log (rosout);
 * the loop's health on `/diagnostics` once a second: rate, missed deadlines (WARN when more
   than 1% of the last second's were missed), faults, and one status per selected feature.
@@ -74,6 +75,7 @@ class FrontDoor:
         self.link = link
         self.robot = str(robot["robot"])
         self.variant = str(robot["variant"])
+        self.configuration = str(robot.get("configuration", ""))  # the variant's digest
         self.timeout = float(robot["timeout"])
         self.features = {parameter_name(f["id"]): str(f["id"]) for f in robot["features"]}
         self.compiled_in = {str(f["id"]) for f in robot["features"] if f["read_only"]}
@@ -262,7 +264,14 @@ class FrontDoor:
                 self._internal = False
 
     def _publish_active(self, active: list[str], tick: int, request: str | None) -> None:
-        message = {"robot": self.robot, "variant": self.variant, "active": active, "tick": tick, "request": request}
+        message = {
+            "robot": self.robot,
+            "variant": self.variant,
+            "configuration": self.configuration,
+            "active": active,
+            "tick": tick,
+            "request": request,
+        }
         self._active_topic.publish(self._string(data=json.dumps(message)))
 
     # ------------------------------------------------------------ diagnostics
