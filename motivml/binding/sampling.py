@@ -18,6 +18,13 @@ held; each one is
   it (the solve's model is the new witness), or to a new partial variant; a combination no
   valid variant has is refuted by that last solve.
 
+For t = 2 the combinations are judged a row at a time (`_pairs`): each value against every
+later value at once, over bit sets (numpy) of the partial variants that have each literal
+and of the witnesses that do. The shown ones are skipped, those witnesses show are added
+together, and those refuted by what propagation of either value alone implies (computed
+once per value) are counted; the few left go one by one as above. The sample's variants are
+solved for once more at the end, one per partial variant.
+
 Every valid combination thus ends in some partial variant, whose witness has it: the
 witnesses are the sample and its coverage of valid combinations is complete by construction
 (`Sample.shown` counts it again over the witnesses). Solves prefer, for each free variable,
@@ -30,6 +37,10 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from itertools import combinations
 from math import comb
+from operator import itemgetter
+from typing import Any
+
+import numpy as np
 
 from ..language.model import Binding, FeatureModel
 from ..process import no_gc
@@ -76,6 +87,9 @@ def sample(
                 f"{total:,} {t}-wise combinations over {len(features):,} features: more than {LIMIT:,}"
             )
         solver = hard.solver
+        if t == 2:
+            found = _pairs(hard, values, total, progress)
+            return Sample(_variants(model, hard, found.witnesses), total, total - found.invalid, found.shown)
         # per literal of a value's variable: a bit mask of the partial variants that have it,
         # and of those whose witness has it
         held: dict[int, int] = {}
@@ -179,6 +193,235 @@ def sample(
     return Sample(variants, total, total - invalid, shown)
 
 
+@dataclass
+class _Found:
+    witnesses: list[Any]  # per variant: the truth of its s, E, S variables (a bool array, `_variants`)
+    invalid: int
+    shown: int
+
+
+def _variants(model: FeatureModel, hard: enc.Encoding, witnesses: list[Any]) -> list[dict[int, Binding | None]]:
+    """The variants of witnesses that hold the truth of every feature's s, E and S, in that order."""
+    variants = []
+    for truth in witnesses:
+        variants.append(
+            {
+                i: Binding.from_flags(bool(truth[3 * i + 1]), bool(truth[3 * i + 2])) if truth[3 * i] else None
+                for i in range(len(model.features))
+            }
+        )
+    return variants
+
+
+class _Bits:
+    """Per literal, a bit set of partial variants (rows of 64-bit words; more words as the
+    variants grow)."""
+
+    def __init__(self, rows: int) -> None:
+        self.words = np.zeros((rows, 4), dtype=np.uint64)
+
+    def room(self, k: int) -> None:
+        while k >= 64 * self.words.shape[1]:
+            self.words = np.concatenate([self.words, np.zeros_like(self.words)], axis=1)
+
+    def set(self, rows: Any, k: int) -> None:
+        self.room(k)
+        self.words[rows, k >> 6] |= np.uint64(1 << (k & 63))
+
+    def clear(self, rows: Any, k: int) -> None:
+        self.words[rows, k >> 6] &= ~np.uint64(1 << (k & 63))
+
+
+def _lowest(words: Any) -> Any:
+    """Per row of 64-bit words (at least one not zero): the index of its lowest set bit."""
+    first = (words != 0).argmax(axis=1)
+    chosen = words[np.arange(len(words)), first]
+    low = chosen & (~chosen + np.uint64(1))
+    return first * 64 + np.log2(low.astype(np.float64)).astype(np.int64)
+
+
+def _as_int(words: Any) -> int:
+    return int.from_bytes(np.ascontiguousarray(words).tobytes(), "little")
+
+
+def _pairs(
+    hard: enc.Encoding,
+    values: list[tuple[int, tuple[int, ...]]],
+    total: int,
+    progress: Callable[[int, int], None] | None,
+) -> _Found:
+    """The 2-wise greedy, a row at a time: for each value, the combinations with every later
+    value are judged at once (numpy, over bit sets of the partial variants per literal):
+    those a partial variant has are shown; those a witness has are added to the first such
+    partial variant, all together; those unit propagation of the row's value alone refutes
+    are refuted. Only the rest go one by one, as the module says.
+
+    The literals of a partial variant are those of the values' literals whose bit it has
+    (what propagation implied besides is implied again by them)."""
+    if not values:  # (a model of its root alone: nothing to combine)
+        return _Found([], 0, 0)
+    solver = hard.solver
+    universe = sorted({lit for _, literals in values for lit in literals} | {-lit for _, literals in values for lit in literals})
+    at = {lit: k for k, lit in enumerate(universe)}
+    lits = np.array(universe, dtype=np.int64)
+    negation = np.array([at[-lit] for lit in universe], dtype=np.int64)
+    first = np.array([at[literals[0]] for _, literals in values], dtype=np.int64)
+    second = np.array([at[literals[-1]] for _, literals in values], dtype=np.int64)
+    feature = np.array([i for i, _ in values], dtype=np.int64)
+    held, witnessed = _Bits(len(universe)), _Bits(len(universe))
+    witnesses: list[Any] = []  # per partial variant: the universe indices its witness has
+    count = 0  # partial variants
+    waiting = np.zeros(len(values), dtype=np.int64)
+    for v in range(len(values)):
+        waiting[v] = np.count_nonzero(feature != feature[v])
+    variables = np.array([[hard.s(i), hard.E(i), hard.S(i)] for i in range(len(hard.model.features))], dtype=np.int64).ravel()
+
+    needed = itemgetter(*(np.abs(lits) - 1).tolist())  # (the model's entries of the universe's variables)
+
+    def witness(k: int) -> None:
+        has = np.nonzero(np.array(needed(solver.get_model()), dtype=np.int64) == lits)[0]
+        if k < len(witnesses):
+            witnessed.clear(witnesses[k], k)
+            witnesses[k] = has
+        else:
+            witnesses.append(has)
+        witnessed.set(has, k)
+
+    def hold(k: int, literals: list[int]) -> None:
+        held.set(indices(literals), k)
+
+    def partial(k: int) -> list[int]:
+        return list(lits[np.nonzero(held.words[:, k >> 6] & np.uint64(1 << (k & 63)))[0]].tolist())
+
+    phases = _Phases(values)
+
+    def solve(assumptions: list[int]) -> bool:
+        solver.set_phases(phases(waiting))
+        return bool(solver.solve(assumptions=assumptions))
+
+    # universe indices of solver literals, by the literal (offset by the variable count)
+    top = int(max((abs(lit) for lit in universe), default=0))
+    index_of = np.full(2 * top + 1, -1, dtype=np.int64)
+    index_of[lits + top] = np.arange(len(universe))
+
+    def indices(literals: list[int], negated: bool = False) -> Any:
+        """The universe indices of those of `literals` (or of their negations) in it."""
+        found = np.array(literals, dtype=np.int64)
+        found = found[np.abs(found) <= top]
+        found = index_of[(-found if negated else found) + top]
+        return found[found >= 0]
+
+    # What unit propagation of each value alone implies, for all pairs at once: implies[u]
+    # packs one bit per value whose propagation implies universe literal u (a pair one of
+    # whose values implies the negation of one of the other's literals is refuted).
+    implies = np.zeros((len(universe), (len(values) + 7) // 8), dtype=np.uint8)
+    void = np.zeros(len(values), dtype=bool)  # values no valid variant has (propagation fails)
+    for v, (_, literals) in enumerate(values):
+        consistent, implied = solver.propagate(assumptions=list(literals))
+        if not consistent:
+            void[v] = True
+            continue
+        implies[indices(implied), v >> 3] |= np.uint8(0x80 >> (v & 7))
+
+    def implied_by(rows: Any, v: int) -> Any:
+        """Per universe literal of `rows`: whether value v's propagation implies it."""
+        return (implies[rows, v >> 3] & np.uint8(0x80 >> (v & 7))) != 0
+
+    invalid = done = 0
+    for a, (_, own) in enumerate(values):
+        partners = np.nonzero(feature[a + 1 :] != feature[a])[0] + a + 1
+        if progress is not None and done // REPORT != (done + len(partners)) // REPORT:
+            progress(done, total)
+        done += len(partners)
+        waiting[a] -= len(partners)
+        waiting[partners] -= 1
+        if not len(partners):
+            continue
+        if void[a]:  # (no valid variant has this value: no combination with it is valid)
+            invalid += len(partners)
+            continue
+        mine = np.unpackbits(implies[negation[first[a]]] | implies[negation[second[a]]], count=len(values)) != 0
+        bad = (
+            void[partners]
+            | mine[partners]  # (the partner implies the negation of one of this value's literals)
+            | implied_by(negation[first[partners]], a)  # (this value implies the negation of one of the partner's)
+            | implied_by(negation[second[partners]], a)
+        )
+        invalid += int(np.count_nonzero(bad))
+        partners = partners[~bad]
+        mine = held.words[first[a]] & held.words[second[a]]
+        shown = ((held.words[first[partners]] & held.words[second[partners]]) & mine).any(axis=1)
+        partners = partners[~shown]
+        if not len(partners):
+            continue
+        seen = witnessed.words[first[a]] & witnessed.words[second[a]]
+        common = (witnessed.words[first[partners]] & witnessed.words[second[partners]]) & seen
+        free = common.any(axis=1)
+        if free.any():  # (added to the first partial variant whose witness has them)
+            ks = _lowest(common[free])
+            for k in np.unique(ks):
+                group = partners[free][ks == k]
+                rows = np.concatenate([first[group], second[group], [first[a], second[a]]])
+                held.set(rows, int(k))
+        for w in partners[~free]:
+            wanted = [*own, *values[w][1]]
+            mine = held.words[first[a]] & held.words[second[a]]
+            if (held.words[first[w]] & held.words[second[w]] & mine).any():
+                continue
+            common1 = witnessed.words[first[a]] & witnessed.words[second[a]] & witnessed.words[first[w]] & witnessed.words[second[w]]
+            if common1.any():
+                hold(int(_lowest(common1[None, :])[0]), wanted)
+                continue
+            consistent, implied = solver.propagate(assumptions=wanted)
+            if not consistent:
+                invalid += 1
+                continue
+            known = indices(implied, negated=True)
+            clashing = np.bitwise_or.reduce(held.words[known], axis=0) if len(known) else np.zeros(held.words.shape[1], np.uint64)
+            candidates = ((1 << count) - 1) & ~_as_int(clashing)
+            while candidates:
+                k = (candidates & -candidates).bit_length() - 1
+                candidates &= candidates - 1
+                assumed = [*partial(k), *wanted]
+                consistent, implied_there = solver.propagate(assumptions=assumed)
+                if consistent and solve(assumed):
+                    witness(k)
+                    hold(k, wanted + implied_there)
+                    break
+            else:
+                if not solve(wanted):
+                    invalid += 1
+                    continue
+                k = count
+                count += 1
+                held.room(k)
+                witnessed.room(k)
+                witness(k)
+                hold(k, wanted + implied)
+    # The sample: a valid variant of each partial variant, solved for again (every valid
+    # combination is among some partial variant's literals, so any variant of each will do:
+    # only the last witnesses' truth of every s, E and S is needed, not every witness's).
+    truths = []
+    for k in range(count):
+        assumed = partial(k)
+        if not solve(assumed):  # (never: its witness has them all)
+            raise AssertionError(f"partial variant {k} has no variant")
+        witness(k)
+        model = solver.get_model()
+        truths.append(np.array([model[v - 1] > 0 for v in variables.tolist()], dtype=bool))
+    # counted again over those variants, the sample
+    shown_total = 0
+    for a in range(len(values)):
+        partners = np.nonzero(feature[a + 1 :] != feature[a])[0] + a + 1
+        if len(partners):
+            mine = witnessed.words[first[a]] & witnessed.words[second[a]]
+            both = witnessed.words[first[partners]] & witnessed.words[second[partners]] & mine
+            shown_total += int(np.count_nonzero(both.any(axis=1)))
+    if progress is not None:
+        progress(total, total)
+    return _Found(truths, invalid, shown_total)
+
+
 def _combinations(values: list[tuple[int, tuple[int, ...]]], t: int) -> Iterator[tuple[int, ...]]:
     """The combinations, in order: t values (by index) of t different features."""
     for combo in combinations(range(len(values)), t):
@@ -186,7 +429,31 @@ def _combinations(values: list[tuple[int, tuple[int, ...]]], t: int) -> Iterator
             yield combo
 
 
-def _phases(values: list[tuple[int, tuple[int, ...]]], waiting: list[int]) -> list[int]:
+class _Phases:
+    """`_phases` for the 2-wise greedy, on numpy: per variable, the polarity of the value
+    with the most open combinations (the first value, on a tie)."""
+
+    def __init__(self, values: list[tuple[int, tuple[int, ...]]]) -> None:
+        last = np.array([literals[-1] for _, literals in values], dtype=np.int64)
+        variable = np.abs(last)
+        order = np.lexsort((np.arange(len(values)), variable))  # by variable, then by value
+        self.order, self.last = order, last[order]
+        starts = np.r_[True, variable[order][1:] != variable[order][:-1]]
+        self.starts = np.nonzero(starts)[0]
+        self.pairs = bool(np.all(np.diff(np.r_[self.starts, len(order)]) == 2))
+
+    def __call__(self, waiting: Any) -> list[int]:
+        counts = waiting[self.order]
+        if self.pairs:  # (every variable has its two values: the usual case)
+            firsts = self.starts
+            pick = np.where(counts[firsts] >= counts[firsts + 1], firsts, firsts + 1)
+        else:
+            pick = np.array([start + int(np.argmax(counts[start:end]))
+                             for start, end in zip(self.starts, np.r_[self.starts[1:], len(counts)], strict=True)])
+        return list(self.last[pick].tolist())
+
+
+def _phases(values: list[tuple[int, tuple[int, ...]]], waiting: Any) -> list[int]:
     """Per variable, the polarity of the value with the most open combinations."""
     best: dict[int, tuple[int, int]] = {}  # variable -> (open combinations, literal)
     for (_, literals), count in zip(values, waiting, strict=True):
