@@ -142,3 +142,32 @@ def test_sample_writes_under_build_by_default(tmp_path: Path, monkeypatch: pytes
     assert result.exit_code == 0, result.output
     assert "wrote build/simplebot/sample/sample-001.json" in result.output
     assert (tmp_path / "build" / "simplebot" / "sample" / "sample-001.json").is_file()
+
+
+def test_more_partial_variants_than_a_word_of_bits_holds(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two XOR groups of 9: each of the 81 pairs of members needs a variant of its own, so the
+    2-wise greedy's bit sets (one word of 64 at first, here) grow while it runs."""
+    import numpy as np
+
+    from motivml.binding import sampling
+
+    def one_word(self: object, rows: int) -> None:
+        self.words = np.zeros((rows, 1), dtype=np.uint64)  # type: ignore[attr-defined]
+
+    monkeypatch.setattr(sampling._Bits, "__init__", one_word)
+
+    def group(name: str) -> dict[str, Any]:
+        members = [{"id": f"{name}{k}", "name": f"{name}{k}", "group": "XOR"} for k in range(9)]
+        return {"id": name, "name": name, "isMandatory": True, "sub": members}
+
+    raw = {"id": "root", "name": "root", "sub": [group("a"), group("b")]}
+    model, _ = read_model(parse(json.dumps(raw), "model.json"))
+    found = sample(model, 2)
+    chosen = [
+        tuple(sorted(model.features[i].id for i, b in variant.items() if b is not None and model.features[i].id[1:].isdigit()))
+        for variant in found.variants
+    ]
+    assert all(len(pair) == 2 and pair[0][0] == "a" and pair[1][0] == "b" for pair in chosen)  # (one of each group)
+    assert len(set(chosen)) == 81 == len(found.variants)  # (every pair of members, each once)
+    again = sampling.coverage(model, found.variants, 2)
+    assert found.valid == found.shown == again.valid == again.shown

@@ -241,7 +241,7 @@ def _lowest(words: Any) -> Any:
 
 
 def _as_int(words: Any) -> int:
-    return int.from_bytes(np.ascontiguousarray(words).tobytes(), "little")
+    return int.from_bytes(np.ascontiguousarray(words, dtype="<u8").tobytes(), "little")
 
 
 def _pairs(
@@ -271,9 +271,9 @@ def _pairs(
     held, witnessed = _Bits(len(universe)), _Bits(len(universe))
     witnesses: list[Any] = []  # per partial variant: the universe indices its witness has
     count = 0  # partial variants
-    waiting = np.zeros(len(values), dtype=np.int64)
-    for v in range(len(values)):
-        waiting[v] = np.count_nonzero(feature != feature[v])
+    # per value: the combinations still to come with it, all of them at first (every value of another feature)
+    _, first_of, per_feature = np.unique(feature, return_inverse=True, return_counts=True)
+    waiting = len(values) - per_feature[first_of]
     variables = np.array([[hard.s(i), hard.E(i), hard.S(i)] for i in range(len(hard.model.features))], dtype=np.int64).ravel()
 
     needed = itemgetter(*(np.abs(lits) - 1).tolist())  # (the model's entries of the universe's variables)
