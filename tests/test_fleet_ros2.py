@@ -79,9 +79,29 @@ def fleets(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Fleets]:
                 )
                 started.append(runs[ns])
             assert lamp is not None
+            ready(runs)
             yield Fleets(domain_id, fleet_file(folder, "a", A), fleet_file(folder, "b", B), lamp, client, runs)
         finally:
             client.close()
+
+
+def ready(runs: dict[str, subprocess.Popen[str]]) -> None:
+    """Every robot's node on the graph with its active set, or the output of a run that ended."""
+    from motivml.ros2.fleet import Watch
+
+    watch = Watch("/")
+    try:
+        def up() -> bool:
+            ended = {ns: run for ns, run in runs.items() if run.poll() is not None}
+            if ended:
+                ns, run = next(iter(ended.items()))
+                output = run.stdout.read() if run.stdout is not None else ""
+                pytest.fail(f"the run of {ns} ended ({run.returncode}) before the tests:\n{output}")
+            return set(watch.discover(0.5, expected=list(runs))) >= set(runs)
+
+        until(up, timeout=120, what="every robot on the graph")
+    finally:
+        watch.close()
 
 
 def fleet(fleets: Fleets, *args: str) -> Any:
