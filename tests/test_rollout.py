@@ -402,7 +402,6 @@ def test_every_step_has_words() -> None:
 
 # ---------------------------------------------------------------------- the command line
 def test_apply_and_list_say_what_they_need_without_ros2(tmp_path: Path) -> None:
-    pytest.importorskip("click")
     import importlib.util
 
     if importlib.util.find_spec("rclpy") is not None:

@@ -153,16 +153,10 @@ def sample(
             clashing = 0  # partial variants with a literal that contradicts one implied
             for lit in implied:
                 clashing |= held.get(-lit, 0)
-            candidates = everyone & ~clashing
-            while candidates:
-                k = (candidates & -candidates).bit_length() - 1
-                candidates &= candidates - 1
-                assumed = [*partial[k], *wanted]
-                consistent, implied_there = solver.propagate(assumptions=assumed)
-                if consistent and solve(assumed):
-                    witness(k)
-                    hold(k, wanted + implied_there)
-                    break
+            placed = _place(solver, everyone & ~clashing, lambda k: list(partial[k]), wanted, solve)
+            if placed is not None:
+                witness(placed[0])
+                hold(placed[0], wanted + placed[1])
             else:
                 if not solve(wanted):
                     invalid += 1
@@ -191,6 +185,26 @@ def sample(
                 }
             )
     return Sample(variants, total, total - invalid, shown)
+
+
+def _place(
+    solver: Any,
+    candidates: int,
+    partial: Callable[[int], list[int]],
+    wanted: list[int],
+    solve: Callable[[list[int]], bool],
+) -> tuple[int, list[int]] | None:
+    """The first partial variant of `candidates` (a bit set) that propagation and a solve
+    find compatible with the combination `wanted`, and what propagation implied there; the
+    solver's model is then its new witness. None: none is."""
+    while candidates:
+        k = (candidates & -candidates).bit_length() - 1
+        candidates &= candidates - 1
+        assumed = [*partial(k), *wanted]
+        consistent, implied = solver.propagate(assumptions=assumed)
+        if consistent and solve(assumed):
+            return k, implied
+    return None
 
 
 @dataclass
@@ -378,16 +392,10 @@ def _pairs(
                 continue
             known = indices(implied, negated=True)
             clashing = np.bitwise_or.reduce(held.words[known], axis=0) if len(known) else np.zeros(held.words.shape[1], np.uint64)
-            candidates = ((1 << count) - 1) & ~_as_int(clashing)
-            while candidates:
-                k = (candidates & -candidates).bit_length() - 1
-                candidates &= candidates - 1
-                assumed = [*partial(k), *wanted]
-                consistent, implied_there = solver.propagate(assumptions=assumed)
-                if consistent and solve(assumed):
-                    witness(k)
-                    hold(k, wanted + implied_there)
-                    break
+            placed = _place(solver, ((1 << count) - 1) & ~_as_int(clashing), partial, wanted, solve)
+            if placed is not None:
+                witness(placed[0])
+                hold(placed[0], wanted + placed[1])
             else:
                 if not solve(wanted):
                     invalid += 1

@@ -7,10 +7,10 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 from rich.markup import escape
@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from ..fleet.rollout import Graph
     from ..runtime.requests import Request
 
+T = TypeVar("T")
 VERBS = ("load", "unload", "reload", "swap", "set")
 APPLIED = ("load", "unload", "swap", "set")  # (a reload is no parameter call)
 
@@ -112,20 +113,9 @@ def plan_command(fleet: str, change: tuple[str, ...], selector: str | None, offl
 
 
 def _plan(fleet: str, change: tuple[str, ...], request: Request, selector: str | None, graph: Graph | None, asking: Any = None) -> None:
-    from ..fleet import UnknownGroup, plan_fleet
+    from ..fleet import plan_fleet
 
-    try:
-        problems, plans = plan_fleet(fleet, request, selector, asking)
-    except UnknownGroup as unknown:
-        raise click.BadParameter(str(unknown), param_hint="'--robots'") from None
-    except (MotivmlError, OSError) as exc:
-        from .common import environment_problem
-
-        fail(exc if isinstance(exc, MotivmlError) else environment_problem(exc))
-    if problems:
-        print_diagnostics(problems)
-        out.print(f"[bold red]invalid[/]: {escape(fleet)}: {plural(len(problems), 'error')} in the fleet file: nothing planned")
-        sys.exit(1)
+    plans = _checked(fleet, lambda: plan_fleet(fleet, request, selector, asking), ": nothing planned")
     if not plans:
         out.print(f"[yellow]no robot[/] of {escape(fleet)} is selected by {escape(str(selector))}")
         sys.exit(1)
@@ -190,19 +180,32 @@ def list_command(fleet: str | None, prefix: str, fmt: str, watch: bool, record: 
 
 
 def _expected(fleet: str) -> list[str]:
-    from ..fleet import validate_fleet
+    """The namespaces of FLEET's robots, once the file itself is checked (its errors said, exit 1)."""
+    from ..fleet import fleet_file, namespaces
+
+    doc = _checked(fleet, lambda: fleet_file(fleet), "")
+    assert doc is not None
+    return namespaces(doc)
+
+
+def _checked(fleet: str, call: Callable[[], tuple[list[Any], T]], said: str) -> T:
+    """What `call` gives beside the fleet file's errors; those said, exit 1 (an unknown
+    group of --robots: usage error; a file that cannot be read: exit 3)."""
+    from ..fleet import UnknownGroup
 
     try:
-        problems, robots = validate_fleet(fleet, partial=True)
+        problems, result = call()
+    except UnknownGroup as unknown:
+        raise click.BadParameter(str(unknown), param_hint="'--robots'") from None
     except (MotivmlError, OSError) as exc:
         from .common import environment_problem
 
         fail(exc if isinstance(exc, MotivmlError) else environment_problem(exc))
     if problems:
         print_diagnostics(problems)
-        out.print(f"[bold red]invalid[/]: {escape(fleet)}: {plural(len(problems), 'error')} in the fleet file")
+        out.print(f"[bold red]invalid[/]: {escape(fleet)}: {plural(len(problems), 'error')} in the fleet file{said}")
         sys.exit(1)
-    return [r.namespace for r in robots]
+    return result
 
 
 def _record_steps(path: Path) -> list[dict[str, Any]]:
@@ -450,13 +453,9 @@ def _resumed(resume: str, fleet: str | None, change: tuple[str, ...]) -> Any:
 
 def _some_robot(fleet: str, selector: str | None) -> None:
     """A selector that names no group of the file is a usage error; one that selects no robot, exit 1."""
-    from ..fleet import UnknownGroup, selected_namespaces
+    from ..fleet import selected_namespaces
 
-    try:
-        chosen = selected_namespaces(fleet, selector)
-    except UnknownGroup as unknown:
-        raise click.BadParameter(str(unknown), param_hint="'--robots'") from None
-    if not chosen:
+    if not _checked(fleet, lambda: ([], selected_namespaces(fleet, selector)), ""):
         out.print(f"[yellow]no robot[/] of {escape(fleet)} is selected by {escape(str(selector))}")
         sys.exit(1)
 

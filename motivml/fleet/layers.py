@@ -68,9 +68,19 @@ def validate_fleet(path: str | Path, partial: bool = False) -> tuple[list[Diagno
     """The fleet file's own errors (its schema, names that refer to nothing, a namespace
     twice), and, when it has none, one report per robot in the file's order (`partial`:
     every robot's configuration checked as a partial one, as validate --partial does)."""
+    problems, doc = fleet_file(path)
+    if doc is None:
+        return problems, []
+    base = Path(path).parent
+    return [], [_robot(doc, k, base, partial) for k in range(len(doc.root["robots"]))]
+
+
+def fleet_file(path: str | Path) -> tuple[list[Diagnostic], Document | None]:
+    """The fleet file read and checked on its own (its schema, groups a robot names that it
+    does not define, a namespace twice), no robot's configuration yet: its errors, or the file."""
     doc, problems = read_with_problems(path, lambda d: check_document(d, FLEET, "a fleet file"))
     if doc is None or problems:
-        return problems, []
+        return problems, None
     root: dict[str, Any] = doc.root
     groups: dict[str, Any] = root.get("groups", {})
     seen: dict[str, int] = {}
@@ -95,10 +105,7 @@ def validate_fleet(path: str | Path, partial: bool = False) -> tuple[list[Diagno
                         "fleet.group",
                     )
                 )
-    if problems:
-        return problems, []
-    base = Path(path).parent
-    return [], [_robot(doc, k, base, partial) for k in range(len(root["robots"]))]
+    return (problems, None) if problems else ([], doc)
 
 
 def _robot(doc: Document, k: int, base: Path, partial: bool) -> RobotReport:
@@ -252,7 +259,12 @@ def selected_namespaces(path: str | Path, selector: str | None) -> list[str]:
     selector names, in the file's order; UnknownGroup for a group it does not define."""
     doc, _ = read_with_problems(path, lambda d: [])
     assert doc is not None
-    return _chosen(["/" + r["namespace"].strip("/") for r in doc.root["robots"]], groups_of(doc), selector)
+    return _chosen(namespaces(doc), groups_of(doc), selector)
+
+
+def namespaces(doc: Document) -> list[str]:
+    """The robots' namespaces of a fleet file, in its order."""
+    return ["/" + r["namespace"].strip("/") for r in doc.root["robots"]]
 
 
 def _chosen(namespaces: list[str], groups: dict[str, list[str]], selector: str | None) -> list[str]:
