@@ -22,8 +22,11 @@ For t = 2 the combinations are judged a row at a time (`_pairs`): each value aga
 later value at once, over bit sets (numpy) of the partial variants that have each literal
 and of the witnesses that do. The shown ones are skipped, those witnesses show are added
 together, and those refuted by what propagation of either value alone implies (computed
-once per value) are counted; the few left go one by one as above. The sample's variants are
-solved for once more at the end, one per partial variant.
+once per value) are counted; the few left go one by one as above, but that the next few
+pairs (LOOKAHEAD) that the same partial variant is the first to take are solved for with the
+pair, in one solve (Automotive01: 71 -> 65 s, and 1,326 -> 1,203 variants; BusyBox 62 -> 50;
+eCos 78 -> 80). The sample's variants are solved for once more at the end, one per partial
+variant.
 
 Every valid combination thus ends in some partial variant, whose witness has it: the
 witnesses are the sample and its coverage of valid combinations is complete by construction
@@ -48,6 +51,8 @@ from . import encoding as enc
 
 LIMIT = 20_000_000  # combinations at most (each is looked at a few times in Python)
 REPORT = 1 << 16  # combinations between two progress reports
+LOOKAHEAD = 16  # pairs looked ahead at for a solve together (2-wise)
+LOOKAHEAD_FAILURES = 3  # failed solves of pairs together before the first goes alone
 
 
 class TooMany(ValueError):
@@ -290,10 +295,12 @@ def _pairs(
     waiting = len(values) - per_feature[first_of]
     variables = np.array([[hard.s(i), hard.E(i), hard.S(i)] for i in range(len(hard.model.features))], dtype=np.int64).ravel()
 
-    needed = itemgetter(*(np.abs(lits) - 1).tolist())  # (the model's entries of the universe's variables)
+    distinct = np.unique(np.abs(lits))  # the universe's variables
+    pick = itemgetter(*(distinct - 1).tolist()) if len(distinct) > 1 else (lambda model: (model[distinct[0] - 1],))
+    needed = np.searchsorted(distinct, np.abs(lits))  # (each universe literal's variable, among them)
 
     def witness(k: int) -> None:
-        has = np.nonzero(np.array(needed(solver.get_model()), dtype=np.int64) == lits)[0]
+        has = np.nonzero(np.array(pick(solver.get_model()), dtype=np.int64)[needed] == lits)[0]
         if k < len(witnesses):
             witnessed.clear(witnesses[k], k)
             witnesses[k] = has
@@ -341,6 +348,118 @@ def _pairs(
         """Per universe literal of `rows`: whether value v's propagation implies it."""
         return (implies[rows, v >> 3] & np.uint8(0x80 >> (v & 7))) != 0
 
+    def clashing(known: Any) -> int:
+        """The partial variants holding one of the universe literals `known` (a bit set)."""
+        return _as_int(np.bitwise_or.reduce(held.words[known], axis=0)) if len(known) else 0
+
+    def place(a: int, own: tuple[int, ...], rest: list[int]) -> int:
+        """Place, in order, the pairs of value a with each of `rest` (values) that no partial
+        variant has yet; how many of them no valid variant has.
+
+        As the module says, one by one, but for one saving: where the first partial variant
+        that a pair may join (no literal it holds contradicts what the pair's propagation
+        implies) is also the first for some of the next pairs, not shown by any witness now,
+        they are solved for together, and a success adds them all (what one by one would
+        most likely have done, with one solve for each). A failed solve's core takes out the
+        pairs it names (LOOKAHEAD_FAILURES times at most); then the pair goes alone. Each
+        pair is looked ahead at once at most; propagation is done once per pair."""
+        refuted = 0
+        propagated: dict[int, tuple[list[int], Any] | None] = {}  # w -> (implied, its negations' indices); None: refuted
+
+        def propagation(w: int) -> tuple[list[int], Any] | None:
+            if w not in propagated:
+                consistent, implied = solver.propagate(assumptions=[*own, *values[w][1]])
+                propagated[w] = (implied, indices(implied, negated=True)) if consistent else None
+            return propagated[w]
+
+        seen_to = 0  # the pairs of `rest` before this one have been looked ahead at
+        for i, w in enumerate(rest):
+            wanted = [*own, *values[w][1]]
+            mine = held.words[first[a]] & held.words[second[a]]
+            if (held.words[first[w]] & held.words[second[w]] & mine).any():
+                continue
+            common = witnessed.words[first[a]] & witnessed.words[second[a]] & witnessed.words[first[w]] & witnessed.words[second[w]]
+            if common.any():
+                hold(int(_lowest(common[None, :])[0]), wanted)
+                continue
+            found = propagation(w)
+            if found is None:
+                refuted += 1
+                continue
+            implied, known = found
+            candidates = ((1 << count) - 1) & ~clashing(known)
+            if candidates:
+                seen_to = max(seen_to, i + 1)
+                k = (candidates & -candidates).bit_length() - 1
+                batch, seen_to = ahead(a, own, rest, seen_to, k, wanted, propagation)
+                if batch and together(k, [*partial(k), *wanted], batch):
+                    continue
+            placed = _place(solver, candidates, partial, wanted, solve)
+            if placed is not None:
+                witness(placed[0])
+                hold(placed[0], wanted + placed[1])
+            elif solve(wanted):
+                new(wanted + implied)
+            else:
+                refuted += 1
+        return refuted
+
+    def ahead(
+        a: int, own: tuple[int, ...], rest: list[int], start: int, k: int, wanted: list[int],
+        propagation: Callable[[int], tuple[list[int], Any] | None],
+    ) -> tuple[list[list[int]], int]:
+        """The next pairs of value a with `rest` from `start` (up to LOOKAHEAD of them) that
+        partial variant k is the first one to take, not shown by a witness now and not
+        contradicting `wanted` or each other: their values' literals; and where the look
+        ended."""
+        window = np.array(rest[start : start + LOOKAHEAD], dtype=np.int64)
+        if not len(window):
+            return [], start
+        mine = held.words[first[a]] & held.words[second[a]]
+        seen = witnessed.words[first[a]] & witnessed.words[second[a]]
+        open_ = ~(((held.words[first[window]] & held.words[second[window]]) & mine).any(axis=1)
+                  | ((witnessed.words[first[window]] & witnessed.words[second[window]]) & seen).any(axis=1))
+        below = (1 << (k + 1)) - 1  # (k and every partial variant before it)
+        taken = {abs(literal): literal for literal in wanted}
+        batch = []
+        for w in window[open_].tolist():
+            found = propagation(w)
+            if found is None or (below & ~clashing(found[1])) != 1 << k:
+                continue
+            theirs = values[w][1]
+            if all(taken.get(abs(literal), literal) == literal for literal in theirs):
+                taken.update((abs(literal), literal) for literal in theirs)
+                batch.append(list(theirs))
+        return batch, start + len(window)
+
+    def together(k: int, base: list[int], batch: list[list[int]]) -> bool:
+        """Solve for partial variant k with `base` (its literals and a pair's) and the
+        literals of `batch`, less those a failed solve's core names; True when that adds
+        some of them to k with the new witness."""
+        innocent = set(base)
+        for _ in range(LOOKAHEAD_FAILURES):
+            assumed = [*base, *(literal for theirs in batch for literal in theirs)]
+            if solve(assumed):
+                witness(k)
+                _, implied = solver.propagate(assumptions=assumed)
+                hold(k, assumed + implied)
+                return True
+            core = set(solver.get_core() or ()) - innocent
+            batch = [theirs for theirs in batch if core.isdisjoint(theirs)]
+            if not core or not batch:
+                return False
+        return False
+
+    def new(literals: list[int]) -> None:
+        """A new partial variant of `literals`, with the solver's model as its witness."""
+        nonlocal count
+        k = count
+        count += 1
+        held.room(k)
+        witnessed.room(k)
+        witness(k)
+        hold(k, literals)
+
     invalid = done = 0
     for a, (_, own) in enumerate(values):
         partners = np.nonzero(feature[a + 1 :] != feature[a])[0] + a + 1
@@ -377,42 +496,15 @@ def _pairs(
                 group = partners[free][ks == k]
                 rows = np.concatenate([first[group], second[group], [first[a], second[a]]])
                 held.set(rows, int(k))
-        for w in partners[~free]:
-            wanted = [*own, *values[w][1]]
-            mine = held.words[first[a]] & held.words[second[a]]
-            if (held.words[first[w]] & held.words[second[w]] & mine).any():
-                continue
-            common1 = witnessed.words[first[a]] & witnessed.words[second[a]] & witnessed.words[first[w]] & witnessed.words[second[w]]
-            if common1.any():
-                hold(int(_lowest(common1[None, :])[0]), wanted)
-                continue
-            consistent, implied = solver.propagate(assumptions=wanted)
-            if not consistent:
-                invalid += 1
-                continue
-            known = indices(implied, negated=True)
-            clashing = np.bitwise_or.reduce(held.words[known], axis=0) if len(known) else np.zeros(held.words.shape[1], np.uint64)
-            placed = _place(solver, ((1 << count) - 1) & ~_as_int(clashing), partial, wanted, solve)
-            if placed is not None:
-                witness(placed[0])
-                hold(placed[0], wanted + placed[1])
-            else:
-                if not solve(wanted):
-                    invalid += 1
-                    continue
-                k = count
-                count += 1
-                held.room(k)
-                witnessed.room(k)
-                witness(k)
-                hold(k, wanted + implied)
+        rest = partners[~free]
+        if len(rest):
+            invalid += place(a, own, rest.tolist())
     # The sample: a valid variant of each partial variant, solved for again (every valid
     # combination is among some partial variant's literals, so any variant of each will do:
     # only the last witnesses' truth of every s, E and S is needed, not every witness's).
     truths = []
     for k in range(count):
-        assumed = partial(k)
-        if not solve(assumed):  # (never: its witness has them all)
+        if not solve(partial(k)):  # (never: its witness has them all)
             raise AssertionError(f"partial variant {k} has no variant")
         witness(k)
         model = solver.get_model()
