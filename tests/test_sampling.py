@@ -48,9 +48,9 @@ def test_every_valid_combination_is_shown_by_a_valid_variant(
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(models(max_features=16), st.sampled_from([(0, 3), (1000, 1), (1000, 3)]))
+@given(models(max_features=12), st.booleans(), st.sampled_from([(0, 3), (1000, 1), (1000, 3)]))
 def test_pairs_solved_for_together_or_alone_show_every_valid_pair(
-    raw: dict[str, Any], lookahead: tuple[int, int]
+    raw: dict[str, Any], bindings: bool, lookahead: tuple[int, int]
 ) -> None:
     """The 2-wise greedy with no pair solved for together with the next, and with every
     pair of a row that the same partial variant takes first (and a failed solve giving up
@@ -60,7 +60,7 @@ def test_pairs_solved_for_together_or_alone_show_every_valid_pair(
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(sampling, "LOOKAHEAD", lookahead[0])
         patch.setattr(sampling, "LOOKAHEAD_FAILURES", lookahead[1])
-        check_against_brute_force(raw, 2, False)
+        check_against_brute_force(raw, 2, bindings)
 
 
 @pytest.mark.parametrize("lookahead", [(0, 3), (1000, 1), (1000, 3), (16, 3)])

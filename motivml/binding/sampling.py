@@ -24,9 +24,8 @@ and of the witnesses that do. The shown ones are skipped, those witnesses show a
 together, and those refuted by what propagation of either value alone implies (computed
 once per value) are counted; the few left go one by one as above, but that the next few
 pairs (LOOKAHEAD) that the same partial variant is the first to take are solved for with the
-pair, in one solve (Automotive01: 71 -> 65 s, and 1,326 -> 1,203 variants; BusyBox 62 -> 50;
-eCos 78 -> 80). The sample's variants are solved for once more at the end, one per partial
-variant.
+pair, in one solve. The sample's variants are solved for once more at the end, one per
+partial variant.
 
 Every valid combination thus ends in some partial variant, whose witness has it: the
 witnesses are the sample and its coverage of valid combinations is complete by construction
@@ -296,6 +295,8 @@ def _pairs(
     variables = np.array([[hard.s(i), hard.E(i), hard.S(i)] for i in range(len(hard.model.features))], dtype=np.int64).ravel()
 
     distinct = np.unique(np.abs(lits))  # the universe's variables
+    # (itemgetter of one index gives that entry, not a tuple: one variable is a model with
+    # one feature besides its root, which has no pairs, but `witness` would still be right)
     pick = itemgetter(*(distinct - 1).tolist()) if len(distinct) > 1 else (lambda model: (model[distinct[0] - 1],))
     needed = np.searchsorted(distinct, np.abs(lits))  # (each universe literal's variable, among them)
 
@@ -349,7 +350,8 @@ def _pairs(
         return (implies[rows, v >> 3] & np.uint8(0x80 >> (v & 7))) != 0
 
     def clashing(known: Any) -> int:
-        """The partial variants holding one of the universe literals `known` (a bit set)."""
+        """The partial variants holding one of the universe literals at indices `known`, as a
+        bit set."""
         return _as_int(np.bitwise_or.reduce(held.words[known], axis=0)) if len(known) else 0
 
     def place(a: int, own: tuple[int, ...], rest: list[int]) -> int:
@@ -392,8 +394,12 @@ def _pairs(
                 seen_to = max(seen_to, i + 1)
                 k = (candidates & -candidates).bit_length() - 1
                 batch, seen_to = ahead(a, own, rest, seen_to, k, wanted, propagation)
-                if batch and together(k, [*partial(k), *wanted], batch):
-                    continue
+                if batch:
+                    fits = together(k, [*partial(k), *wanted], batch)
+                    if fits:
+                        continue
+                    if fits is None:  # (k cannot take the pair itself: not asked again below)
+                        candidates &= ~(1 << k)
             placed = _place(solver, candidates, partial, wanted, solve)
             if placed is not None:
                 witness(placed[0])
@@ -409,9 +415,9 @@ def _pairs(
         propagation: Callable[[int], tuple[list[int], Any] | None],
     ) -> tuple[list[list[int]], int]:
         """The next pairs of value a with `rest` from `start` (up to LOOKAHEAD of them) that
-        partial variant k is the first one to take, not shown by a witness now and not
-        contradicting `wanted` or each other: their values' literals; and where the look
-        ended."""
+        partial variant k is the first one to take, not shown by a witness now, whose values'
+        literals contradict neither `wanted`'s nor each other's (what propagation implies
+        is left to the solve): those literals; and where the look ended."""
         window = np.array(rest[start : start + LOOKAHEAD], dtype=np.int64)
         if not len(window):
             return [], start
@@ -432,21 +438,26 @@ def _pairs(
                 batch.append(list(theirs))
         return batch, start + len(window)
 
-    def together(k: int, base: list[int], batch: list[list[int]]) -> bool:
+    def together(k: int, base: list[int], batch: list[list[int]]) -> bool | None:
         """Solve for partial variant k with `base` (its literals and a pair's) and the
-        literals of `batch`, less those a failed solve's core names; True when that adds
-        some of them to k with the new witness."""
+        literals of `batch`, less those a failed solve's core names: True when that adds
+        the pair and some of them to k, with the new witness; None when a core shows that k
+        cannot take the pair; False when LOOKAHEAD_FAILURES solves failed or none is left."""
         innocent = set(base)
-        for _ in range(LOOKAHEAD_FAILURES):
+        for tried in range(1, LOOKAHEAD_FAILURES + 1):
             assumed = [*base, *(literal for theirs in batch for literal in theirs)]
             if solve(assumed):
                 witness(k)
                 _, implied = solver.propagate(assumptions=assumed)
                 hold(k, assumed + implied)
                 return True
+            if tried == LOOKAHEAD_FAILURES:
+                break
             core = set(solver.get_core() or ()) - innocent
+            if not core:
+                return None
             batch = [theirs for theirs in batch if core.isdisjoint(theirs)]
-            if not core or not batch:
+            if not batch:
                 return False
         return False
 
