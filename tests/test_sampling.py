@@ -81,6 +81,21 @@ def test_pairs_of_exclusive_members_solved_for_together(lookahead: tuple[int, in
         check_against_brute_force(raw, 2, False)
 
 
+@pytest.mark.parametrize("bindings", [False, True])
+def test_witnesses_moved_without_a_solve_stay_valid(bindings: bool) -> None:
+    """Optional features with OR groups under them: a witness that does not select p, with
+    p selected (propagation does not pick one of p's members), breaks the group's clause;
+    the sampler must see that and solve instead (a check that passed every moved witness
+    gave invalid variants here)."""
+
+    def group(name: str) -> dict[str, Any]:
+        members = [{"id": f"{name}{k}", "name": f"{name}{k}", "group": "OR"} for k in range(3)]
+        return {"id": name, "name": name, "sub": members}
+
+    raw = {"id": "root", "name": "root", "sub": [group(name) for name in "pqrs"]}
+    check_against_brute_force(raw, 2, bindings)
+
+
 def check_against_brute_force(raw: dict[str, Any], t: int, bindings: bool) -> None:
     """sample(t, bindings) of `raw` gives valid variants (brute force says which) that
     together show every valid combination, and counts them right."""
@@ -211,3 +226,31 @@ def test_more_partial_variants_than_a_word_of_bits_holds(monkeypatch: pytest.Mon
     assert len(set(chosen)) == 81 == len(found.variants)  # (every pair of members, each once)
     again = sampling.coverage(model, found.variants, 2)
     assert found.valid == found.shown == again.valid == again.shown
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.lists(st.integers(1, 8).flatmap(lambda v: st.sampled_from([v, -v])), min_size=1, max_size=4), min_size=1, max_size=12),
+    st.lists(st.booleans(), min_size=8, max_size=8),
+    st.sets(st.integers(0, 9), max_size=5),
+)
+def test_clauses_over_changed_variables_are_checked_as_by_hand(
+    clauses: list[list[int]], truth: list[bool], changed: set[int]
+) -> None:
+    """`_Clauses.holds` (the 2-wise sampler's check of a witness moved without a solve):
+    whether every clause with a variable in `changed` has a true literal, each clause
+    evaluated by hand; variables past the clauses' highest have no clause."""
+    import numpy as np
+
+    from motivml.binding import encoding as enc
+    from motivml.binding.sampling import _Clauses
+
+    kept = enc.Clauses()
+    kept.extend(clauses)
+    by_hand = all(
+        any(truth[abs(literal) - 1] == (literal > 0) for literal in clause)
+        for clause in clauses
+        if any(abs(literal) - 1 in changed for literal in clause)
+    )
+    truths = np.array(truth + [False, False], dtype=bool)  # (variables 9 and 10: in no clause)
+    assert _Clauses(kept).holds(truths, np.array(sorted(changed), dtype=np.int64)) == by_hand
