@@ -59,14 +59,7 @@ class Classes:
 def interchangeable(model: FeatureModel, config: Configuration | None = None) -> list[int]:
     """Per feature (in pre-order), the first feature of its class of interchangeable ones:
     itself when it has none."""
-    named: set[str] = set()
-    for f in model.features:
-        named.update(f.includes)
-        named.update(f.excludes)
-        if f.includes or f.excludes:
-            named.add(f.id)
-    for formula in model.formulas:
-        named.update(formula.ids())
+    named = model.named()
     first: dict[Hashable, int] = {}
     representative = list(range(len(model.features)))
     entries = config.entries if config is not None else {}
