@@ -86,7 +86,8 @@ def test_witnesses_moved_without_a_solve_stay_valid(bindings: bool) -> None:
     """Optional features with OR groups under them: a witness that does not select p, with
     p selected (propagation does not pick one of p's members), breaks the group's clause;
     the sampler must see that and solve instead (a check that passed every moved witness
-    gave invalid variants here)."""
+    gave invalid variants here without bindings; with them, these pairs happen to be placed
+    by solves)."""
 
     def group(name: str) -> dict[str, Any]:
         members = [{"id": f"{name}{k}", "name": f"{name}{k}", "group": "OR"} for k in range(3)]
