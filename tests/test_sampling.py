@@ -40,11 +40,11 @@ def values_of(variant: dict[str, Any], ids: list[str], bindings: bool) -> set[tu
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(models(max_features=7), st.integers(1, 3), st.booleans())
+@given(models(max_features=7), st.integers(1, 3), st.booleans(), st.none() | st.integers(0, 1000))
 def test_every_valid_combination_is_shown_by_a_valid_variant(
-    raw: dict[str, Any], t: int, bindings: bool
+    raw: dict[str, Any], t: int, bindings: bool, shuffle: int | None
 ) -> None:
-    check_against_brute_force(raw, t, bindings)
+    check_against_brute_force(raw, t, bindings, shuffle)
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -97,13 +97,13 @@ def test_witnesses_moved_without_a_solve_stay_valid(bindings: bool) -> None:
     check_against_brute_force(raw, 2, bindings)
 
 
-def check_against_brute_force(raw: dict[str, Any], t: int, bindings: bool) -> None:
-    """sample(t, bindings) of `raw` gives valid variants (brute force says which) that
-    together show every valid combination, and counts them right."""
+def check_against_brute_force(raw: dict[str, Any], t: int, bindings: bool, shuffle: int | None = None) -> None:
+    """sample(t, bindings, shuffle) of `raw` gives valid variants (brute force says which)
+    that together show every valid combination, and counts them right."""
     model, _ = read_model(parse(json.dumps(raw), "model.json"))
     ids = [f.id for f in model.features[1:]]
     variants = list(ref.valid_variants(raw, None))
-    found = sample(model, t, bindings)
+    found = sample(model, t, bindings, shuffle=shuffle)
     if not variants:
         assert found.void
         return
@@ -255,3 +255,59 @@ def test_clauses_over_changed_variables_are_checked_as_by_hand(
     )
     truths = np.array(truth + [False, False], dtype=bool)  # (variables 9 and 10: in no clause)
     assert _Clauses(kept).holds(truths, np.array(sorted(changed), dtype=np.int64)) == by_hand
+
+
+def _generated(n: int, seed: int) -> Any:
+    """bench/generate.py's model of n features."""
+    import sys
+
+    if str(ROOT / "bench") not in sys.path:
+        sys.path.insert(0, str(ROOT / "bench"))
+    from generate import generate
+
+    document, _ = generate(n, seed)
+    model, _ = read_model(parse(json.dumps(document), "model.json"))
+    return model
+
+
+def test_the_smallest_sample_of_several_orders() -> None:
+    """`smallest` keeps the smallest of its tries (each `sample` in its own shuffled order),
+    the first of equal ones, and gives the same sample again for the same seed and tries."""
+    from motivml.binding.sampling import TRIES_APART, smallest
+
+    model = _generated(60, 3)
+    sizes = [len(sample(model, 2, shuffle=7 * TRIES_APART + k).variants) for k in range(4)]
+    found = smallest(model, 2, tries=4, seed=7)
+    assert (len(found.variants), found.tries) == (min(sizes), 4)
+    assert found.variants == sample(model, 2, shuffle=7 * TRIES_APART + sizes.index(min(sizes))).variants
+    assert smallest(model, 2, tries=4, seed=7).variants == found.variants
+    assert found.valid == found.shown
+
+
+def test_no_order_is_tried_after_the_time_given() -> None:
+    """With `until` already past, the first order is tried and no other (a deadline in the
+    past, not a measured time: the test does not depend on the machine's speed)."""
+    import time
+
+    from motivml.binding.sampling import TRIES_APART, smallest
+
+    model = _generated(40, 1)
+    found = smallest(model, 2, tries=5, seed=2, until=time.monotonic() - 1)
+    assert found.tries == 1
+    assert found.variants == sample(model, 2, shuffle=2 * TRIES_APART).variants
+    alone, _ = read_model(parse(json.dumps({"id": "r", "name": "r"}), "model.json"))
+    nothing = smallest(alone, 2, tries=5)  # (no combination: no other order does better)
+    assert (nothing.variants, nothing.tries) == ([], 1)
+
+
+def test_sample_tries_orders_and_says_how_to_get_the_same_sample_again(tmp_path: Path) -> None:
+    robot = ROOT / "feature_models" / "simplebot"
+    runs = []
+    for name in ("a", "b"):
+        result = CliRunner().invoke(main, ["sample", str(robot), "--tries", "3", "--seed", "5", "-o", str(tmp_path / name)])
+        assert result.exit_code == 0, result.output
+        assert "  the smallest of 3 orders of the features (--tries 3 --seed 5)" in result.output.splitlines()
+        runs.append({f.name: f.read_text() for f in sorted((tmp_path / name).iterdir())})
+    assert runs[0] == runs[1] and runs[0]
+    result = CliRunner().invoke(main, ["sample", str(robot), "--tries", "0", "-o", str(tmp_path / "c")])
+    assert result.exit_code == 2 and "--tries" in result.output

@@ -57,6 +57,7 @@ LIMIT = 20_000_000  # combinations at most (each is looked at a few times in Pyt
 REPORT = 1 << 16  # combinations between two progress reports
 LOOKAHEAD = 16  # pairs looked ahead at for a solve together (2-wise)
 LOOKAHEAD_FAILURES = 3  # failed solves of pairs together before the first goes alone
+TRIES_APART = 1_000_003  # the seeds of one `smallest` call's orders are seed * this + 0, 1, ...
 REPAIR_AT_MOST = 4096  # variables a witness may change without a solve (2-wise; beyond, a solve is cheaper)
 
 
@@ -71,6 +72,7 @@ class Sample:
     valid: int  # how many of them some valid variant has
     shown: int  # how many valid ones the variants show (all of them, unless this has a bug)
     void: bool = False
+    tries: int = 1  # the orders tried (`smallest`)
 
 
 def sample(
@@ -78,9 +80,16 @@ def sample(
     t: int = 2,
     bindings: bool = False,
     progress: Callable[[int, int], None] | None = None,
+    shuffle: int | None = None,
 ) -> Sample:
-    """A t-wise sample (t = 1, 2, 3); `progress(settled, combinations)` now and then."""
+    """A t-wise sample (t = 1, 2, 3); `progress(settled, combinations)` now and then.
+    `shuffle`: the features are taken in an order shuffled with this seed (`random.Random`),
+    not the model's."""
     features = [f.index for f in model.features if f.parent is not None]
+    if shuffle is not None:
+        import random
+
+        random.Random(shuffle).shuffle(features)
     with no_gc(), enc.Encoding(model, record=t == 2) as hard:
         if not hard.solve(with_config=False):
             return Sample([], 0, 0, 0, void=True)
@@ -195,6 +204,39 @@ def sample(
                 }
             )
     return Sample(variants, total, total - invalid, shown)
+
+
+def smallest(
+    model: FeatureModel,
+    t: int = 2,
+    bindings: bool = False,
+    tries: int = 1,
+    seed: int = 0,
+    until: float | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> Sample:
+    """The smallest of `tries` samples, each taken in its own order of the features (try k,
+    from 0, shuffled with the seed `seed * TRIES_APART + k`; the first of equal sizes kept),
+    as YASA's iterations do: the greedy's size depends much on the order (eCos 66 to 74
+    variants over six orders, BusyBox 36 to 117; the model's own order, siblings side by
+    side, gave 80 and 48). No try starts after `until` (a `time.monotonic()`), but the
+    first: `Sample.tries` says how many were made, and the same `seed` and that many `tries`
+    give the same sample again. `progress` counts the combinations of every try."""
+    import time
+
+    best: Sample | None = None
+    for k in range(tries):
+        if best is not None and until is not None and time.monotonic() >= until:
+            break
+        report = None if progress is None else (lambda done, total, k=k: progress(k * total + done, tries * total))
+        found = sample(model, t, bindings, report, shuffle=seed * TRIES_APART + k)
+        if best is None or len(found.variants) < len(best.variants):
+            best = found
+        best.tries = k + 1
+        if found.void or not found.combinations:  # (no other order does better)
+            break
+    assert best is not None
+    return best
 
 
 def _place(

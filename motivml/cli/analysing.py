@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, TypeVar
@@ -209,6 +210,8 @@ def _refuse(found: list[Diagnostic], fmt: str, why: str, void: bool = False) -> 
 
 GITHUB_MATRIX_JOBS = 256  # jobs one GitHub Actions matrix may have
 MAX_UNIFORM = 10_000  # variants `sample --uniform` draws at most (each is held, then written, as a file)
+TRIES = 10  # orders of the features a t-wise sample tries by default, at most (YASA's m = 10)
+TRY_FOR = 20.0  # seconds: by default no new order is tried after these (the first always is)
 
 
 @click.command("sample")
@@ -221,7 +224,15 @@ MAX_UNIFORM = 10_000  # variants `sample --uniform` draws at most (each is held,
     metavar="N",
     help="N variants drawn uniformly at random from the compiled form, instead of a t-wise sample.",
 )
-@click.option("--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True, help="The seed of --uniform.")
+@click.option(
+    "--tries",
+    type=click.IntRange(1, 1000),
+    metavar="N",
+    help=f"t-wise: the smallest of N samples, each in its own order of the features (default: up to {TRIES}, as many as start within {TRY_FOR:g} s).",
+)
+@click.option(
+    "--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True, help="The seed of --uniform and of the t-wise orders."
+)
 @_seconds("--compile-limit", "Seconds --uniform may take to make a missing compiled form; inf: no limit.")
 @click.option(
     "--format",
@@ -249,6 +260,7 @@ def sample_command(
     t: int,
     bindings: bool,
     uniform: int | None,
+    tries: int | None,
     seed: int,
     compile_limit: float,
     fmt: str,
@@ -256,8 +268,9 @@ def sample_command(
     output: str | None,
 ) -> None:
     """Write a t-wise sample: a few valid variants such that every valid combination of t
-    feature values (selected or not; with --bindings, also each time and mode) is in one.
-    With --uniform N, N variants drawn uniformly at random instead (independently, so one
+    feature values (selected or not; with --bindings, also each time and mode) is in one:
+    the smallest that the greedy finds in --tries orders of the features (shuffled with
+    --seed; printed, so that the same --seed and --tries give the same sample). With --uniform N, N variants drawn uniformly at random instead (independently, so one
     may come twice: each is written once), from the model's compiled form (`motivml compile`; with --bindings, over the
     variants' bindings too), reproducibly for one --seed.
 
@@ -285,7 +298,7 @@ def sample_command(
                 model = checked.model
                 if model is None:
                     _refuse(checked.errors, "text", "the model has errors")
-                variants, found, covered = _sampled(model, model_path, t, bindings, uniform, seed, compile_limit, fmt, bar)
+                variants, found, covered = _sampled(model, model_path, t, bindings, (uniform, tries, seed), compile_limit, fmt, bar)
         except TooMany as exc:
             raise click.UsageError(f"{exc}: use a smaller t") from None
         if found is not None and found.void:
@@ -310,21 +323,22 @@ def _sampled(
     model_path: Path,
     t: int,
     bindings: bool,
-    uniform: int | None,
-    seed: int,
+    how: tuple[int | None, int | None, int],
     compile_limit: float,
     fmt: str,
     bar: ProgressBar,
 ) -> tuple[list[dict[int, Binding | None]], Any, Any]:
     """The sample's variants, the t-wise sample itself (None for --uniform) and, for
-    github-matrix, its coverage."""
-    from ..binding.sampling import coverage, sample
+    github-matrix, its coverage. `how`: --uniform, --tries and --seed."""
+    from ..binding.sampling import coverage, smallest
 
+    uniform, tries, seed = how
     if uniform is not None:
         bar.step("drawing the variants")
         variants, found = _uniform(model, model_path, bindings, uniform, seed, compile_limit), None
     else:
-        found = sample(model, t, bindings, bar.reached)
+        until = None if tries is not None else time.monotonic() + TRY_FOR
+        found = smallest(model, t, bindings, tries or TRIES, seed, until, bar.reached)
         variants = found.variants
     covered = None
     if fmt == "github-matrix":
@@ -350,6 +364,8 @@ def _say_sampled(
             f"{plural(len(variants), 'variant')} cover {shown:.1f}% of {found.valid:,} valid {t}-wise combinations"
             f" ({found.combinations - found.valid:,} of {found.combinations:,} have no valid variant)"
         )
+        if found.combinations:
+            out.print(f"  the smallest of {plural(found.tries, 'order')} of the features (--tries {found.tries} --seed {seed})")
     else:
         out.print(f"{plural(drawn, 'variant')} drawn uniformly at random (seed {seed}): {len(variants):,} distinct")
         if covered is not None:
