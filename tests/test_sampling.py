@@ -271,15 +271,17 @@ def _generated(n: int, seed: int) -> Any:
 
 
 def test_the_smallest_sample_of_several_orders() -> None:
-    """`smallest` keeps the smallest of its tries (each `sample` in its own shuffled order),
-    the first of equal ones, and gives the same sample again for the same seed and tries."""
+    """`smallest` keeps the smallest of its tries (the model's own order, then each `sample`
+    in its own shuffled order), the first of equal ones, and gives the same sample again for
+    the same seed and tries."""
     from motivml.binding.sampling import TRIES_APART, smallest
 
     model = _generated(60, 3)
-    sizes = [len(sample(model, 2, shuffle=7 * TRIES_APART + k).variants) for k in range(4)]
+    orders = [None, *(7 * TRIES_APART + k for k in range(1, 4))]
+    sizes = [len(sample(model, 2, shuffle=order).variants) for order in orders]
     found = smallest(model, 2, tries=4, seed=7)
     assert (len(found.variants), found.tries) == (min(sizes), 4)
-    assert found.variants == sample(model, 2, shuffle=7 * TRIES_APART + sizes.index(min(sizes))).variants
+    assert found.variants == sample(model, 2, shuffle=orders[sizes.index(min(sizes))]).variants
     assert smallest(model, 2, tries=4, seed=7).variants == found.variants
     assert found.valid == found.shown
 
@@ -289,15 +291,18 @@ def test_no_order_is_tried_after_the_time_given() -> None:
     past, not a measured time: the test does not depend on the machine's speed)."""
     import time
 
-    from motivml.binding.sampling import TRIES_APART, smallest
+    from motivml.binding.sampling import smallest
 
     model = _generated(40, 1)
     found = smallest(model, 2, tries=5, seed=2, until=time.monotonic() - 1)
     assert found.tries == 1
-    assert found.variants == sample(model, 2, shuffle=2 * TRIES_APART).variants
+    assert found.variants == sample(model, 2).variants  # (the model's own order)
     alone, _ = read_model(parse(json.dumps({"id": "r", "name": "r"}), "model.json"))
     nothing = smallest(alone, 2, tries=5)  # (no combination: no other order does better)
     assert (nothing.variants, nothing.tries) == ([], 1)
+    one = {"id": "r", "name": "r", "sub": [{"id": "a", "name": "a", "isMandatory": True}]}
+    only, _ = read_model(parse(json.dumps(one), "model.json"))
+    assert smallest(only, 1, tries=5).tries == 1  # (one variant: none is smaller)
 
 
 def test_sample_tries_orders_and_says_how_to_get_the_same_sample_again(tmp_path: Path) -> None:

@@ -213,27 +213,30 @@ def smallest(
     tries: int = 1,
     seed: int = 0,
     until: float | None = None,
-    progress: Callable[[int, int], None] | None = None,
+    progress: Callable[[int, int, int], None] | None = None,
 ) -> Sample:
-    """The smallest of `tries` samples, each taken in its own order of the features (try k,
-    from 0, shuffled with the seed `seed * TRIES_APART + k`; the first of equal sizes kept),
-    as YASA's iterations do: the greedy's size depends much on the order (eCos 66 to 74
-    variants over six orders, BusyBox 36 to 117; the model's own order, siblings side by
-    side, gave 80 and 48). No try starts after `until` (a `time.monotonic()`), but the
-    first: `Sample.tries` says how many were made, and the same `seed` and that many `tries`
-    give the same sample again. `progress` counts the combinations of every try."""
+    """The smallest of `tries` samples, each taken in its own order of the features, as
+    YASA's iterations do: the model's own order first, then try k (from 1) shuffled with the
+    seed `seed * TRIES_APART + k`; the first of equal sizes is kept. The greedy's size
+    depends much on the order (eCos: 66 to 74 variants over six shuffled orders, 80 in its
+    own; BusyBox: 36 to 354 over shuffled orders, 48 in its own), so one try is never worse
+    than the model's order and more are usually better. No try starts after `until` (a
+    `time.monotonic()`), but the first: `Sample.tries` says how many were made, and the
+    same `seed` and that many `tries` give the same sample again (with this version of
+    motivml, its solver and Python's `random`). `progress(k, settled, combinations)` reports
+    each try k's own progress."""
     import time
 
     best: Sample | None = None
     for k in range(tries):
         if best is not None and until is not None and time.monotonic() >= until:
             break
-        report = None if progress is None else (lambda done, total, k=k: progress(k * total + done, tries * total))
-        found = sample(model, t, bindings, report, shuffle=seed * TRIES_APART + k)
+        report = None if progress is None else (lambda done, total, k=k: progress(k, done, total))
+        found = sample(model, t, bindings, report, shuffle=None if k == 0 else seed * TRIES_APART + k)
         if best is None or len(found.variants) < len(best.variants):
             best = found
         best.tries = k + 1
-        if found.void or not found.combinations:  # (no other order does better)
+        if found.void or len(found.variants) <= 1:  # (no other order does better)
             break
     assert best is not None
     return best

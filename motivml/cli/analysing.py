@@ -228,7 +228,8 @@ TRY_FOR = 20.0  # seconds: by default no new order is tried after these (the fir
     "--tries",
     type=click.IntRange(1, 1000),
     metavar="N",
-    help=f"t-wise: the smallest of N samples, each in its own order of the features (default: up to {TRIES}, as many as start within {TRY_FOR:g} s).",
+    help=f"t-wise: the smallest of N samples in N orders of the features, the model's own and N-1 shuffled"
+    f" (default: up to {TRIES}, as many as start within {TRY_FOR:g} s).",
 )
 @click.option(
     "--seed", type=click.IntRange(0, 2**63 - 1), default=0, show_default=True, help="The seed of --uniform and of the t-wise orders."
@@ -269,8 +270,9 @@ def sample_command(
 ) -> None:
     """Write a t-wise sample: a few valid variants such that every valid combination of t
     feature values (selected or not; with --bindings, also each time and mode) is in one:
-    the smallest that the greedy finds in --tries orders of the features (shuffled with
-    --seed; printed, so that the same --seed and --tries give the same sample). With --uniform N, N variants drawn uniformly at random instead (independently, so one
+    the smallest that the greedy finds in --tries orders of the features (the model's own,
+    then orders shuffled with --seed; printed, so that the same --seed and --tries give the
+    same sample). With --uniform N, N variants drawn uniformly at random instead (independently, so one
     may come twice: each is written once), from the model's compiled form (`motivml compile`; with --bindings, over the
     variants' bindings too), reproducibly for one --seed.
 
@@ -311,7 +313,7 @@ def sample_command(
         }
         folder = Path(output)
         if covered is not None:
-            files.update(_matrices(folder, list(files), max_jobs, covered, uniform, seed))
+            files.update(_matrices(folder, list(files), max_jobs, covered, uniform, seed, found.tries if found is not None else 0))
         _write_sample(folder, files)
     except MotivmlError as exc:
         fail(exc)
@@ -338,7 +340,12 @@ def _sampled(
         variants, found = _uniform(model, model_path, bindings, uniform, seed, compile_limit), None
     else:
         until = None if tries is not None else time.monotonic() + TRY_FOR
-        found = smallest(model, t, bindings, tries or TRIES, seed, until, bar.reached)
+        count = tries or TRIES
+
+        def reached(k: int, done: int, total: int) -> None:
+            bar.reached(done, total, f"order {k + 1} of at most {count}: combinations settled")
+
+        found = smallest(model, t, bindings, count, seed, until, reached)
         variants = found.variants
     covered = None
     if fmt == "github-matrix":
@@ -365,7 +372,8 @@ def _say_sampled(
             f" ({found.combinations - found.valid:,} of {found.combinations:,} have no valid variant)"
         )
         if found.combinations:
-            out.print(f"  the smallest of {plural(found.tries, 'order')} of the features (--tries {found.tries} --seed {seed})")
+            orders = "the model's own order of the features" if found.tries == 1 else f"the smallest of {found.tries} orders of the features"
+            out.print(f"  {orders} (--tries {found.tries} --seed {seed})")
     else:
         out.print(f"{plural(drawn, 'variant')} drawn uniformly at random (seed {seed}): {len(variants):,} distinct")
         if covered is not None:
@@ -417,7 +425,7 @@ def _as_coverage(found: Any, t: int) -> Any:
 
 
 def _matrices(
-    folder: Path, names: list[str], max_jobs: int, covered: Any, uniform: int | None, seed: int
+    folder: Path, names: list[str], max_jobs: int, covered: Any, uniform: int | None, seed: int, tries: int
 ) -> dict[str, str]:
     """The sample's decisions files as GitHub Actions matrices of at most `max_jobs` jobs,
     and its coverage."""
@@ -426,7 +434,7 @@ def _matrices(
     for k in range(0, len(jobs), max_jobs):
         files[f"matrix-{k // max_jobs + 1:03d}.json"] = json.dumps({"include": jobs[k : k + max_jobs]}, indent=2) + "\n"
     summary = {
-        "sample": f"uniform, seed {seed}" if uniform is not None else f"{covered.t}-wise",
+        "sample": f"uniform, seed {seed}" if uniform is not None else f"{covered.t}-wise, --tries {tries} --seed {seed}",
         "variants": len(names),
         "t": covered.t,
         "combinations": covered.combinations,

@@ -43,10 +43,10 @@ class ProgressBar:
             if self.progress is not None:
                 self.progress.update(self.task, completed=self.done, description=name)
 
-    def reached(self, done: int, total: int) -> None:
+    def reached(self, done: int, total: int, name: str = "combinations settled") -> None:
         """Progress as a count (`sample`: the combinations settled of all)."""
         with self.lock:
-            self.done, self.total, self.name = done, total, "combinations settled"
+            self.done, self.total, self.name = done, total, name
             if self.progress is not None:
                 self.progress.update(self.task, completed=done, total=total, description=self.name)
 
