@@ -57,7 +57,7 @@ LIMIT = 20_000_000  # combinations at most (each is looked at a few times in Pyt
 REPORT = 1 << 16  # combinations between two progress reports
 LOOKAHEAD = 16  # pairs looked ahead at for a solve together (2-wise)
 LOOKAHEAD_FAILURES = 3  # failed solves of pairs together before the first goes alone
-TRIES_APART = 1_000_003  # the seeds of one `smallest` call's orders are seed * this + 0, 1, ...
+TRIES_APART = 1_000_003  # the seeds of one `smallest` call's shuffled orders are seed * this + 1, 2, ...
 REPAIR_AT_MOST = 4096  # variables a witness may change without a solve (2-wise; beyond, a solve is cheaper)
 
 
@@ -353,8 +353,8 @@ def _pairs(
     lit_var, lit_positive = np.abs(lits) - 1, lits > 0  # (each universe literal's place in a model)
     checker = _Clauses(hard.recorded) if hard.recorded is not None else None
 
-    # per partial variant: its witness's truth of every variable, a bit each (as bools, the
-    # 4,417 witnesses of FinancialServices01's sample took 600 MB)
+    # per partial variant: its witness's truth of every variable, a bit each (as bools, a
+    # byte per variable: Automotive01's 1,201 partial variants held 21 MB that way)
     full: list[Any] = []
     variable_count = solver.nof_vars()
 
