@@ -184,6 +184,7 @@ def main() -> int:
                 run.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 run.kill()
+                run.wait()  # (reaped: no zombie left behind)
         scratch.cleanup()
     return 0
 

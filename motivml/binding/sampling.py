@@ -343,8 +343,7 @@ def _pairs(
     second = np.array([at[literals[-1]] for _, literals in values], dtype=np.int64)
     feature = np.array([i for i, _ in values], dtype=np.int64)
     held, witnessed = _Bits(len(universe)), _Bits(len(universe))
-    witnesses: list[Any] = []  # per partial variant: the universe indices its witness has
-    count = 0  # partial variants
+    witnesses: list[Any] = []  # per partial variant (as many as there are): the universe indices its witness has
     # per value: the combinations still to come with it, all of them at first (every value of another feature)
     _, first_of, per_feature = np.unique(feature, return_inverse=True, return_counts=True)
     waiting = len(values) - per_feature[first_of]
@@ -432,6 +431,12 @@ def _pairs(
         """Per universe literal of `rows`: whether value v's propagation implies it."""
         return (implies[rows, v >> 3] & np.uint8(0x80 >> (v & 7))) != 0
 
+    def both(bits: _Bits, a: int, partners: Any) -> Any:
+        """Per partner value (an index or an array of them), the words of the partial
+        variants of `bits` (held or witnessed) that have value a's literals and its own."""
+        words = bits.words
+        return words[first[partners]] & words[second[partners]] & words[first[a]] & words[second[a]]
+
     def clashing(known: Any) -> int:
         """The partial variants holding one of the universe literals at indices `known`, as a
         bit set."""
@@ -460,10 +465,9 @@ def _pairs(
         seen_to = 0  # the pairs of `rest` before this one have been looked ahead at
         for i, w in enumerate(rest):
             wanted = [*own, *values[w][1]]
-            mine = held.words[first[a]] & held.words[second[a]]
-            if (held.words[first[w]] & held.words[second[w]] & mine).any():
+            if both(held, a, w).any():
                 continue
-            common = witnessed.words[first[a]] & witnessed.words[second[a]] & witnessed.words[first[w]] & witnessed.words[second[w]]
+            common = both(witnessed, a, w)
             if common.any():
                 hold(int(_lowest(common[None, :])[0]), wanted)
                 continue
@@ -472,7 +476,7 @@ def _pairs(
                 refuted += 1
                 continue
             implied, known = found
-            candidates = ((1 << count) - 1) & ~clashing(known)
+            candidates = ((1 << len(witnesses)) - 1) & ~clashing(known)
             if candidates:
                 seen_to = max(seen_to, i + 1)
                 k = (candidates & -candidates).bit_length() - 1
@@ -505,10 +509,7 @@ def _pairs(
         window = np.array(rest[start : start + LOOKAHEAD], dtype=np.int64)
         if not len(window):
             return [], start
-        mine = held.words[first[a]] & held.words[second[a]]
-        seen = witnessed.words[first[a]] & witnessed.words[second[a]]
-        open_ = ~(((held.words[first[window]] & held.words[second[window]]) & mine).any(axis=1)
-                  | ((witnessed.words[first[window]] & witnessed.words[second[window]]) & seen).any(axis=1))
+        open_ = ~(both(held, a, window).any(axis=1) | both(witnessed, a, window).any(axis=1))
         below = (1 << (k + 1)) - 1  # (k and every partial variant before it)
         taken = {abs(literal): literal for literal in wanted}
         batch = []
@@ -550,9 +551,7 @@ def _pairs(
 
     def new(literals: list[int]) -> None:
         """A new partial variant of `literals`, with the solver's model as its witness."""
-        nonlocal count
-        k = count
-        count += 1
+        k = len(witnesses)
         held.room(k)
         witnessed.room(k)
         witness(k)
@@ -580,13 +579,10 @@ def _pairs(
         )
         invalid += int(np.count_nonzero(bad))
         partners = partners[~bad]
-        mine = held.words[first[a]] & held.words[second[a]]
-        shown = ((held.words[first[partners]] & held.words[second[partners]]) & mine).any(axis=1)
-        partners = partners[~shown]
+        partners = partners[~both(held, a, partners).any(axis=1)]
         if not len(partners):
             continue
-        seen = witnessed.words[first[a]] & witnessed.words[second[a]]
-        common = (witnessed.words[first[partners]] & witnessed.words[second[partners]]) & seen
+        common = both(witnessed, a, partners)
         free = common.any(axis=1)
         if free.any():  # (added to the first partial variant whose witness has them)
             ks = _lowest(common[free])
@@ -599,15 +595,13 @@ def _pairs(
             invalid += place(a, own, rest.tolist())
     # The sample: the last witness of each partial variant (it has every literal the
     # partial variant holds, so every valid combination is in one of them).
-    truths = [truth_of(k)[variables - 1] for k in range(count)]
+    truths = [truth_of(k)[variables - 1] for k in range(len(witnesses))]
     # counted again over those variants, the sample
     shown_total = 0
     for a in range(len(values)):
         partners = np.nonzero(feature[a + 1 :] != feature[a])[0] + a + 1
         if len(partners):
-            mine = witnessed.words[first[a]] & witnessed.words[second[a]]
-            both = witnessed.words[first[partners]] & witnessed.words[second[partners]] & mine
-            shown_total += int(np.count_nonzero(both.any(axis=1)))
+            shown_total += int(np.count_nonzero(both(witnessed, a, partners).any(axis=1)))
     if progress is not None:
         progress(total, total)
     return _Found(truths, invalid, shown_total)

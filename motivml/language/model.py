@@ -175,7 +175,7 @@ class FeatureModel:
     def named(self) -> frozenset[str]:
         """The ids that some include, exclude or formula names (an including or excluding
         feature's own id too), made once: menuconfig asks after every decision (2,800
-        formulas of Automotive01 read again each time: 22 ms a key press)."""
+        formulas of Automotive01 read again each time: 7.5 ms a key press)."""
         if self._named is None:
             found: set[str] = set()
             for f in self.features:
