@@ -124,6 +124,43 @@ def test_states_asked_again_of_one_kept_encoding_equal_brute_force(case: tuple[s
             assert {g: states for g, states in zip(ids, found, strict=True)} == expected, document
 
 
+@pytest.mark.parametrize("name", ["dense", "any", "groups"])
+def test_a_decision_more_asks_nothing_again_that_the_last_answer_settled(name: str) -> None:
+    """menuconfig's next decision holds the last one's literals and more: what no variant
+    had then is settled at once (no propagation, no solve), and what some variant had is
+    not first propagated on its own. The states are the same as when the encoding has
+    forgotten the last answers (its kept variants are kept either way), with fewer unit
+    propagations. (Solves may be a few more or fewer: a target that the decision made
+    impossible is then refuted by a batch's solve, not its own propagation.)"""
+    model = read(family(name, 300, 1))
+    states: list[Any] = []
+    work: list[int] = []
+    for forget in (False, True):
+        with enc.Encoding(model) as kept:
+            entries: list[dict[str, Any]] = []
+            last = None
+            for step in range(6):  # (decisions one after another, each leaving variants)
+                open_ = [f.id for f, can in zip(model.features, last or [], strict=False) if len(can) > 1][1:]
+                if last is not None and not open_:
+                    break
+                if last is not None:
+                    entries.append({"id": open_[(7 * step) % len(open_)], "selected": step % 2 == 0})
+                document = {"partial": True, "properties": entries}
+                config, _ = read_configuration(parse(json.dumps(document), "v.json"), model, partial=True)
+                assert config is not None
+                kept.set_configuration(config)
+                if not kept.solve():
+                    entries.pop()
+                    continue
+                if forget:
+                    kept.recent_answers = (frozenset(), set(), set())
+                last = binding_states(model, config, kept)
+            states.append(last)
+            work.append(kept.work.propagations)
+    assert states[0] == states[1]
+    assert work[0] < work[1]
+
+
 def _wide_group(members: int, time: str = "Any", mode: str = "Any", others: int = 0) -> dict[str, Any]:
     """A root with one XOR group of `members` leaves allowing `time` and `mode`, and `others`
     members of their own kind: one with a sub-feature, one included by the root's first

@@ -171,7 +171,10 @@ def add_clauses(solver: Solver, clauses: Iterable[list[int]]) -> None:
 
 
 VECTOR_FROM = 50_000  # open targets (or features): from here cover's checks use numpy arrays
-BATCH_FAILURES = 8  # failed solves of one batch before its first target is left to its own
+# failed solves of one batch before its first target is left to its own (8 asked more
+# solves for no gain: 3,593 -> 2,382 for analyse of the mostly-Any family at 10,000
+# features, 1,218 -> 1,006 for Automotive01's, a third fewer for menuconfig's decisions)
+BATCH_FAILURES = 4
 BATCH, BATCH_TRIED = 32, 128  # cover's last step: targets solved for together, of the next ones
 
 
@@ -603,6 +606,13 @@ class Encoding:
         # keeps them (each feature's selection, time and mode, a byte each): under the next
         # configuration, those that still hold answer at once
         self.recent: list[bytes] = []
+        # and what they answered, with the configuration's literals then (`check._Known`):
+        # the targets no variant had and those some variant had
+        self.recent_answers: tuple[frozenset[int], set[int | tuple[int, ...]], set[int | tuple[int, ...]]] = (
+            frozenset(),
+            set(),
+            set(),
+        )
         self.solver_name = solver
         # The clauses go to the solver FLUSH_EVERY at a time while they are made: held all
         # at once as Python lists, they were a third of `validate`'s peak memory at
@@ -1172,6 +1182,7 @@ class Encoding:
         start_empty: bool = False,
         order: Sequence[int] | None = None,
         shown: Sequence[bool] | None = None,
+        refuted: Sequence[bool] | None = None,
     ) -> list[bool]:
         """Which conjunctions of literals hold in some valid variant.
 
@@ -1194,6 +1205,8 @@ class Encoding:
         of atomic sets took 2,075 solves from the emptiest variant and 463 from the last.
         `shown`, if given, says for each target whether the caller knows already that it
         holds (in a variant found before); those are settled without a question.
+        `refuted`, likewise, whether the caller knows already that it cannot hold (no
+        variant of fewer assumptions had it: menuconfig's decisions, one more each time).
         `order`: the order in which the targets are taken (a permutation of their indices;
         by default theirs), in which `implied` and `requires` name earlier targets and,
         with `settled`, the first m targets come first. Targets that no variant shows
@@ -1226,6 +1239,9 @@ class Encoding:
         if shown is not None:
             for known in compress(range(len(targets)), shown):
                 state.close(known, True)
+        if refuted is not None:
+            for known in compress(range(len(targets)), refuted):
+                state.close(known, False)
         first, tell = settled if settled is not None else (0, None)
 
         def answered() -> list[bool]:  # (the first ones too, if not told yet)
@@ -1248,20 +1264,20 @@ class Encoding:
             if before - state.left < max(WITNESS_GAIN, before // 16):
                 break
         if refute is not False and state.left:
+            # what the assumptions alone propagate refutes some targets at once (under a
+            # configuration of many decisions each propagation repeats theirs: 0.2 ms
+            # apiece), also those not to be refuted one by one (each of which a failed
+            # batch solve would refute otherwise)
+            ok, forced = self.solver.propagate(assumptions=base)
+            if ok:
+                against = {-literal for literal in forced}
+                for j in [j for j in state.open_targets() if not against.isdisjoint(targets[j])]:
+                    state.close(j, False)
             asked = [
                 k
                 for k in state.open_targets()
                 if (refute is True or refute[k]) and (requires is None or (r := requires[k]) is None or state.possible[r])
             ]
-            # what the assumptions alone propagate refutes some targets at once (under a
-            # configuration of many decisions each propagation repeats theirs: 0.2 ms apiece)
-            ok, forced = self.solver.propagate(assumptions=base) if asked else (False, [])
-            if ok:
-                against = {-literal for literal in forced}
-                refuted = [j for j in asked if not against.isdisjoint(targets[j])]
-                for j in refuted:
-                    state.close(j, False)
-                asked = [j for j in asked if state.is_open[j]]
             consistent = set(self._propagating(targets, base, asked, implied))
             for j in asked:
                 if j not in consistent:
