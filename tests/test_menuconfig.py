@@ -348,6 +348,7 @@ def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
     from motivml.cli import menuconfig_app
 
     monkeypatch.setattr(menuconfig_app.Propagation, "LARGE", 1)  # (simplebot counts as large)
+    monkeypatch.setattr(menuconfig_app.Propagation, "MARK_AFTER", 0.001)  # (the mark as soon as the loop turns)
     session, path = open_session(str(robot), "sketch", None)
     go = threading.Event()
     real = Session.propagate
@@ -394,6 +395,100 @@ def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
     assert seen["slam after"] == "( ) ? slam  **"  # (kartoslam deselected forces nothing)
     assert seen["panel after"].startswith("valid: 1 decision")
     assert len(installed) == 1  # the first decision's propagation, no longer the last, never installed
+
+
+def test_consequences_that_come_before_the_mark_is_due_are_drawn_without_it(
+    robot: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The "propagating" mark is drawn only once a propagation has taken MARK_AFTER seconds
+    (two frames saved on each quick one). Here it is never due: the propagation is held
+    while the test looks, and still nothing says "propagating"; the decision itself is
+    drawn at once, and what needs the consequences waits for them all the same."""
+    import threading
+
+    from motivml.binding.configurator import Configurator as Session
+    from motivml.cli import menuconfig_app
+
+    monkeypatch.setattr(menuconfig_app.Propagation, "LARGE", 1)
+    monkeypatch.setattr(menuconfig_app.Propagation, "MARK_AFTER", 3600.0)
+    session, path = open_session(str(robot), "sketch", None)
+    go = threading.Event()
+    real = Session.propagate
+
+    def held(self: Session, decisions: dict[str, Any]) -> Any:
+        assert go.wait(30), "the test never let the propagation go"
+        return real(self, decisions)
+
+    monkeypatch.setattr(Session, "propagate", held)
+    seen: dict[str, Any] = {}
+
+    async def steps(app: Any, pilot: Any) -> None:
+        await go_to(app, pilot, "kartoslam")
+        await pilot.press("y")
+        seen["drawn"] = label(app, "kartoslam")
+        seen["panel"] = detail(app)
+        seen["title"] = app.sub_title
+        await pilot.press("s")  # needs the consequences: waits, nothing saved
+        seen["saved while busy"] = path.exists()
+        go.set()
+        await app.workers.wait_for_complete()
+        await pilot.pause()
+        seen["panel after"] = detail(app)
+        seen["slam after"] = label(app, "slam")
+        await pilot.press("q", "q")
+
+    drive(session, path, steps)
+    assert seen["drawn"] == "[x] [XOR] kartoslam  **"
+    assert "propagating" not in seen["panel"] and seen["title"] == str(path)
+    assert seen["saved while busy"] is False
+    assert seen["panel after"].startswith("valid: 1 decision")
+    assert seen["slam after"].startswith("-x- ? slam")  # (kartoslam selected forces slam)
+
+
+def test_a_redraw_sets_only_the_labels_whose_feature_changed(robot: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each label set has Textual look for its node's lines: a redraw sets only the labels
+    of the features whose decision or states changed (and each of those), and what lives
+    as long as the session is frozen out of the collector's way while it runs."""
+    import gc
+
+    from textual.widgets.tree import TreeNode
+
+    session, path = open_session(str(robot), "sketch", None)
+    set_labels: list[str] = []
+    real = TreeNode.set_label
+
+    def counted(node: Any, text: Any) -> None:
+        set_labels.append(node.data)
+        real(node, text)
+
+    monkeypatch.setattr(TreeNode, "set_label", counted)
+    seen: dict[str, Any] = {}
+
+    async def steps(app: Any, pilot: Any) -> None:
+        seen["frozen"] = gc.get_freeze_count()
+        set_labels.clear()
+        app.redraw()
+        seen["nothing changed"] = list(set_labels)
+        before = {f.id: (session.decided(f.id), frozenset(session.possible(f.id))) for f in session.model.features}
+        await go_to(app, pilot, "kartoslam")
+        set_labels.clear()
+        await pilot.press("y")
+        await app.workers.wait_for_complete()
+        await pilot.pause()
+        seen["set"] = sorted(set(set_labels))
+        seen["changed"] = sorted(
+            f.id
+            for f in session.model.features
+            if before[f.id] != (session.decided(f.id), frozenset(session.possible(f.id)))
+        )
+        await pilot.press("q", "q")
+
+    drive(session, path, steps)
+    assert seen["frozen"] > 0
+    assert seen["nothing changed"] == []
+    assert "kartoslam" in seen["changed"] and "slam" in seen["changed"]
+    assert seen["set"] == seen["changed"]
+    assert len(seen["changed"]) < len(session.model.features)
 
 
 def test_a_propagation_that_fails_is_said_and_leaves_the_application_usable(
