@@ -481,6 +481,15 @@ def test_a_redraw_sets_only_the_labels_whose_feature_changed(robot: Path, monkey
             for f in session.model.features
             if before[f.id] != (session.decided(f.id), frozenset(session.possible(f.id)))
         )
+        for feature, key in (("kartoslam", "n"), ("hectorslam", "y"), ("kartoslam", "y"), ("hectorslam", "u")):
+            app.query_one("#features").move_cursor(app.nodes[feature])  # (into a conflict and out of it)
+            await pilot.pause()
+            await pilot.press(key)
+            await app.workers.wait_for_complete()
+            await pilot.pause()
+        seen["stale"] = [
+            f.id for f in session.model.features if str(app.nodes[f.id].label) != str(app.labels.label(f.index))
+        ]
         await pilot.press("q", "q")
 
     drive(session, path, steps)
@@ -489,6 +498,7 @@ def test_a_redraw_sets_only_the_labels_whose_feature_changed(robot: Path, monkey
     assert "kartoslam" in seen["changed"] and "slam" in seen["changed"]
     assert seen["set"] == seen["changed"]
     assert len(seen["changed"]) < len(session.model.features)
+    assert seen["stale"] == []  # every label as drawn from the session now
 
 
 def test_a_propagation_that_fails_is_said_and_leaves_the_application_usable(

@@ -12,8 +12,11 @@ import contextlib
 import functools
 import os
 import pickle
+from array import array
+from collections.abc import Callable, Sequence
 from dataclasses import replace
-from typing import Any, BinaryIO
+from itertools import compress
+from typing import Any, BinaryIO, TypeVar, cast
 
 from ..errors import Diagnostic, Location, Severity, warning
 from ..language.model import (
@@ -346,25 +349,28 @@ class _Known:
         recent = self.hard.recent
         if len(recent) >= min(RECENT_VARIANTS, max(16, RECENT_BYTES // (3 * self.hard.n + 1))):
             del recent[0]  # (the oldest)
-        n = self.hard.n
-        recent.append((self.np.asarray(values[: 4 * n]).reshape(n, 4)[:, :3] > 0).tobytes())
+        n, np = self.hard.n, self.np
+        # (through C ints: numpy's own conversion of the Python list took 1.3 ms at 10,000 features)
+        recent.append((np.frombuffer(array("i", values[: 4 * n]), dtype=np.int32).reshape(n, 4)[:, :3] > 0).tobytes())
 
-    def refuted(self, targets: list[list[int]]) -> list[bool] | None:
-        """Per target, whether no variant had it under the last configuration asked, of
-        which this one holds every literal (and more)."""
+    def refuted(self, keys: list[int | tuple[int, ...]]) -> list[bool] | None:
+        """Per target (by its `keys`), whether no variant had it under the last
+        configuration asked, of which this one holds every literal (and more)."""
         before = self._before
-        return [_key(t) in before for t in targets] if before else None
+        return [key in before for key in keys] if before else None
 
-    def answered(self, targets: list[list[int]], possible: list[bool]) -> None:
-        """Keep what `cover` answered for the targets under this configuration, for the next."""
-        for t, can in zip(targets, possible, strict=True):
-            (self._shown_now if can else self._found).add(_key(t))
+    def answered(self, keys: list[int | tuple[int, ...]], possible: list[bool]) -> None:
+        """Keep what `cover` answered for the targets (by their `keys`) under this
+        configuration, for the next."""
+        self._shown_now.update(compress(keys, possible))
+        self._found.update(key for key, can in zip(keys, possible, strict=True) if not can)
 
-    def to_refute(self, targets: list[list[int]]) -> list[bool] | bool:
-        """Per target, whether `cover` should try to refute it by propagation: not when it
-        held under the last configuration (most still do, and a batch solve shows them)."""
+    def to_refute(self, keys: list[int | tuple[int, ...]]) -> list[bool] | bool:
+        """Per target (by its `keys`), whether `cover` should try to refute it by
+        propagation: not when it held under the last configuration (most still do, and a
+        batch solve shows them)."""
         had = self._had
-        return [_key(t) not in had for t in targets] if had else True
+        return [key not in had for key in keys] if had else True
 
     def shown(self, targets: list[list[int]]) -> list[bool] | None:
         """Per target (literals of one feature's s, E and S variables: its selection, or
@@ -386,12 +392,32 @@ class _Known:
             }
             self._columns = {key: value.tolist() for key, value in table.items()}
         columns = self._columns
-        return [columns[tuple(1 if lit > 0 else -1 for lit in t)][(abs(t[0]) - 1) // 4] for t in targets]
+        if all(len(t) == 1 for t in targets):  # (selections: a feature's s variable, 4i + 1)
+            on, off = columns[(1,)], columns[(-1,)]
+            return [(on if t[0] > 0 else off)[(abs(t[0]) - 1) >> 2] for t in targets]
+        return [columns[tuple(1 if lit > 0 else -1 for lit in t)][(abs(t[0]) - 1) >> 2] for t in targets]
 
 
-def _key(target: list[int]) -> int | tuple[int, ...]:
-    """A target as a set's key: its one literal, or its literals."""
-    return target[0] if len(target) == 1 else tuple(target)
+T = TypeVar("T")
+
+
+def _selection_hints(hard: enc.Encoding, n: int) -> list[Sequence[int]]:
+    """Two polarity hints: every feature selected, and none."""
+    selected = [hard.s(i) for i in range(n)]
+    return [selected, [-literal for literal in selected]]
+
+
+def _memo(hard: enc.Encoding, name: str, make: Callable[[], T]) -> T:
+    """What `make` gives for this encoding, made once (menuconfig asks its kept encoding
+    after every decision: the hints were 11 ms of each at 10,000 features)."""
+    if name not in hard.memo:
+        hard.memo[name] = make()
+    return cast(T, hard.memo[name])
+
+
+def _keys(targets: list[list[int]]) -> list[int | tuple[int, ...]]:
+    """Targets as a set's keys: each one's one literal, or its literals."""
+    return [t[0] if len(t) == 1 else tuple(t) for t in targets]
 
 
 def binding_states(
@@ -424,6 +450,7 @@ def binding_states(
         apart = alternatives_apart(model, same.asked)
         known = _Known(hard) if kept is not None else None
         first = [*([-hard.s(i)] for i in same.asked), *([hard.s(i)] for i in same.asked)]
+        keys = _keys(first) if known is not None else []
         selected = hard.cover(
             first,
             with_config=config is not None,
@@ -431,15 +458,15 @@ def binding_states(
             requires=[*[None] * m, *up],
             batch=True,
             # (under many decisions most that no variant shows, their propagation refutes)
-            refute=known.to_refute(first) if known is not None else True,
+            refute=known.to_refute(keys) if known is not None else True,
             order=apart + [m + k for k in apart],  # (each selection after its parent's still)
-            hints=[[hard.s(i) for i in range(len(model.features))], [-hard.s(i) for i in range(len(model.features))]],
+            hints=_memo(hard, "selections", lambda: _selection_hints(hard, len(model.features))),
             witness=known.remember if known is not None else None,
             shown=known.shown(first) if known is not None else None,
-            refuted=known.refuted(first) if known is not None else None,
+            refuted=known.refuted(keys) if known is not None else None,
         )
         if known is not None:
-            known.answered(first, selected)
+            known.answered(keys, selected)
         alive = [at for at in range(m) if selected[m + at]]
         # Only the bindings a live feature allows are asked about (`_allowed`: its own, its
         # entry's, and what its parent can be), and none when it allows one: a variant that
@@ -456,25 +483,31 @@ def binding_states(
                 i = same.asked[at]
                 s, e, st = hard.s(i), hard.E(i), hard.S(i)
                 targets += [[s, te * e, ts * st] for te, ts in signs if (te, ts) in allowed[at]]
+        keys = _keys(targets) if known is not None else []
         answers = hard.cover(
             targets,
             with_config=config is not None,
             batch=True,
-            hints=binding_hints(hard, len(model.features)) if len(targets) > HINTED_FROM else (),
+            hints=_memo(hard, "bindings", lambda: binding_hints(hard, len(model.features))) if len(targets) > HINTED_FROM else (),
             witness=known.remember if known is not None else None,
             shown=known.shown(targets) if known is not None else None,
-            refuted=known.refuted(targets) if known is not None else None,
+            refuted=known.refuted(keys) if known is not None else None,
         )
         if known is not None:
-            known.answered(targets, answers)
+            known.answered(keys, answers)
         bound = iter(answers)
-    bindings: dict[int, list[bool]] = {
-        at: [(te, ts) in allowed[at] and (len(allowed[at]) == 1 or next(bound)) for te, ts in signs] for at in alive
-    }
-    asked: list[tuple[FeatureState, ...]] = []
-    for at in range(m):
-        found: list[FeatureState] = [OFF] if selected[at] else []
-        if at in bindings:
-            found += [b for b, possible in zip(Binding, bindings[at], strict=True) if possible]
-        asked.append(tuple(found))
-    return [set(found) for found in same.spread(asked)]  # (a set of its own per feature)
+        # per feature asked about: OFF if it can be deselected, then each binding it can
+        # take (in Binding's order, as the targets were made: one answer per allowed binding
+        # of a feature that allows several, none for one that allows one)
+        asked: list[tuple[FeatureState, ...]] = [(OFF,) if can else () for can in selected[:m]]
+        bindings = tuple(zip(Binding, signs, strict=True))
+        only: dict[frozenset[tuple[int, int]], tuple[FeatureState, ...]] = {}  # (an allowed set of one: its binding)
+        for at in alive:
+            allow = allowed[at]
+            if len(allow) == 1:
+                if allow not in only:
+                    only[allow] = tuple(b for b, sign in bindings if sign in allow)
+                asked[at] += only[allow]
+            else:
+                asked[at] += tuple([b for b, sign in bindings if sign in allow and next(bound)])
+        return [set(found) for found in same.spread(asked)]  # (a set of its own per feature)

@@ -613,6 +613,7 @@ class Encoding:
             set(),
             set(),
         )
+        self.memo: dict[str, Any] = {}  # what questions of this encoding make once for all (`check._memo`)
         self.solver_name = solver
         # The clauses go to the solver FLUSH_EVERY at a time while they are made: held all
         # at once as Python lists, they were a third of `validate`'s peak memory at
