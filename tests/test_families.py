@@ -161,6 +161,22 @@ def test_a_decision_more_asks_nothing_again_that_the_last_answer_settled(name: s
     assert work[0] < work[1]
 
 
+def test_the_model_alone_asked_of_a_kept_encoding_set_to_a_configuration() -> None:
+    """`binding_states(model, None, kept)` asks of the model alone, whatever configuration
+    the kept encoding was last set to: what that configuration ruled out is not carried
+    over (a review found a and b both "off" here)."""
+    raw = {"id": "r", "name": "r", "sub": [{"id": "a", "name": "a"}, {"id": "b", "name": "b"}]}
+    model = read(raw)
+    document = {"partial": True, "properties": [{"id": "a", "selected": False}]}
+    config, _ = read_configuration(parse(json.dumps(document), "v.json"), model, partial=True)
+    with enc.Encoding(model) as kept:
+        kept.set_configuration(config)
+        binding_states(model, config, kept)
+        assert binding_states(model, None, kept) == binding_states(model, None) == [
+            set(states) for states in _states_by_brute_force(raw, None).values()
+        ]
+
+
 def _wide_group(members: int, time: str = "Any", mode: str = "Any", others: int = 0) -> dict[str, Any]:
     """A root with one XOR group of `members` leaves allowing `time` and `mode`, and `others`
     members of their own kind: one with a sub-feature, one included by the root's first

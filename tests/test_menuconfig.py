@@ -384,6 +384,8 @@ def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
         seen["after"] = label(app, "kartoslam")
         seen["slam after"] = label(app, "slam")
         seen["panel after"] = detail(app)
+        seen["title after"] = app.sub_title
+        seen["mark after"] = (app.propagation.marked, app.propagation._timer)
         await pilot.press("q", "q")
 
     drive(session, path, steps)
@@ -394,6 +396,7 @@ def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
     assert seen["after"].startswith("[ ] [XOR] kartoslam")  # the second decision's answer
     assert seen["slam after"] == "( ) ? slam  **"  # (kartoslam deselected forces nothing)
     assert seen["panel after"].startswith("valid: 1 decision")
+    assert seen["title after"] == str(path) and seen["mark after"] == (False, None)  # (the mark taken back)
     assert len(installed) == 1  # the first decision's propagation, no longer the last, never installed
 
 
@@ -435,6 +438,9 @@ def test_consequences_that_come_before_the_mark_is_due_are_drawn_without_it(
         await pilot.pause()
         seen["panel after"] = detail(app)
         seen["slam after"] = label(app, "slam")
+        seen["timer after"] = app.propagation._timer  # (stopped: it can no longer draw the mark)
+        app.propagation._mark()  # (a timer that fires late anyway draws nothing: nothing is under way)
+        seen["title after"] = app.sub_title
         await pilot.press("q", "q")
 
     drive(session, path, steps)
@@ -443,6 +449,7 @@ def test_consequences_that_come_before_the_mark_is_due_are_drawn_without_it(
     assert seen["saved while busy"] is False
     assert seen["panel after"].startswith("valid: 1 decision")
     assert seen["slam after"].startswith("-x- ? slam")  # (kartoslam selected forces slam)
+    assert seen["timer after"] is None and seen["title after"] == str(path)
 
 
 def test_a_redraw_sets_only_the_labels_whose_feature_changed(robot: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -313,14 +313,16 @@ class _Known:
     decision, and many variants found for the last one still hold (Automotive01: some 48
     satisfiable solves a decision without them)."""
 
-    def __init__(self, hard: enc.Encoding) -> None:
+    def __init__(self, hard: enc.Encoding, with_config: bool) -> None:
         import numpy as np
 
         self.hard, self.np = hard, np
         earlier, hard.recent = hard.recent, []
         n = hard.n
         self.rows: Any = np.zeros((0, 3 * n), dtype=np.uint8)
-        config = hard.assumptions()[hard.model_facts :]  # (the model's own facts hold in each)
+        # the configuration's literals, as the questions assume them (the model's own facts
+        # hold in each variant): none when they are asked of the model alone
+        config = hard.assumptions(with_config)[hard.model_facts :]
         if earlier:
             rows = np.frombuffer(b"".join(earlier), dtype=np.uint8).reshape(len(earlier), 3 * n)
             at = np.asarray([3 * ((abs(lit) - 1) // 4) + (abs(lit) - 1) % 4 for lit in config], dtype=np.int64)
@@ -448,7 +450,7 @@ def binding_states(
         # solves and 7 s when each feature's five targets were asked alike.)
         up = [None if p is None else m + position[p] for p in parents]
         apart = alternatives_apart(model, same.asked)
-        known = _Known(hard) if kept is not None else None
+        known = _Known(hard, config is not None) if kept is not None else None
         first = [*([-hard.s(i)] for i in same.asked), *([hard.s(i)] for i in same.asked)]
         keys = _keys(first) if known is not None else []
         selected = hard.cover(

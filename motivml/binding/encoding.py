@@ -1207,7 +1207,8 @@ class Encoding:
         `shown`, if given, says for each target whether the caller knows already that it
         holds (in a variant found before); those are settled without a question.
         `refuted`, likewise, whether the caller knows already that it cannot hold (no
-        variant of fewer assumptions had it: menuconfig's decisions, one more each time).
+        variant had it under a subset of these assumptions: menuconfig's last decisions,
+        when it asks again after one more).
         `order`: the order in which the targets are taken (a permutation of their indices;
         by default theirs), in which `implied` and `requires` name earlier targets and,
         with `settled`, the first m targets come first. Targets that no variant shows

@@ -102,8 +102,9 @@ class Search(Input):
 class Propagation:
     """A decision's consequences, worked out off the UI thread on a large model (LARGE
     features or more; a smaller one propagates in milliseconds, at once): the key press
-    redraws the decision at once, the title and the panel say "propagating" once the
-    consequences have taken MARK_AFTER seconds and until they come, and a later decision's
+    redraws the decision at once, the title and the panel say "propagating" once
+    propagations have been under way for MARK_AFTER seconds (from the first of a burst of
+    key presses) and until the last one's consequences come, and a later decision's
     consequences replace an earlier one's, which are dropped when they come (the session's
     one encoding answers them in turn).
 
