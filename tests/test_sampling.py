@@ -97,13 +97,39 @@ def test_witnesses_moved_without_a_solve_stay_valid(bindings: bool) -> None:
     check_against_brute_force(raw, 2, bindings)
 
 
-def check_against_brute_force(raw: dict[str, Any], t: int, bindings: bool, shuffle: int | None = None) -> None:
-    """sample(t, bindings, shuffle) of `raw` gives valid variants (brute force says which)
-    that together show every valid combination, and counts them right."""
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(models(max_features=9), st.integers(0, 1000))
+def test_the_aetg_greedy_shows_every_valid_pair(raw: dict[str, Any], seed: int) -> None:
+    check_against_brute_force(raw, 2, False, aetg_seed=seed)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_aetg_greedy_on_groups_of_alternatives(seed: int) -> None:
+    """Two optional XOR groups of 5 and four optional features with OR groups: shapes where
+    most values of a candidate need a solve, and many pairs have no valid variant."""
+
+    def group(name: str, kind: str, members: int) -> dict[str, Any]:
+        subs = [{"id": f"{name}{k}", "name": f"{name}{k}", "group": kind} for k in range(members)]
+        return {"id": name, "name": name, "sub": subs}
+
+    xor = {"id": "root", "name": "root", "sub": [group("a", "XOR", 5), group("b", "XOR", 5), {"id": "c", "name": "c"}]}
+    check_against_brute_force(xor, 2, False, aetg_seed=seed)
+    ors = {"id": "root", "name": "root", "sub": [group(name, "OR", 3) for name in "pqrs"]}
+    check_against_brute_force(ors, 2, False, aetg_seed=seed)
+
+
+def check_against_brute_force(
+    raw: dict[str, Any], t: int, bindings: bool, shuffle: int | None = None, aetg_seed: int | None = None
+) -> None:
+    """sample(t, bindings, shuffle) of `raw` (or, with `aetg_seed`, the AETG-style greedy's
+    sample) gives valid variants (brute force says which) that together show every valid
+    combination, and counts them right."""
+    from motivml.binding.sampling import aetg
+
     model, _ = read_model(parse(json.dumps(raw), "model.json"))
     ids = [f.id for f in model.features[1:]]
     variants = list(ref.valid_variants(raw, None))
-    found = sample(model, t, bindings, shuffle=shuffle)
+    found = sample(model, t, bindings, shuffle=shuffle) if aetg_seed is None else aetg(model, aetg_seed)
     if not variants:
         assert found.void
         return
@@ -274,16 +300,26 @@ def test_the_smallest_sample_of_several_orders() -> None:
     """`smallest` keeps the smallest of its tries (the model's own order, then each `sample`
     in its own shuffled order), the first of equal ones, and gives the same sample again for
     the same seed and tries."""
+    from motivml.binding import sampling
     from motivml.binding.sampling import TRIES_APART, smallest
 
     model = _generated(60, 3)
     orders = [None, *(7 * TRIES_APART + k for k in range(1, 4))]
     sizes = [len(sample(model, 2, shuffle=order).variants) for order in orders]
-    found = smallest(model, 2, tries=4, seed=7)
-    assert (len(found.variants), found.tries) == (min(sizes), 4)
-    assert found.variants == sample(model, 2, shuffle=orders[sizes.index(min(sizes))]).variants
-    assert smallest(model, 2, tries=4, seed=7).variants == found.variants
-    assert found.valid == found.shown
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(sampling, "AETG_AT_MOST", 0)  # (the orders alone)
+        found = smallest(model, 2, tries=4, seed=7)
+        assert (len(found.variants), found.tries, found.aetg) == (min(sizes), 4, False)
+        assert found.variants == sample(model, 2, shuffle=orders[sizes.index(min(sizes))]).variants
+        assert smallest(model, 2, tries=4, seed=7).variants == found.variants
+        assert found.valid == found.shown
+    # with the AETG-style greedy too (a model this small): the smaller of the two
+    other = sampling.aetg(model, 7)
+    both = smallest(model, 2, tries=4, seed=7)
+    assert len(both.variants) == min(min(sizes), len(other.variants))
+    assert both.aetg == (len(other.variants) < min(sizes))
+    assert (both.valid, both.shown, both.tries) == (found.valid, found.shown, 4)
+    assert smallest(model, 2, tries=4, seed=7).variants == both.variants
 
 
 def test_no_order_is_tried_after_the_time_given() -> None:
@@ -311,8 +347,41 @@ def test_sample_tries_orders_and_says_how_to_get_the_same_sample_again(tmp_path:
     for name in ("a", "b"):
         result = CliRunner().invoke(main, ["sample", str(robot), "--tries", "3", "--seed", "5", "-o", str(tmp_path / name)])
         assert result.exit_code == 0, result.output
-        assert "  the smallest of 3 orders of the features (--tries 3 --seed 5)" in result.output.splitlines()
+        assert (
+            "  the AETG-style greedy's, smaller than the smallest of 3 orders of the features (--tries 3 --seed 5)"
+            in result.output.splitlines()
+        )
         runs.append({f.name: f.read_text() for f in sorted((tmp_path / name).iterdir())})
     assert runs[0] == runs[1] and runs[0]
     result = CliRunner().invoke(main, ["sample", str(robot), "--tries", "0", "-o", str(tmp_path / "c")])
     assert result.exit_code == 2 and "--tries" in result.output
+
+
+def test_the_benchs_aetg_baseline_covers_every_valid_pair(tmp_path: Path) -> None:
+    """bench/greedy.py, the baseline `bench/sample_bench.py` holds `sample` to: on the
+    exported CNF of a small model, every variant of its sample is valid and every pair of
+    two features' values that a valid variant has (a solve per pair, here) is covered."""
+    import sys
+
+    from pysat.solvers import Glucose4
+
+    if str(ROOT / "bench") not in sys.path:
+        sys.path.insert(0, str(ROOT / "bench"))
+    from greedy import all_valid, baseline, covered_pairs, read_dimacs
+
+    result = CliRunner().invoke(
+        main, ["export", "dimacs", str(ROOT / "guidelines" / "examples" / "sensorbot"), "-o", str(tmp_path / "m.dimacs")]
+    )
+    assert result.exit_code == 0, result.output
+    found = baseline(tmp_path / "m.dimacs", seed=3, candidates=5, timeout=60)
+    _, clauses, features = read_dimacs(tmp_path / "m.dimacs")
+    assert found["sample"] and all_valid(clauses, found["sample"])
+    with Glucose4(bootstrap_with=clauses) as solver:
+        valid = {
+            (x, y)
+            for a, b in combinations(features, 2)
+            for x in (a, -a)
+            for y in (b, -b)
+            if solver.solve(assumptions=[x, y])
+        }
+    assert valid and valid <= covered_pairs(found["sample"])
