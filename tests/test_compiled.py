@@ -630,7 +630,11 @@ def test_a_compile_that_ends_removes_the_record_of_one_given_up(tmp_path: Path, 
     assert not list((tmp_path / ".motivml" / "compiled").glob("*.gaveup"))
 
 
-def test_a_compile_told_to_stop_stops_and_is_not_remembered(tmp_path: Path) -> None:
+def test_a_compile_told_to_stop_stops_and_is_not_remembered(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # (kept forms looked for in tmp_path only: the tests' shared folder of kept forms may
+    # hold this very model's, kept by another test in the same process, which failed this
+    # test now and then in the quick suite)
+    monkeypatch.delenv(compiled.ELSEWHERE, raising=False)
     n = 3000
     clauses = [[-v, v + 1, -(v + 2)] for v in range(1, n - 1)]
     with pytest.raises(CompileTimeout):
