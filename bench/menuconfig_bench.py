@@ -15,7 +15,7 @@ decision that leaves no valid variant is taken back), and measures
 
 Targets: p95 at most 100 ms at 2,500 features, 300 ms at 10,000.
 
-    python bench/menuconfig_bench.py [--decisions 200] [--only automotive01] [--no-pilot]
+    python bench/menuconfig_bench.py [--decisions 200] [--only automotive01] [--no-pilot] [--counts]
 """
 
 from __future__ import annotations
@@ -86,13 +86,15 @@ def measure(name: str, model: object, decisions: int, seed: int = 1) -> None:
     )
 
 
-def measure_pilot(name: str, model: object, decisions: int, folder: Path, seed: int = 1) -> None:
+def measure_pilot(name: str, model: object, decisions: int, folder: Path, seed: int = 1, form: object = None) -> None:
     """The same kind of decisions made in menuconfig itself, headless through Textual's
     pilot: the cursor moved to a random open feature, then `y` or `n` pressed. Timed from
     the key press to the first frame Textual renders after the decision's consequences are
     drawn (its propagation runs off the UI thread on a model this large). A decision that
-    leaves no valid variant is taken back with `u` (not timed). Without a compiled form:
-    the live counts, which would compile one in the background, are left out."""
+    leaves no valid variant is taken back with `u` (not timed). Without `form` the live
+    counts, which would compile a form in the background, are left out; with a compiled
+    form (made before, not timed), each decision also counts the variants left and every
+    open feature's share of them, and the labels show the shares (issue 36's live counts)."""
     import asyncio
 
     from motivml.binding.configurator import Configurator
@@ -100,6 +102,9 @@ def measure_pilot(name: str, model: object, decisions: int, folder: Path, seed: 
 
     path = folder / "decisions.json"
     session = Configurator(model, str(path))  # type: ignore[arg-type]
+    if form is not None:
+        session.form = form
+        session.refresh()
     app = MenuConfigApp(session, path)
     app.counts.start = lambda: None  # type: ignore[method-assign]
     rng = random.Random(seed)
@@ -148,8 +153,9 @@ def measure_pilot(name: str, model: object, decisions: int, folder: Path, seed: 
     target = next((t for n, t in sorted(TARGETS.items()) if size <= n * 1.2), None)
     p95 = statistics.quantiles(took, n=20)[-1] if len(took) >= 20 else max(took)
     verdict = "" if target is None else f"  target {target * 1000:.0f} ms: {'met' if p95 <= target else 'missed'}"
+    label = name + (" (pilot, counts)" if form is not None else " (pilot)")
     print(
-        f"{name + ' (pilot)':28} {size:6,} features  {len(took):4} decisions  key press to redrawn p50"
+        f"{label:28} {size:6,} features  {len(took):4} decisions  key press to redrawn p50"
         f" {statistics.median(took) * 1000:7.1f} ms  p95 {p95 * 1000:7.1f} ms{verdict}"
     )
 
@@ -159,6 +165,9 @@ def main() -> None:
     parser.add_argument("--decisions", type=int, default=200)
     parser.add_argument("--only", help="measure only the models whose name holds this")
     parser.add_argument("--no-pilot", action="store_true", help="leave out the decisions made through Textual's pilot")
+    parser.add_argument(
+        "--counts", action="store_true", help="also through the pilot with a compiled form of the public models (live counts)"
+    )
     args = parser.parse_args()
     from motivml.language.featureide import read_featureide
 
@@ -173,6 +182,14 @@ def main() -> None:
             measure(name, model, args.decisions)
             if not args.no_pilot:
                 measure_pilot(name, model, args.decisions, folder)
+                if args.counts:
+                    from motivml.binding.compiled import CompiledForm, Kind, compiled_form
+
+                    form = compiled_form(model, None, Kind.SELECTIONS, 60.0)  # type: ignore[arg-type]
+                    if isinstance(form, CompiledForm):
+                        measure_pilot(name, model, args.decisions, folder, form=form)
+                    else:
+                        print(f"{name + ' (pilot, counts)':28} no compiled form: {form.reason}")
         if not args.only or args.only.lower() in "generated":
             folder = Path(tmp) / "generated"
             folder.mkdir()

@@ -106,7 +106,7 @@ def test_the_aetg_greedy_shows_every_valid_pair(raw: dict[str, Any], seed: int) 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_the_aetg_greedy_on_groups_of_alternatives(seed: int) -> None:
     """Two optional XOR groups of 5 and four optional features with OR groups: shapes where
-    most values of a candidate need a solve, and many pairs have no valid variant."""
+    many values of a candidate clash with those taken before it."""
 
     def group(name: str, kind: str, members: int) -> dict[str, Any]:
         subs = [{"id": f"{name}{k}", "name": f"{name}{k}", "group": kind} for k in range(members)]
@@ -116,6 +116,22 @@ def test_the_aetg_greedy_on_groups_of_alternatives(seed: int) -> None:
     check_against_brute_force(xor, 2, False, aetg_seed=seed)
     ors = {"id": "root", "name": "root", "sub": [group(name, "OR", 3) for name in "pqrs"]}
     check_against_brute_force(ors, 2, False, aetg_seed=seed)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_the_aetg_greedy_where_only_a_search_refutes(seed: int) -> None:
+    """x with y has no variant, but propagating them, alone or together, derives nothing
+    (x's two clauses need p, y's need not p, which takes a search): the greedy stalls on
+    that pair and a solve refutes it. d is dead the same way (the solver learns that in
+    its first solve, on a model this small)."""
+    leaves = [{"id": f, "name": f, "isMandatory": False} for f in ("a", "b", "d", "x", "y", "p", "q")]
+    raw = {
+        "id": "root",
+        "name": "root",
+        "sub": leaves,
+        "formulas": ["!d | a | b", "!d | a | !b", "!d | !a | b", "!d | !a | !b", "!x | p | q", "!x | p | !q", "!y | !p | q", "!y | !p | !q"],
+    }
+    check_against_brute_force(raw, 2, False, aetg_seed=seed)
 
 
 def check_against_brute_force(
@@ -327,12 +343,14 @@ def test_no_order_is_tried_after_the_time_given() -> None:
     past, not a measured time: the test does not depend on the machine's speed)."""
     import time
 
-    from motivml.binding.sampling import smallest
+    from motivml.binding.sampling import TRIES_APART, aetg, smallest
 
     model = _generated(40, 1)
     found = smallest(model, 2, tries=5, seed=2, until=time.monotonic() - 1)
     assert found.tries == 1
-    assert found.variants == sample(model, 2).variants  # (the model's own order)
+    # the model's own order, and one AETG run (whatever the time: as many as orders)
+    own, run = sample(model, 2), aetg(model, 2 * TRIES_APART)
+    assert found.variants == (run.variants if len(run.variants) < len(own.variants) else own.variants)
     alone, _ = read_model(parse(json.dumps({"id": "r", "name": "r"}), "model.json"))
     nothing = smallest(alone, 2, tries=5)  # (no combination: no other order does better)
     assert (nothing.variants, nothing.tries) == ([], 1)
@@ -342,17 +360,30 @@ def test_no_order_is_tried_after_the_time_given() -> None:
 
 
 def test_sample_tries_orders_and_says_how_to_get_the_same_sample_again(tmp_path: Path) -> None:
+    """The line under the count says which greedy gave the sample (as `smallest` says, asked
+    in-process with the same tries and seeds: one seed where the orders' sample is kept and
+    one where the AETG-style greedy's is), and the same --tries and --seed give the same
+    files again."""
+    from motivml.binding.sampling import smallest
+
     robot = ROOT / "feature_models" / "simplebot"
-    runs = []
-    for name in ("a", "b"):
-        result = CliRunner().invoke(main, ["sample", str(robot), "--tries", "3", "--seed", "1", "-o", str(tmp_path / name)])
-        assert result.exit_code == 0, result.output
-        assert (
-            "  the AETG-style greedy's, smaller than the smallest of 3 orders of the features (--tries 3 --seed 1)"
-            in result.output.splitlines()
-        )
-        runs.append({f.name: f.read_text() for f in sorted((tmp_path / name).iterdir())})
-    assert runs[0] == runs[1] and runs[0]
+    model, _ = read_model(parse((robot / "model.json").read_text(), "model.json"))
+    kept = {seed: smallest(model, 2, tries=3, seed=seed).aetg for seed in range(8)}
+    seeds = {False: min(s for s, aetg in kept.items() if not aetg)}
+    seeds[True] = min(s for s, aetg in kept.items() if aetg)
+    lines = {
+        False: "  the smallest of 3 orders of the features (--tries 3 --seed {})",
+        True: "  the AETG-style greedy's, smaller than the smallest of 3 orders of the features (--tries 3 --seed {})",
+    }
+    for aetg, seed in seeds.items():
+        runs = []
+        for name in ("a", "b"):
+            out = tmp_path / f"{seed}{name}"
+            result = CliRunner().invoke(main, ["sample", str(robot), "--tries", "3", "--seed", str(seed), "-o", str(out)])
+            assert result.exit_code == 0, result.output
+            assert lines[aetg].format(seed) in result.output.splitlines()
+            runs.append({f.name: f.read_text() for f in sorted(out.iterdir())})
+        assert runs[0] == runs[1] and runs[0]
     result = CliRunner().invoke(main, ["sample", str(robot), "--tries", "0", "-o", str(tmp_path / "c")])
     assert result.exit_code == 2 and "--tries" in result.output
 

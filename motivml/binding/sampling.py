@@ -60,10 +60,12 @@ LOOKAHEAD_FAILURES = 3  # failed solves of pairs together before the first goes 
 TRIES_APART = 1_000_003  # the seeds of one `smallest` call's shuffled orders are seed * this + 1, 2, ...
 REPAIR_AT_MOST = 4096  # variables a witness may change without a solve (2-wise; beyond, a solve is cheaper)
 # `smallest` also runs the AETG-style greedy (2-wise, selections: `aetg`) when the model has
-# at most AETG_AT_MOST features and the orders' sample, its features and the candidates of
-# each variant (AETG's M) multiply to at most AETG_STEPS (TankWar: 432 x 144 x 10 = 622,080
-# steps, 19 s for 473 variants, not run; Xtext: 40 x 137 x 10, 0.6 s a run for 21 to 24 where 40)
-AETG_AT_MOST, AETG_CANDIDATES, AETG_STEPS = 400, 10, 200_000
+# at most AETG_AT_MOST features: as many runs as orders were tried, but no more than AETG_STEPS
+# steps in all (the orders' sample, times its features, times the candidates of each variant,
+# AETG's M, times the runs). More candidates do better than more runs: Xtext, five runs of
+# 10 candidates gave 22 to 24 variants, of 50 candidates 18 to 22 (1.4 s a run). TankWar
+# (432 x 144 x 50): not run, one run of 10 candidates takes 12 s for 475 where the orders give 432.
+AETG_AT_MOST, AETG_CANDIDATES, AETG_STEPS = 400, 50, 2_000_000
 
 
 class TooMany(ValueError):
@@ -232,11 +234,13 @@ def smallest(
     motivml, its solver and Python's `random`). `progress(k, settled, combinations)` reports
     each try k's own progress.
 
-    Then, for 2-wise samples of selections of a model of at most AETG_AT_MOST features whose
-    sample so far is small enough (AETG_STEPS), the AETG-style greedy (`aetg`) runs as many
-    times as orders were tried, run k seeded with `seed * TRIES_APART + k`, none started
-    after `until`, and its sample is kept where smaller (`Sample.aetg`; Xtext: 22 to 24
-    variants over six seeds)."""
+    Then, for 2-wise samples of selections of a model of at most AETG_AT_MOST features, the
+    AETG-style greedy (`aetg`) runs as many times as orders were tried (fewer where
+    AETG_STEPS says so), run k seeded with `seed * TRIES_APART + k`, every one of them
+    whatever `until` says (so that the same seed and tries give the same sample), and its
+    sample is kept where smaller (`Sample.aetg`).
+    The valid combinations are then still those the orders counted, so that a pair the
+    AETG sample missed would show as less than full coverage."""
     import time
 
     best: Sample | None = None
@@ -251,17 +255,19 @@ def smallest(
         if found.void or len(found.variants) <= 1:  # (no other order does better)
             break
     assert best is not None
-    steps = len(best.variants) * len(model.features) * AETG_CANDIDATES
-    if t != 2 or bindings or best.void or len(model.features) > AETG_AT_MOST or steps > AETG_STEPS:
-        return best
     orders = best.tries
-    for k in range(orders):  # (as many AETG runs as orders, each seeded apart)
-        if len(best.variants) <= 1 or (until is not None and time.monotonic() >= until):
+    runs = min(orders, AETG_STEPS // max(1, len(best.variants) * len(model.features) * AETG_CANDIDATES))
+    if t != 2 or bindings or best.void or len(model.features) > AETG_AT_MOST or runs < 1:
+        return best
+    valid = best.valid  # (as the orders' refutations counted it: an AETG sample's own count is what it shows)
+    for k in range(runs):  # (each seeded apart; all of them, so that the same --tries and --seed give
+        # the same sample again: AETG_STEPS bounds their time)
+        if len(best.variants) <= 1:
             break
         other = aetg(model, seed * TRIES_APART + k)
         if len(other.variants) < len(best.variants):
             best = other
-    best.tries = orders
+    best.tries, best.valid = orders, valid
     return best
 
 
@@ -275,7 +281,7 @@ def aetg(model: FeatureModel, seed: int = 0) -> Sample:
 
     On small models it beats the order-by-order greedy by far (Xtext, 137 features: 21 to 24
     variants where the best of ten orders had 40; RouteFinding, 103: 13 to 14 where 20), and loses
-    on large ones, where it is also slow (BusyBox, 854: 61 variants in 37 s where 36): so
+    on large ones, where it is also slow (BusyBox, 854: 47 variants in 40 s where 33): so
     `smallest` runs it too up to AETG_AT_MOST features and keeps the smaller sample."""
     import random
 
