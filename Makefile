@@ -64,6 +64,8 @@ bench: setup cpp-plugins ros2
 	$(BIN)/python bench/analyse_bench.py
 	$(BIN)/python bench/families_bench.py --flamapy
 	$(BIN)/python bench/compiled_bench.py
+	$(BIN)/python bench/menuconfig_bench.py --counts
+	$(BIN)/python bench/sample_bench.py
 	$(BIN)/python bench/configure_bench.py
 	$(BIN)/python bench/run_bench.py
 	$(BIN)/python bench/swap_bench.py
