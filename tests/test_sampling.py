@@ -416,3 +416,21 @@ def test_the_benchs_aetg_baseline_covers_every_valid_pair(tmp_path: Path) -> Non
             if solver.solve(assumptions=[x, y])
         }
     assert valid and valid <= covered_pairs(found["sample"])
+
+
+def test_each_aetg_run_reports_the_pairs_it_has_covered() -> None:
+    """`smallest` reports the orders' progress as (k, settled, combinations) and each AETG
+    run's as (k, covered, pairs, runs): covered never falls and ends at all the pairs (a
+    bar that sat at 100% during the runs is what users saw before)."""
+    from motivml.binding.sampling import smallest
+
+    model = _generated(60, 3)
+    calls: list[tuple[int, ...]] = []
+    found = smallest(model, 2, tries=2, seed=7, progress=lambda *args: calls.append(args))
+    orders = [c for c in calls if len(c) == 3]
+    runs = [c for c in calls if len(c) == 4]
+    assert orders and {c[0] for c in orders} == {0, 1} and found.tries == 2
+    assert runs and {c[0] for c in runs} == {0, 1} and {c[3] for c in runs} == {2}
+    for k in (0, 1):
+        covered = [c[1] for c in runs if c[0] == k]
+        assert covered == sorted(covered) and covered[-1] == runs[-1][2] > 0

@@ -221,7 +221,7 @@ def smallest(
     tries: int = 1,
     seed: int = 0,
     until: float | None = None,
-    progress: Callable[[int, int, int], None] | None = None,
+    progress: Callable[..., None] | None = None,
 ) -> Sample:
     """The smallest of `tries` samples, each taken in its own order of the features, as
     YASA's iterations do: the model's own order first, then try k (from 1) shuffled with the
@@ -232,7 +232,7 @@ def smallest(
     `time.monotonic()`), but the first: `Sample.tries` says how many were made, and the
     same `seed` and that many `tries` give the same sample again (with this version of
     motivml, its solver and Python's `random`). `progress(k, settled, combinations)` reports
-    each try k's own progress.
+    each try k's own progress; `progress(k, covered, pairs, runs)` each AETG run's (below).
 
     Then, for 2-wise samples of selections of a model of at most AETG_AT_MOST features, the
     AETG-style greedy (`aetg`) runs as many times as orders were tried (fewer where
@@ -264,14 +264,15 @@ def smallest(
         # the same sample again: AETG_STEPS bounds their time)
         if len(best.variants) <= 1:
             break
-        other = aetg(model, seed * TRIES_APART + k)
+        report = None if progress is None else (lambda done, total, k=k: progress(k, done, total, runs))
+        other = aetg(model, seed * TRIES_APART + k, report)
         if len(other.variants) < len(best.variants):
             best = other
     best.tries, best.valid = orders, valid
     return best
 
 
-def aetg(model: FeatureModel, seed: int = 0) -> Sample:
+def aetg(model: FeatureModel, seed: int = 0, progress: Callable[[int, int], None] | None = None) -> Sample:
     """A 2-wise sample of selections by the AETG-style greedy (Cohen et al., 1997), with the
     constraints asked of the solver: variant after variant, each the best of AETG_CANDIDATES
     candidates at covering pairs not yet covered. A candidate starts from the value in most
@@ -332,7 +333,10 @@ def aetg(model: FeatureModel, seed: int = 0) -> Sample:
                         break
             return chosen, seen
 
+        pairs = int(np.triu(uncovered).sum())  # (those propagation leaves: `progress(covered, pairs)`)
         while uncovered.any():
+            if progress is not None:
+                progress(pairs - int(np.triu(uncovered).sum()), pairs)
             best: tuple[list[int], list[int]] | None = None
             gain = 0
             for _ in range(AETG_CANDIDATES):
@@ -358,6 +362,8 @@ def aetg(model: FeatureModel, seed: int = 0) -> Sample:
             truth = np.asarray(seen) > 0
             witnesses.append(np.stack([truth[[v - 1 for v in map(abs, (hard.s(i), hard.E(i), hard.S(i)))]] for i in range(len(model.features))]).ravel())
         variants = _variants(model, hard, witnesses)
+        if progress is not None:
+            progress(pairs, pairs)
     total = _count(n, 2, 2)
     shown = _shown_pairs(variants, features)
     return Sample(variants, total, shown, shown, aetg=True)

@@ -342,8 +342,11 @@ def _sampled(
         until = None if tries is not None else time.monotonic() + TRY_FOR
         count = tries or TRIES
 
-        def reached(k: int, done: int, total: int) -> None:
-            bar.reached(done, total, f"order {k + 1} of at most {count}: combinations settled")
+        def reached(k: int, done: int, total: int, runs: int | None = None) -> None:
+            if runs is None:
+                bar.reached(done, total, f"order {k + 1} of at most {count}: combinations settled")
+            else:
+                bar.reached(done, total, f"AETG-style greedy, run {k + 1} of {runs}: pairs covered")
 
         found = smallest(model, t, bindings, count, seed, until, reached)
         variants = found.variants
