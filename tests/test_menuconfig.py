@@ -335,20 +335,17 @@ def test_slash_searches_ids_and_names_and_jumps_to_the_next_match(robot: Path) -
     assert seen["closed"] is False
 
 
-def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
-    robot: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Issue 33: a decision on a large model is drawn at once and propagated off the UI
-    thread, "propagating" shown meanwhile, and what needs the consequences (save, why, a
-    repair) waits for them. The propagation is held here until the test lets it go; of two
-    decisions made meanwhile, the second's consequences are the ones shown."""
+def held_propagations(robot: Path, monkeypatch: pytest.MonkeyPatch, mark_after: float) -> tuple[Any, Path, Any]:
+    """A session of simplebot counted as large (its propagations off the UI thread), with
+    the mark due after `mark_after` seconds, whose propagations wait until the test sets
+    the event returned."""
     import threading
 
     from motivml.binding.configurator import Configurator as Session
     from motivml.cli import menuconfig_app
 
-    monkeypatch.setattr(menuconfig_app.Propagation, "LARGE", 1)  # (simplebot counts as large)
-    monkeypatch.setattr(menuconfig_app.Propagation, "MARK_AFTER", 0.001)  # (the mark as soon as the loop turns)
+    monkeypatch.setattr(menuconfig_app.Propagation, "LARGE", 1)
+    monkeypatch.setattr(menuconfig_app.Propagation, "MARK_AFTER", mark_after)
     session, path = open_session(str(robot), "sketch", None)
     go = threading.Event()
     real = Session.propagate
@@ -358,6 +355,20 @@ def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
         return real(self, decisions)
 
     monkeypatch.setattr(Session, "propagate", held)
+    return session, path, go
+
+
+def test_on_a_large_model_a_key_press_redraws_before_the_propagation_ends(
+    robot: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 33: a decision on a large model is drawn at once and propagated off the UI
+    thread, "propagating" shown meanwhile, and what needs the consequences (save, why, a
+    repair) waits for them. The propagation is held here until the test lets it go; of two
+    decisions made meanwhile, the second's consequences are the ones shown."""
+    from motivml.binding.configurator import Configurator as Session
+
+    # (the mark as soon as the loop turns)
+    session, path, go = held_propagations(robot, monkeypatch, mark_after=0.001)
     installed: list[Any] = []
     real_install = Session.install
 
@@ -407,22 +418,7 @@ def test_consequences_that_come_before_the_mark_is_due_are_drawn_without_it(
     (two frames saved on each quick one). Here it is never due: the propagation is held
     while the test looks, and still nothing says "propagating"; the decision itself is
     drawn at once, and what needs the consequences waits for them all the same."""
-    import threading
-
-    from motivml.binding.configurator import Configurator as Session
-    from motivml.cli import menuconfig_app
-
-    monkeypatch.setattr(menuconfig_app.Propagation, "LARGE", 1)
-    monkeypatch.setattr(menuconfig_app.Propagation, "MARK_AFTER", 3600.0)
-    session, path = open_session(str(robot), "sketch", None)
-    go = threading.Event()
-    real = Session.propagate
-
-    def held(self: Session, decisions: dict[str, Any]) -> Any:
-        assert go.wait(30), "the test never let the propagation go"
-        return real(self, decisions)
-
-    monkeypatch.setattr(Session, "propagate", held)
+    session, path, go = held_propagations(robot, monkeypatch, mark_after=3600.0)
     seen: dict[str, Any] = {}
 
     async def steps(app: Any, pilot: Any) -> None:

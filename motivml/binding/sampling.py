@@ -309,6 +309,8 @@ def aetg(model: FeatureModel, seed: int = 0, progress: Callable[[int, int], None
                     uncovered[a, b] = uncovered[b, a] = False
         rng = random.Random(seed)
         witnesses: list[Any] = []
+        # (where each feature's s, E and S variables are in a model: a witness is their truth)
+        kept = np.array([[hard.s(i), hard.E(i), hard.S(i)] for i in range(len(model.features))], dtype=np.int64).ravel() - 1
 
         def candidate() -> tuple[list[int], list[int]] | None:
             counts = uncovered.sum(axis=1)
@@ -346,7 +348,7 @@ def aetg(model: FeatureModel, seed: int = 0, progress: Callable[[int, int], None
                 covers = int(uncovered[np.ix_(made[0], made[0])].sum())
                 if covers > gain:
                     best, gain = made, covers
-            if best is None and uncovered.any() and made is None:
+            if best is None and made is None:  # (a value no variant has was taken out: again)
                 continue
             if best is None:  # no candidate covers a pair: the next one a valid variant has, or none
                 for a, b in zip(*np.nonzero(np.triu(uncovered)), strict=True):
@@ -359,8 +361,7 @@ def aetg(model: FeatureModel, seed: int = 0, progress: Callable[[int, int], None
                     break
             chosen, seen = best
             uncovered[np.ix_(chosen, chosen)] = False
-            truth = np.asarray(seen) > 0
-            witnesses.append(np.stack([truth[[v - 1 for v in map(abs, (hard.s(i), hard.E(i), hard.S(i)))]] for i in range(len(model.features))]).ravel())
+            witnesses.append((np.asarray(seen) > 0)[kept])
         variants = _variants(model, hard, witnesses)
         if progress is not None:
             progress(pairs, pairs)

@@ -377,9 +377,7 @@ def _say_sampled(
         if found.combinations:
             orders = "the model's own order of the features" if found.tries == 1 else f"the smallest of {found.tries} orders of the features"
             if found.aetg:
-                orders = "the AETG-style greedy's, smaller than " + (
-                    "the model's own order's" if found.tries == 1 else f"the smallest of {found.tries} orders of the features"
-                )
+                orders = "the AETG-style greedy's, smaller than " + ("the model's own order's" if found.tries == 1 else orders)
             out.print(f"  {orders} (--tries {found.tries} --seed {seed})")
     else:
         out.print(f"{plural(drawn, 'variant')} drawn uniformly at random (seed {seed}): {len(variants):,} distinct")
